@@ -1,0 +1,437 @@
+"""Pseudo-arclength continuation (Keller) with event detection; problem-agnostic.
+
+The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
+
+* a tangent predictor ``y_p = y_k + h t_k`` with ``t_k`` the unit null vector of ``G_y(y_k)``
+  (oriented continuously: ``t_{k+1} . t_k > 0``, which passes folds);
+* a Newton corrector on the bordered system ``[G(y); t_k . (y - y_k) - h] = 0`` with the exact
+  CasADi Jacobian;
+* step control: a step is rejected (and retried with ``h / 2``) when Newton fails or the tangent
+  turns by more than ``max_angle``; accepted steps grow or shrink ``h`` from the number of Newton
+  iterations and the turning angle;
+* termination with a recorded reason, never an exception: parameter bound, bound on a derived
+  quantity, maximum number of points, step below minimum, singular Jacobian, loss of
+  admissibility (when asked).
+
+At each accepted point the problem's hooks give admissibility test functions and Floquet
+multipliers; sign changes of the test functions listed in :func:`_test_values` are located with
+:mod:`nsm_continuation.events`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .events import Event, bisect_predicate, illinois, interior_extremum
+from .floquet import classify_crossing, count_outside
+from .problem import Problem, StartPoint
+
+
+@dataclass
+class ContinuationSettings:
+    """Numerical settings of one continuation run (the YAML ``continuation`` block maps here)."""
+
+    step_initial: float = 1e-2
+    step_min: float = 1e-9
+    step_max: float = 0.2
+    max_points: int = 400
+    newton_tol: float = 1e-11
+    newton_max_iter: int = 10
+    max_angle: float = 0.25
+    param_min: float | None = None
+    param_max: float | None = None
+    #: bounds on derived quantities, e.g. {"energy": (None, 1e3)}
+    derived_bounds: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
+    unit_circle_tol: float = 1e-7
+    event_tol: float = 1e-12
+    stop_on_inadmissible: bool = False
+    detect_bifurcations: bool = True
+    #: 0: both directions from the start, +1 / -1: only towards increasing / decreasing parameter
+    direction: int = 0
+
+
+@dataclass
+class Point:
+    """One solution on a branch, with everything computed there."""
+
+    y: np.ndarray
+    s: float
+    tangent: np.ndarray
+    tests: dict[str, float]
+    multipliers: np.ndarray | None
+    trivial_error: float
+    n_unstable: int
+    derived: dict[str, float]
+    bordered_det: float
+    newton_iterations: int = 0
+    residual_norm: float = 0.0
+
+    @property
+    def admissible(self) -> bool:
+        return all(v >= 0.0 for v in self.tests.values())
+
+    @property
+    def stable(self) -> bool | None:
+        if self.multipliers is None:
+            return None
+        return self.n_unstable == 0
+
+    @property
+    def max_abs_multiplier(self) -> float:
+        if self.multipliers is None or self.multipliers.size == 0:
+            return float("nan") if self.multipliers is None else 1.0
+        return float(np.max(np.abs(self.multipliers)))
+
+
+@dataclass
+class Branch:
+    """A continued branch: points ordered by arclength, located events, termination reasons."""
+
+    id: int
+    label: str
+    points: list[Point]
+    events: list[Event]
+    termination: dict[str, str]
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+
+class ContinuationEngine:
+    """Continue the solution branches of a :class:`~nsm_continuation.problem.Problem`."""
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings,
+                 progress: Callable[[int], None] | None = None) -> None:
+        self.problem = problem
+        self.settings = settings
+        self.progress = progress
+        self.ip = problem.parameter_index
+        self.n_evaluations = 0
+
+    # ------------------------------------------------------------------ linear algebra
+    def _bordered(self, y: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return np.vstack([self.problem.jacobian(y), t[None, :]])
+
+    def correct(self, y_guess: np.ndarray, t_ref: np.ndarray, y_ref: np.ndarray,
+                sigma: float) -> tuple[np.ndarray | None, int, str]:
+        """Newton on ``[G(y); t_ref . (y - y_ref) - sigma] = 0``; returns (y, iterations, why)."""
+        st = self.settings
+        y = np.array(y_guess, dtype=float)
+        r0 = None
+        for it in range(1, st.newton_max_iter + 1):
+            g = self.problem.evaluate(y)
+            self.n_evaluations += 1
+            rhs = np.append(g, t_ref @ (y - y_ref) - sigma)
+            nr = np.linalg.norm(rhs, np.inf)
+            if not np.isfinite(nr):
+                return None, it, "non-finite residual"
+            if r0 is None:
+                r0 = nr
+            elif nr > 1e4 * max(r0, 1e-300):
+                return None, it, "Newton diverged"
+            A = self._bordered(y, t_ref)
+            try:
+                dy = np.linalg.solve(A, -rhs)
+            except np.linalg.LinAlgError:
+                return None, it, "singular Jacobian"
+            y = y + dy
+            scale = 1.0 + np.linalg.norm(y, np.inf)
+            if np.linalg.norm(dy, np.inf) <= st.newton_tol * scale:
+                g = self.problem.evaluate(y)
+                if np.linalg.norm(g, np.inf) <= 1e3 * st.newton_tol * scale:
+                    return y, it, ""
+        return None, st.newton_max_iter, "Newton did not converge"
+
+    def tangent(self, y: np.ndarray, t_prev: np.ndarray | None) -> np.ndarray:
+        """Unit null vector of ``G_y(y)``, oriented along ``t_prev`` (or by SVD at a start)."""
+        J = self.problem.jacobian(y)
+        if t_prev is None:
+            _, sv, vt = np.linalg.svd(J)
+            if sv.size and sv[-1] < 1e-13 * max(sv[0], 1.0):
+                raise np.linalg.LinAlgError("Jacobian rank deficient at start")
+            t = vt[-1]
+        else:
+            A = np.vstack([J, t_prev[None, :]])
+            rhs = np.zeros(len(y))
+            rhs[-1] = 1.0
+            t = np.linalg.solve(A, rhs)
+        t = t / np.linalg.norm(t)
+        if t_prev is not None and t @ t_prev < 0:
+            t = -t
+        return t
+
+    def analyse(self, y: np.ndarray, t: np.ndarray, s: float, iterations: int = 0) -> Point:
+        """Evaluate hooks at a corrected point."""
+        pr = self.problem
+        tests = pr.admissibility(y)
+        fl = pr.floquet(y, t)
+        mult = None if fl is None else np.asarray(fl.multipliers)
+        n_out = 0 if mult is None else count_outside(mult, self.settings.unit_circle_tol)
+        A = self._bordered(y, t)
+        sign, logdet = np.linalg.slogdet(A)
+        det = float(sign * np.exp(min(logdet, 700.0))) if sign != 0 else 0.0
+        return Point(
+            y=y, s=s, tangent=t, tests=tests, multipliers=mult,
+            trivial_error=0.0 if fl is None else fl.trivial_error, n_unstable=n_out,
+            derived=pr.derived(y), bordered_det=det, newton_iterations=iterations,
+            residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
+        )
+
+    # ------------------------------------------------------------------ start
+    def correct_start(self, start: StartPoint) -> tuple[Point | None, str]:
+        """Newton at fixed parameter from the start guess; returns the first point."""
+        y0 = np.asarray(start.y, dtype=float)
+        if not np.all(np.isfinite(y0)):
+            return None, "start guess is not finite"
+        e = np.zeros(len(y0))
+        e[self.ip] = 1.0
+        y, it, why = self.correct(y0, e, y0, 0.0)
+        if y is None:
+            return None, f"start point did not converge ({why})"
+        try:
+            t = self.tangent(y, None)
+        except np.linalg.LinAlgError:
+            return None, "singular Jacobian at start point"
+        if start.direction != 0 and np.sign(t[self.ip]) != np.sign(start.direction):
+            t = -t
+        return self.analyse(y, t, 0.0, it), ""
+
+    # ------------------------------------------------------------------ branches
+    def run(self, start: StartPoint, branch_id: int = 0) -> Branch:
+        p0, why = self.correct_start(start)
+        if p0 is None:
+            return Branch(branch_id, start.label, [], [], {"start": why}, dict(start.info))
+        directions = [1] if (start.direction != 0 or self.settings.direction != 0) else [1, -1]
+        if self.settings.direction != 0 and start.direction == 0:
+            if np.sign(p0.tangent[self.ip]) != np.sign(self.settings.direction):
+                p0.tangent = -p0.tangent
+        halves = []
+        termination: dict[str, str] = {}
+        for d in directions:
+            t0 = p0.tangent * d
+            first = Point(**{**p0.__dict__, "tangent": t0})
+            pts, evs, reason = self._continue_one_direction(first)
+            halves.append((d, pts, evs))
+            termination["forward" if d == 1 else "backward"] = reason
+        # merge: backward (reversed, negative arclength) + forward
+        points: list[Point] = []
+        events: list[Event] = []
+        for d, pts, evs in halves:
+            if d == -1:
+                for p in pts:
+                    p.s = -p.s
+                for ev in evs:
+                    ev.point.s = -ev.point.s
+                points = list(reversed(pts[1:])) + points
+            else:
+                points = points + pts
+            events.extend(evs)
+        events.sort(key=lambda ev: ev.point.s)
+        return Branch(branch_id, start.label, points, events, termination, dict(start.info))
+
+    def _continue_one_direction(self, p0: Point) -> tuple[list[Point], list[Event], str]:
+        st = self.settings
+        pts = [p0]
+        events: list[Event] = []
+        h = st.step_initial
+        reason = "max_points"
+        # a start outside the parameter window ends at once
+        par = p0.y[self.ip]
+        if (st.param_min is not None and par < st.param_min) or (
+                st.param_max is not None and par > st.param_max):
+            return pts, events, "start outside parameter bounds"
+        while len(pts) < st.max_points:
+            a = pts[-1]
+            y_pred = a.y + h * a.tangent
+            y_new, it, why = self.correct(y_pred, a.tangent, a.y, h)
+            if y_new is not None:
+                try:
+                    t_new = self.tangent(y_new, a.tangent)
+                except np.linalg.LinAlgError:
+                    y_new, why = None, "singular Jacobian"
+            if y_new is None:
+                h *= 0.5
+                if h < st.step_min:
+                    reason = f"step_below_minimum ({why})"
+                    break
+                continue
+            cos_angle = float(np.clip(t_new @ a.tangent, -1.0, 1.0))
+            angle = float(np.arccos(cos_angle))
+            if angle > st.max_angle and h > 2 * st.step_min:
+                h *= 0.5
+                continue
+            b = self.analyse(y_new, t_new, a.s + h, it)
+            new_events, stop = self._events_between(a, b, pts)
+            if stop is not None:
+                stop_point, stop_reason = stop
+                events.extend(ev for ev in new_events if ev.point.s <= stop_point.s)
+                pts.append(stop_point)
+                reason = stop_reason
+                break
+            events.extend(new_events)
+            pts.append(b)
+            if self.progress is not None:
+                self.progress(1)
+            # step adaptation: few iterations and small turning -> grow
+            if it <= 2 and angle < 0.3 * st.max_angle:
+                h = min(h * 1.6, st.step_max)
+            elif it >= 5 or angle > 0.7 * st.max_angle:
+                h = max(h * 0.6, st.step_min)
+        return pts, events, reason
+
+    # ------------------------------------------------------------------ events
+    def _point_at(self, a: Point, b: Point, sigma: float) -> Point | None:
+        """Corrected branch point at arclength ``sigma`` from ``a`` (between ``a`` and ``b``)."""
+        h = b.s - a.s
+        lam = sigma / h if h != 0 else 0.0
+        guess = (1 - lam) * a.y + lam * b.y
+        y, it, _ = self.correct(guess, a.tangent, a.y, sigma)
+        if y is None:
+            return None
+        try:
+            t = self.tangent(y, a.tangent)
+        except np.linalg.LinAlgError:
+            return None
+        return self.analyse(y, t, a.s + sigma, it)
+
+    def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
+                           lo: float = 0.0, flo: float | None = None,
+                           hi: float | None = None, fhi: float | None = None
+                           ) -> tuple[Point, float]:
+        h = b.s - a.s
+        hi = h if hi is None else hi
+        flo = fun(a) if flo is None else flo
+        fhi = fun(b) if fhi is None else fhi
+
+        def f(sig: float) -> tuple[float, Point | None]:
+            p = self._point_at(a, b, sig)
+            return (float("nan"), None) if p is None else (fun(p), p)
+
+        sig, p, width = illinois(f, lo, flo, hi, fhi, self.settings.event_tol)
+        if p is None:
+            p = b if abs(sig - h) < abs(sig) else a
+        return p, width
+
+    def _events_between(self, a: Point, b: Point, history: list[Point]
+                        ) -> tuple[list[Event], tuple[Point, str] | None]:
+        st = self.settings
+        found: list[Event] = []
+        stops: list[tuple[Point, str]] = []
+        ip = self.ip
+
+        # 1. parameter bounds and bounds on derived quantities -> endpoint, stop
+        bound_tests: list[tuple[str, Callable[[Point], float]]] = []
+        if st.param_max is not None:
+            bound_tests.append((f"{self.problem.parameter} = max", lambda p: st.param_max - p.y[ip]))
+        if st.param_min is not None:
+            bound_tests.append((f"{self.problem.parameter} = min", lambda p: p.y[ip] - st.param_min))
+        for name, (lo, hi) in st.derived_bounds.items():
+            if hi is not None:
+                bound_tests.append((f"{name} = max", lambda p, n=name, v=hi: v - p.derived[n]))
+            if lo is not None:
+                bound_tests.append((f"{name} = min", lambda p, n=name, v=lo: p.derived[n] - v))
+        for label, fun in bound_tests:
+            fa, fb = fun(a), fun(b)
+            if fa >= 0 and fb < 0:
+                p, w = self._locate_continuous(a, b, fun, flo=fa, fhi=fb)
+                ev = Event("endpoint", p, f"bound reached: {label}", bracket=w)
+                found.append(ev)
+                stops.append((p, f"bound: {label}"))
+
+        # 2. admissibility test functions -> grazing (nonsmooth) events
+        for name in b.tests:
+            if name not in a.tests:
+                continue
+            fa, fb = a.tests[name], b.tests[name]
+            brackets: list[tuple[float, float, float, float]] = []
+            if np.sign(fa) != np.sign(fb):
+                brackets.append((0.0, fa, b.s - a.s, fb))
+            elif len(history) >= 2 and name in history[-2].tests:
+                prev = history[-2]
+                sv = interior_extremum(np.array([prev.s, a.s, b.s]),
+                                       np.array([prev.tests[name], fa, fb]))
+                if sv is not None:
+                    pm = self._point_at(a, b, sv - a.s)
+                    if pm is not None and np.sign(pm.tests[name]) != np.sign(fa):
+                        fm = pm.tests[name]
+                        brackets += [(0.0, fa, sv - a.s, fm), (sv - a.s, fm, b.s - a.s, fb)]
+            for lo, flo, hi, fhi in brackets:
+                def fun(p: Point, n: str = name) -> float:
+                    return p.tests[n]
+                p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
+                leaving = flo >= 0 > fhi
+                ev = Event("grazing", p, f"test function '{name}' "
+                           + ("becomes negative: admissibility lost" if leaving
+                              else "becomes positive: admissibility regained"),
+                           data={"test": name, "admissible_before": bool(flo >= 0),
+                                 "admissible_after": bool(fhi >= 0)}, bracket=w)
+                found.append(ev)
+                if leaving and st.stop_on_inadmissible:
+                    stops.append((p, f"grazing: admissibility lost ('{name}')"))
+
+        if st.detect_bifurcations:
+            # 3. fold: the parameter component of the tangent changes sign
+            if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]):
+                p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip])
+                found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
+                                   "along the branch", data={"test": "tangent"}, bracket=w))
+            # 4. branch point: determinant of the bordered Jacobian changes sign
+            elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
+                p, w = self._locate_continuous(a, b, lambda q: q.bordered_det)
+                found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
+                                   "changes sign", data={"test": "bordered_determinant"},
+                                   bracket=w))
+            # 5. multipliers crossing the unit circle
+            if a.multipliers is not None and b.multipliers is not None \
+                    and a.n_unstable != b.n_unstable:
+                found.extend(self._locate_multiplier_crossings(a, b))
+
+        if stops:
+            stop = min(stops, key=lambda sp: sp[0].s)
+            return found, stop
+        return found, None
+
+    def _locate_multiplier_crossings(self, a: Point, b: Point) -> list[Event]:
+        """Locate where the number of multipliers outside the unit circle changes."""
+        tol = self.settings.unit_circle_tol
+
+        def f(sig: float) -> tuple[int | None, Point | None]:
+            p = self._point_at(a, b, sig)
+            return (None, None) if p is None else (p.n_unstable, p)
+
+        events: list[Event] = []
+        lo, vlo, plo = 0.0, a.n_unstable, a
+        h = b.s - a.s
+        for _ in range(4):  # at most a few crossings in one step
+            if vlo == b.n_unstable:
+                break
+            sig, p, width, vl, vr = bisect_predicate(f, lo, vlo, h, b.n_unstable,
+                                                     self.settings.event_tol)
+            if p is None:
+                p = b
+            left = self._point_at(a, b, max(sig - width, 0.0)) or plo
+            kind, leaving = classify_crossing(left.multipliers, p.multipliers, tol)
+            stable_before, stable_after = vl == 0, vr == 0
+            data = {"n_outside_before": int(vl), "n_outside_after": int(vr),
+                    "stable_before": stable_before, "stable_after": stable_after,
+                    "leaving_multipliers": [[float(z.real), float(z.imag)] for z in leaving]}
+            detail = {
+                "fold": "a multiplier pair crosses the unit circle at +1",
+                "period_doubling": "a multiplier crosses the unit circle at -1 (flip)",
+                "neimark_sacker": "a complex pair crosses the unit circle away from +-1 "
+                                  "(Krein collision in a conservative system)",
+                "stability_change": "multipliers cross the unit circle",
+            }[kind]
+            events.append(Event(kind, p, detail, data=dict(data), bracket=width))
+            if stable_before != stable_after:
+                events.append(Event("stability_change", p,
+                                    "stable -> unstable" if stable_before else
+                                    "unstable -> stable", data=dict(data), bracket=width))
+            lo, vlo, plo = p.s - a.s, vr, p
+        return events

@@ -1,0 +1,141 @@
+"""Events along a branch: records, and root location of test functions between two points.
+
+A test function is evaluated at points of the branch. When it changes sign between two accepted
+points ``a`` and ``b``, the zero is located on the *solution curve* (not on the chord): every
+trial point is the corrected solution at pseudo-arclength ``sigma`` from ``a``, and ``sigma`` is
+found by the Illinois variant of regula falsi (superlinear, bracketing, robust to a test function
+that jumps) or, for integer-valued tests such as the number of multipliers outside the unit circle,
+by bisection. Both stop when the bracket is shorter than ``tol`` in arclength, so an event is
+located to ``tol`` in every component of ``y`` (``|dy| <= d sigma`` on a unit-tangent
+parametrisation, up to curvature).
+
+A double crossing inside one step (a test function that dips below zero and comes back, as at a
+grazing tangency) shows no sign change at the step ends. :func:`interior_extremum` fits a parabola
+through the last three values; if its vertex lies inside the step with the opposite sign the
+engine evaluates the curve there and locates both crossings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+EVENT_KINDS = (
+    "fold",
+    "branch_point",
+    "period_doubling",
+    "neimark_sacker",
+    "stability_change",
+    "grazing",
+    "endpoint",
+)
+
+
+@dataclass
+class Event:
+    """A located event. ``point`` is the branch point (a ``continuation.Point``) where it sits."""
+
+    kind: str
+    point: Any
+    detail: str = ""
+    data: dict[str, Any] = field(default_factory=dict)
+    #: width of the final bracket in arclength (the location accuracy actually achieved)
+    bracket: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in EVENT_KINDS:
+            raise ValueError(f"unknown event kind {self.kind!r}")
+
+
+def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: float, fb: float,
+             tol: float, max_iter: int = 80) -> tuple[float, Any, float]:
+    """Locate a sign change of ``f`` in ``[a, b]`` (``fa * fb <= 0``) by the Illinois method.
+
+    ``f(sigma)`` returns ``(value, payload)``; the payload of the best final iterate is returned
+    with its abscissa and the final bracket width. If ``f`` fails (returns ``nan``) the bracket is
+    bisected instead.
+    """
+    payload = None
+    side = 0
+    best = (a, None) if abs(fa) < abs(fb) else (b, None)
+    for _ in range(max_iter):
+        if abs(b - a) <= tol:
+            break
+        if np.isfinite(fa) and np.isfinite(fb) and fb != fa:
+            c = b - fb * (b - a) / (fb - fa)
+        else:
+            c = 0.5 * (a + b)
+        # keep c strictly inside; fall back to bisection near the ends
+        lo, hi = min(a, b), max(a, b)
+        margin = 1e-3 * (hi - lo)
+        if not (lo + margin < c < hi - margin):
+            c = 0.5 * (a + b)
+        fc, payload_c = f(c)
+        if not np.isfinite(fc):
+            # cannot evaluate: shrink from the side we trust
+            b, fb = c, fb
+            continue
+        best = (c, payload_c)
+        if fc == 0.0:
+            return c, payload_c, 0.0
+        if np.sign(fc) == np.sign(fb):
+            b, fb = c, fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            a, fa = c, fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        payload = payload_c
+    del payload
+    return best[0], best[1], abs(b - a)
+
+
+def bisect_predicate(f: Callable[[float], tuple[Any, Any]], a: float, va: Any, b: float, vb: Any,
+                     tol: float, max_iter: int = 80) -> tuple[float, Any, float, Any, Any]:
+    """Bisection on a piecewise-constant function (``va != vb``) to bracket width ``tol``.
+
+    Returns ``(sigma, payload, width, value_left, value_right)``: ``sigma`` is the right end of
+    the final bracket (first point with the new value), its payload, the bracket width and the
+    values on both sides.
+    """
+    payload_b = None
+    for _ in range(max_iter):
+        if abs(b - a) <= tol:
+            break
+        c = 0.5 * (a + b)
+        vc, pc = f(c)
+        if vc is None:
+            break
+        if vc == va:
+            a, va = c, vc
+        else:
+            b, vb, payload_b = c, vc, pc
+    return b, payload_b, abs(b - a), va, vb
+
+
+def interior_extremum(s: np.ndarray, f: np.ndarray) -> float | None:
+    """Vertex of the parabola through three ``(s, f)`` pairs if it lies in ``(s[1], s[2])`` and
+    the parabola changes sign there (a double crossing hidden inside the last step)."""
+    s0, s1, s2 = s
+    f0, f1, f2 = f
+    if not (np.isfinite(f).all() and s0 < s1 < s2):
+        return None
+    d01 = (f1 - f0) / (s1 - s0)
+    d12 = (f2 - f1) / (s2 - s1)
+    c2 = (d12 - d01) / (s2 - s0)
+    if c2 == 0.0:
+        return None
+    c1 = d01 - c2 * (s0 + s1)
+    sv = -c1 / (2.0 * c2)
+    if not (s1 < sv < s2):
+        return None
+    fv = f1 + d01 * (sv - s1) + c2 * (sv - s0) * (sv - s1)
+    if np.sign(fv) != np.sign(f1) and np.sign(fv) != np.sign(f2):
+        return float(sv)
+    return None

@@ -1,0 +1,1 @@
+"""Systems from the papers, one module each (installed as ``nsm_continuation.problems``)."""

@@ -1,0 +1,508 @@
+"""N-dof linear oscillator with one dof impacting a rigid wall, e = 1 (Legrand, Junca, Heng 2017).
+
+Model (eq. 2.5): ``M u'' + K u = lambda e_c`` with the impacting dof ``c`` (the paper: ``c = N``),
+``u_c <= g`` and the impact law ``u_c'+ = -u_c'-``. Periodic orbits with one impact per period are
+the fixed points of the first return map ``F(Q) = R(T(Q)) Q`` (Definition 2.5); with the period
+``T`` given, ``(R(T) - I) Q = 0`` is linear in ``Q`` (eq. 2.28) and ``u_c(0) = g`` fixes the scale.
+
+Residual used for continuation (``formulation: half_angle``, the default). The block elimination
+(4.4)-(4.6) of ``(R(T) - I) Q = 0`` shows:
+
+* the velocity block reduces to ``(S + I) u'(0) = 0``: every velocity but ``v = u_c'(0)`` vanishes,
+  and row ``c`` of that block is ``0 = 0``. This is **the redundant equation**: the ``c``-th
+  velocity condition ``u_c'-(T) = -u_c'(0)`` is a linear combination of the position conditions
+  for every ``T`` that is not a pole (``R(T) - I`` has rank ``2N - 1``, Lemma 4.1);
+* the position block, in modal coordinates ``q = P^-1 u(0)`` and with
+  ``p = P^-1 e_c v``, reads ``2 sin(w_j T/2) [sin(w_j T/2) q_j - cos(w_j T/2) p_j / w_j] = 0``.
+  The factor ``2 sin(w_j T/2)`` vanishes at the poles ``T = k T_j`` of ``w_N``; dividing it out
+  gives an analytic residual whose Jacobian keeps full rank *through* the linear grazing orbits,
+  so a branch is continued across a pole from its phantom to its admissible part (Theorem 3.1).
+
+Unknowns ``y = (u_1(0) .. u_N(0), v, T)``, equations ``sin(w_j T/2) q_j - cos(w_j T/2) p_j/w_j = 0``
+(``j = 1..N``) and ``u_c(0) - g = 0``: ``N + 1`` equations in ``N + 2`` unknowns.
+
+``formulation: shooting`` keeps the physical ``2N + 1`` unknowns ``(u(0), u'(0), T)`` and the rows
+of ``(Gamma(T) - I) x`` (``Gamma`` = eq. A.1) without the redundant one, plus ``u_c(0) = g``. Its
+Jacobian loses rank at the poles (the linear mode with any phase solves the reduced rows there),
+which the engine reports as a branch point: kept as a general template and as a test of that.
+
+Conventions (differences from the paper, documented and tested):
+
+* energy ``E = (u'^T M u' + u^T K u) / 2`` (the paper's Prop. 6.1 omits the 1/2);
+* for ``g = 0`` (sec. 7.2) the outgoing velocity of an admissible orbit is ``v < 0`` (the mass
+  leaves the wall towards ``u_c < 0``); Prop. 7.2 prints ``v >= 0``, which would put the mass on
+  the wrong side of the wall at ``t = 0+`` since ``u_c(t) = v t + O(t^2)``;
+* the impact is energy-conserving only if ``M_ck = 0`` for ``k != c`` (Prop. 6.1); other SPD mass
+  matrices are accepted with a warning.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, ClassVar, Literal
+
+import casadi as ca
+import numpy as np
+import scipy.linalg as sla
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator, model_validator
+
+from nsm_continuation.floquet import deflate_known_eigenvector, restrict_to_section
+from nsm_continuation.problem import FloquetData, Problem, StartPoint
+
+from .trig_sum import TrigSum
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class ChainSpec(BaseModel):
+    """The spring-mass chain of eq. (2.17): wall - k_1 - m_1 - k_2 - ... - k_N - m_N (free end)."""
+
+    model_config = ConfigDict(extra="forbid")
+    n: Annotated[int, Field(ge=1)]
+    mass: Positive | list[Positive]
+    stiffness: Positive | list[Positive]
+
+    @model_validator(mode="after")
+    def _lengths(self) -> ChainSpec:
+        for name in ("mass", "stiffness"):
+            v = getattr(self, name)
+            if isinstance(v, list) and len(v) != self.n:
+                raise ValueError(f"{name} has {len(v)} entries, expected n = {self.n}")
+        return self
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        m = np.broadcast_to(np.asarray(self.mass, dtype=float), (self.n,)).copy()
+        k = np.broadcast_to(np.asarray(self.stiffness, dtype=float), (self.n,)).copy()
+        K = np.zeros((self.n, self.n))
+        for i in range(self.n):
+            K[i, i] += k[i]
+            if i > 0:
+                K[i - 1, i - 1] += k[i]
+                K[i - 1, i] -= k[i]
+                K[i, i - 1] -= k[i]
+        return np.diag(m), K
+
+
+class NDofParameters(BaseModel):
+    """YAML ``parameters`` of ``problem: ndof_impact``."""
+
+    model_config = ConfigDict(extra="forbid")
+    chain: ChainSpec | None = None
+    M: list[list[Finite]] | None = None
+    K: list[list[Finite]] | None = None
+    gap: Finite
+    impacting_dof: Annotated[int, Field(ge=1)] | None = None
+    restitution: Finite = 1.0
+    formulation: Literal["half_angle", "shooting"] = "half_angle"
+
+    @field_validator("restitution")
+    @classmethod
+    def _elastic(cls, v: float) -> float:
+        if v != 1.0:
+            raise ValueError(f"must be 1 for ndof_impact (got {v}): its families of periodic "
+                             "orbits exist only for a purely elastic impact law")
+        return v
+
+    @model_validator(mode="after")
+    def _matrices(self) -> NDofParameters:
+        if self.chain is None and (self.M is None or self.K is None):
+            raise ValueError("give either 'chain: {n, mass, stiffness}' or both 'M' and 'K'")
+        if self.chain is not None and (self.M is not None or self.K is not None):
+            raise ValueError("give either 'chain' or 'M'/'K', not both")
+        if self.chain is None:
+            for name in ("M", "K"):
+                A = np.asarray(getattr(self, name), dtype=float)
+                if A.ndim != 2 or A.shape[0] != A.shape[1] or A.size == 0:
+                    raise ValueError(f"{name} must be a non-empty square matrix")
+                if not np.allclose(A, A.T, rtol=1e-12, atol=1e-14 * np.abs(A).max()):
+                    raise ValueError(f"{name} is not symmetric")
+                try:
+                    np.linalg.cholesky(A)
+                except np.linalg.LinAlgError:
+                    raise ValueError(f"{name} is not positive definite") from None
+            if len(self.M) != len(self.K):
+                raise ValueError(f"M is {len(self.M)}x{len(self.M)} but K is "
+                                 f"{len(self.K)}x{len(self.K)}")
+        n = self.chain.n if self.chain is not None else len(self.M)
+        if self.impacting_dof is not None and not 1 <= self.impacting_dof <= n:
+            raise ValueError(f"impacting_dof = {self.impacting_dof} is out of range 1..{n}")
+        return self
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.chain is not None:
+            return self.chain.matrices()
+        return np.asarray(self.M, dtype=float), np.asarray(self.K, dtype=float)
+
+
+class ModeStart(BaseModel):
+    """Start at the linear grazing orbit of mode ``mode`` (or its subharmonic ``k T_j``)."""
+
+    model_config = ConfigDict(extra="forbid")
+    mode: Annotated[int, Field(ge=1)]
+    subharmonic: Annotated[int, Field(ge=1)] = 1
+    #: 'admissible' continues towards a_j (T - k T_j) < 0 only; 'both' also through the pole
+    side: Literal["admissible", "both"] = "admissible"
+
+
+class PeriodStart(BaseModel):
+    """Start from the closed form (4.2) at a given period."""
+
+    model_config = ConfigDict(extra="forbid")
+    T: Positive
+    direction: Literal[-1, 0, 1] = 0
+
+
+class AllStart(BaseModel):
+    """Every branch in the continuation window: one start per pole ``k T_j`` (k <= max), plus
+    seeds in the pole-free gaps; a pole already crossed by a computed branch is skipped."""
+
+    model_config = ConfigDict(extra="forbid")
+    all: Literal[True]
+    max_subharmonic: Annotated[int, Field(ge=1)] = 10
+
+
+StartSpec = ModeStart | PeriodStart | AllStart
+START_ADAPTER = TypeAdapter(StartSpec | list[StartSpec])
+
+
+class NDofImpactProblem(Problem):
+    """T-parametrised fixed points of the first return map R(T) (Legrand et al. 2017)."""
+
+    name: ClassVar[str] = "ndof_impact"
+    Parameters: ClassVar[type[BaseModel]] = NDofParameters
+    start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
+
+    def __init__(self, params: NDofParameters | dict[str, Any]) -> None:
+        if isinstance(params, dict):
+            params = NDofParameters.model_validate(params)
+        super().__init__(params)
+        self.M, self.K = params.matrices()
+        self.N = self.M.shape[0]
+        self.c = (params.impacting_dof or self.N) - 1
+        self.g = float(params.gap)
+        self.formulation = params.formulation
+        # modal data (2.9): P^T M P = I, P^T K P = Omega^2
+        w2, P = sla.eigh(self.K, self.M)
+        if np.any(w2 <= 0):
+            raise ValueError("K must be positive definite (rigid-body modes are excluded)")
+        self.omega = np.sqrt(w2)
+        self.P = P
+        self.Pinv = P.T @ self.M
+        self.T_lin = 2 * np.pi / self.omega
+        self.a = self.P[self.c, :] * self.Pinv[:, self.c]  # interaction coefficients (2.11)
+        N = self.N
+        if self.formulation == "half_angle":
+            self.variables = [f"u{i + 1}" for i in range(N)] + ["v", "T"]
+        else:
+            self.variables = ([f"u{i + 1}" for i in range(N)]
+                              + [f"du{i + 1}" for i in range(N)] + ["T"])
+        self.parameter = "T"
+        self.symbolic = "SX" if N <= 30 else "MX"
+
+    # ------------------------------------------------------------------ residual
+    def residual(self, y: Any) -> Any:
+        N, c = self.N, self.c
+        T = y[-1]
+        u0 = y[:N]
+        mtimes = ca.mtimes
+        P, Pinv, w = (ca.DM(self.P), ca.DM(self.Pinv), ca.DM(self.omega))
+        if self.formulation == "half_angle":
+            v = y[N]
+            q = mtimes(Pinv, u0)
+            p = ca.DM(self.Pinv[:, c]) * v
+            half = w * T / 2
+            modal = ca.sin(half) * q - ca.cos(half) * p / w
+            return ca.vertcat(modal, u0[c] - self.g)
+        du0 = y[N:2 * N]
+        q = mtimes(Pinv, u0)
+        p = mtimes(Pinv, du0)
+        cwt, swt = ca.cos(w * T), ca.sin(w * T)
+        uT = mtimes(P, cwt * q + swt * p / w)
+        vT = mtimes(P, -w * swt * q + cwt * p)
+        s = np.ones(N)
+        s[c] = -1.0
+        vel = vT - ca.DM(s) * du0
+        keep = [i for i in range(N) if i != c]
+        return ca.vertcat(uT - u0, vel[keep], u0[c] - self.g)
+
+    # ------------------------------------------------------------------ state helpers
+    def state(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Physical initial state ``(u(0), u'(0+))`` on the section and the period."""
+        N = self.N
+        y = np.asarray(y, dtype=float)
+        if self.formulation == "half_angle":
+            du = np.zeros(N)
+            du[self.c] = y[N]
+            return y[:N].copy(), du, float(y[-1])
+        return y[:N].copy(), y[N:2 * N].copy(), float(y[-1])
+
+    def y_from_state(self, u0: np.ndarray, du0: np.ndarray, T: float) -> np.ndarray:
+        if self.formulation == "half_angle":
+            return np.concatenate([u0, [du0[self.c]], [T]])
+        return np.concatenate([u0, du0, [T]])
+
+    def w_vector(self, T: float | np.ndarray) -> np.ndarray:
+        """``w(T) = P Phi(T) P^-1 e_c`` (4.1b); ``Phi = Omega^-1 cot(T Omega / 2)``."""
+        phi = 1.0 / (self.omega * np.tan(self.omega * np.asarray(T)[..., None] / 2))
+        return (phi * self.Pinv[:, self.c]) @ self.P.T
+
+    def w_N(self, T: float | np.ndarray) -> np.ndarray:
+        """``w_N(T) = sum_j a_j / (w_j tan(w_j T / 2))`` (3.1), for the impacting dof."""
+        T = np.asarray(T, dtype=float)
+        return np.sum(self.a / (self.omega * np.tan(np.multiply.outer(T, self.omega) / 2)),
+                      axis=-1)
+
+    def closed_form(self, T: float, g: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Initial data (4.2)/(7.1): ``u(0) = (g / w_N) w(T)``, ``u'(0+) = (g / w_N) e_c``."""
+        g = self.g if g is None else g
+        w = self.w_vector(T)
+        v = g / w[self.c]
+        du = np.zeros(self.N)
+        du[self.c] = v
+        return v * w, du
+
+    def gamma(self, T: float) -> tuple[np.ndarray, np.ndarray]:
+        """``Gamma(T)`` of (A.1) (flight then impact, physical coordinates) and ``dGamma/dT``."""
+        P, Pi, w, c = self.P, self.Pinv, self.omega, self.c
+        cw, sw = np.cos(w * T), np.sin(w * T)
+        S = np.ones(self.N)
+        S[c] = -1.0
+
+        def blocks(cc: np.ndarray, ss: np.ndarray) -> np.ndarray:
+            return np.block([[(P * cc) @ Pi, (P * (ss / w)) @ Pi],
+                             [S[:, None] * ((P * (-w * ss)) @ Pi), S[:, None] * ((P * cc) @ Pi)]])
+
+        G = blocks(cw, sw)
+        # d/dT cos = -w sin, d/dT sin = w cos
+        dG = np.block([[(P * (-w * sw)) @ Pi, (P * cw) @ Pi],
+                       [S[:, None] * ((P * (-w**2 * cw)) @ Pi),
+                        S[:, None] * ((P * (-w * sw)) @ Pi)]])
+        return G, dG
+
+    def displacement_sum(self, y: np.ndarray) -> TrigSum:
+        """``u_c(t)`` on ``0 < t < T`` as a sum of sinusoids (5.4)."""
+        u0, du0, _ = self.state(y)
+        q = self.Pinv @ u0
+        p = self.Pinv @ du0
+        Pc = self.P[self.c, :]
+        return TrigSum(Pc * q, Pc * p / self.omega, self.omega.copy())
+
+    # ------------------------------------------------------------------ hooks
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        """Definition 2.2 decided from the closed form (no sampling):
+
+        * ``outgoing_velocity = -u_c'(0+) / (|g| w_1)`` > 0: the mass leaves the wall (H+);
+        * ``clearance = (g - max u_c(t_k)) / |g|`` over the critical points ``t_k`` of ``u_c`` in
+          ``(0, T)``, located exactly (:class:`~problems.trig_sum.TrigSum`); it vanishes at a
+          nonlinear grazing orbit (an extra tangential contact, Fig. 5.2).
+        """
+        if self.g == 0.0:
+            return {}
+        u0, du0, T = self.state(y)
+        scale = abs(self.g)
+        f = self.displacement_sum(y)
+        umax, _ = f.max_on(0.0, T)
+        clearance = (self.g - umax) / scale if np.isfinite(umax) else 1.0
+        return {"outgoing_velocity": -du0[self.c] / (scale * self.omega[0]),
+                "clearance": float(clearance)}
+
+    def return_map_jacobian(self, y: np.ndarray) -> np.ndarray:
+        """``DF`` of (A.8) in physical coordinates (2N x 2N): ``Gamma + (Gamma' x) grad T`` with
+        ``grad T = -e_c^T Gamma / (e_c^T Gamma' x)`` (A.7). Row ``c`` vanishes (F(H) in H)."""
+        u0, du0, T = self.state(y)
+        x = np.concatenate([u0, du0])
+        G, dG = self.gamma(T)
+        dGx = dG @ x
+        denom = dGx[self.c]  # = u_c'-(T) = -u_c'(0+)
+        gradT = -G[self.c, :] / denom
+        return G + np.outer(dGx, gradT)
+
+    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
+        """Eigenvalues of the linearised first return map (3.5) with the extraneous 0 (section
+        normal, removed by restriction) and 1 (family direction, deflated) removed (sec. 6.1)."""
+        u0, du0, _ = self.state(y)
+        if self.g == 0.0 or abs(du0[self.c]) < 1e-300:
+            return None
+        DF = self.return_map_jacobian(y)
+        red = restrict_to_section(DF, self.c)
+        du, ddu, _ = self.state(tangent)
+        if self.formulation == "half_angle":
+            ddu = np.zeros(self.N)
+            ddu[self.c] = tangent[self.N]
+        v = np.delete(np.concatenate([du, ddu]), self.c)
+        if np.linalg.norm(v) == 0.0:
+            return None
+        B, lam, res = deflate_known_eigenvector(red, v)
+        mult = np.linalg.eigvals(B) if B.size else np.empty(0, dtype=complex)
+        return FloquetData(np.asarray(mult, dtype=complex), trivial_error=abs(lam - 1.0) + res)
+
+    def energy(self, y: np.ndarray) -> float:
+        u0, du0, _ = self.state(y)
+        return 0.5 * float(du0 @ self.M @ du0 + u0 @ self.K @ u0)
+
+    def derived(self, y: np.ndarray) -> dict[str, float]:
+        u0, du0, T = self.state(y)
+        return {"T": T, "omega": 2 * np.pi / T, "energy": self.energy(y),
+                "v_out": float(du0[self.c]), "w_N": float(self.w_N(T))}
+
+    # ------------------------------------------------------------------ starts and bounds
+    def parameter_bounds(self, name: str, lo: float | None, hi: float | None
+                         ) -> tuple[float | None, float | None]:
+        """User bounds on ``omega`` or ``T`` -> bounds on ``T``."""
+        if name == "T":
+            return lo, hi
+        if name == "omega":
+            return (None if hi is None else 2 * np.pi / hi,
+                    None if lo is None or lo <= 0 else 2 * np.pi / lo)
+        raise ValueError(f"continuation.parameter: {name!r} is not one of 'omega', 'T'")
+
+    def grazing_start(self, j: int, k: int) -> np.ndarray:
+        """The linear grazing orbit (2.14) of mode ``j`` (0-based) at ``T = k T_j``: a point of
+        the branch (Theorem 3.1: the Lipschitz extension of the nonlinear family)."""
+        Pj = self.P[:, j]
+        u0 = self.g / Pj[self.c] * Pj
+        return self.y_from_state(u0, np.zeros(self.N), k * self.T_lin[j])
+
+    def start_points(self, start: Any) -> list[StartPoint]:
+        specs = START_ADAPTER.validate_python(start)
+        specs = specs if isinstance(specs, list) else [specs]
+        out: list[StartPoint] = []
+        for s in specs:
+            if isinstance(s, ModeStart):
+                j, k = s.mode - 1, s.subharmonic
+                if j >= self.N:
+                    raise ValueError(f"start.mode = {s.mode} is out of range 1..{self.N}")
+                if self.g == 0.0:
+                    raise ValueError("start.mode needs gap != 0 (for gap = 0 use "
+                                     "start: {all: true})")
+                direction = 0 if s.side == "both" else -int(np.sign(self.a[j]))
+                out.append(StartPoint(self.grazing_start(j, k), f"mode {s.mode}, k = {k}",
+                                      direction, {"mode": s.mode, "subharmonic": k,
+                                                  "pole_T": k * self.T_lin[j]}))
+            elif isinstance(s, PeriodStart):
+                u0, du0 = self.closed_form(s.T) if self.g != 0 else (np.zeros(self.N),
+                                                                   np.zeros(self.N))
+                out.append(StartPoint(self.y_from_state(u0, du0, s.T), f"T = {s.T:g}",
+                                      s.direction, {"T0": s.T}))
+            else:
+                out.append(StartPoint(np.zeros(0), "all", 0,
+                                      {"all": True, "max_subharmonic": s.max_subharmonic}))
+        return out
+
+    def poles(self, T_lo: float, T_hi: float, kmax: int) -> list[tuple[float, int, int]]:
+        """Poles ``k T_j`` of ``w_N`` in ``[T_lo, T_hi]``: (T, mode j 0-based, k)."""
+        out = []
+        for j, Tj in enumerate(self.T_lin):
+            for k in range(1, kmax + 1):
+                if T_lo <= k * Tj <= T_hi:
+                    out.append((k * Tj, j, k))
+        return sorted(out)
+
+    def zeros_of_w_N(self, T_lo: float, T_hi: float, kmax: int = 1000) -> np.ndarray:
+        """Roots of ``w_N`` in ``(T_lo, T_hi)``: brentq between consecutive poles on a grid."""
+        from scipy.optimize import brentq
+
+        poles = [p[0] for p in self.poles(1e-12, T_hi * (1 + 1e-12), kmax)]
+        edges = sorted({T_lo, T_hi, *[p for p in poles if T_lo < p < T_hi]})
+        roots = []
+        for lo, hi in zip(edges[:-1], edges[1:], strict=False):
+            eps = 1e-9 * (hi - lo)
+            grid = np.linspace(lo + eps, hi - eps, 400)
+            vals = self.w_N(grid)
+            for i in np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]:
+                r = brentq(lambda t: float(self.w_N(t)), grid[i], grid[i + 1], xtol=1e-15,
+                           rtol=4 * np.finfo(float).eps)
+                if abs(self.w_N(r)) < 1e-6 * (1 + abs(vals[i]) + abs(vals[i + 1])):
+                    roots.append(r)
+        return np.array(roots)
+
+    def static_grazing_admissible(self, T: float) -> bool:
+        """For ``g = 0``: the orbit ``x = v (w(T), e_c)`` with ``v < 0`` (Prop. 7.2, sign
+        corrected) is admissible iff ``u_c <= 0`` on ``(0, T)``; its shape is ``v``-independent."""
+        u0, du0 = self.closed_form(T, g=1.0)  # direction only: scale by v = -1
+        scale = -1.0 / du0[self.c]
+        y = self.y_from_state(u0 * scale, du0 * scale, T)
+        umax, _ = self.displacement_sum(y).max_on(0.0, T)
+        return bool(umax <= 1e-12 * np.max(np.abs(u0 * scale)))
+
+    def grazing_energy(self, j: int) -> float:
+        """Energy of the linear grazing orbit of mode ``j`` (0-based): top of its flat part."""
+        return 0.5 * (self.g / self.P[self.c, j]) ** 2 * self.omega[j] ** 2
+
+    def internal_resonances(self, kmax: int = 10, rtol: float = 1e-9) -> list[str]:
+        """Pairs ``k T_j = l T_i`` (i != j, k, l <= kmax): Assumption 3.1 violated there."""
+        out = []
+        for j in range(self.N):
+            for i in range(j + 1, self.N):
+                r = self.omega[i] / self.omega[j]
+                for lden in range(1, kmax + 1):
+                    knum = round(r * lden)
+                    if 1 <= knum <= kmax and abs(r * lden - knum) < rtol * r * lden:
+                        out.append(f"internal resonance: {knum} T_{i + 1} = {lden} T_{j + 1} "
+                                   f"(omega_{i + 1}/omega_{j + 1} = {knum}/{lden}); "
+                                   "Assumption 3.1 is violated and branches through these "
+                                   "poles are not covered by Theorem 3.1")
+                        break
+        return out
+
+    def warnings(self) -> list[str]:
+        w = self.internal_resonances()
+        off = np.delete(self.M[self.c, :], self.c)
+        if np.any(off != 0.0):
+            w.append("M couples the impacting dof to the others (M_ck != 0): the impact law "
+                     "u_c'+ = -u_c'- does not conserve energy (Prop. 6.1)")
+        if np.any(np.abs(self.a) < 1e-12):
+            w.append("an interaction coefficient a_j vanishes (Assumption 2.1 violated)")
+        return w
+
+    def summary(self) -> dict[str, Any]:
+        return {"N": self.N, "impacting_dof": self.c + 1, "gap": self.g,
+                "omega_linear": self.omega.tolist(), "T_linear": self.T_lin.tolist(),
+                "interaction_coefficients": self.a.tolist(),
+                "alpha": float(np.sum(self.a / self.omega**2)),
+                "formulation": self.formulation}
+
+
+def simulate_first_return(problem: NDofImpactProblem, u0: np.ndarray, du0: np.ndarray,
+                          t_max: float, rtol: float = 1e-13, atol: float = 1e-15
+                          ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Event-driven simulation of the chain (scipy DOP853 on ``M u'' + K u = 0``) from a state on
+    the section to the next impact ``u_c = g`` (crossing upwards), then the impact law.
+
+    Independent of the modal closed form: used as the oracle for ``DF`` (finite differences of
+    this map) and for the closed-form orbits.
+    """
+    from scipy.integrate import solve_ivp
+
+    N, c, g = problem.N, problem.c, problem.g
+    Minv_K = np.linalg.solve(problem.M, problem.K)
+
+    def rhs(_t: float, z: np.ndarray) -> np.ndarray:
+        return np.concatenate([z[N:], -Minv_K @ z[:N]])
+
+    def hit(_t: float, z: np.ndarray) -> float:
+        return z[c] - g
+
+    hit.terminal = True  # type: ignore[attr-defined]
+    hit.direction = 1.0  # type: ignore[attr-defined]
+    z0 = np.concatenate([u0, du0])
+    # leave the wall first: the start sits on u_c = g with u_c' < 0
+    sol = solve_ivp(rhs, (0.0, t_max), z0, method="DOP853", rtol=rtol, atol=atol,
+                    events=hit, dense_output=False)
+    if not sol.t_events[0].size:
+        raise RuntimeError("no impact before t_max")
+    T = float(sol.t_events[0][0])
+    z = sol.y_events[0][0].copy()
+    z[c] = g
+    u, du = z[:N], z[N:]
+    du = du.copy()
+    du[c] = -du[c]
+    return u, du, T
+
+
+def chain_case_matrices(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's example (2.17): ``m = 1/N``, ``k = N``."""
+    return ChainSpec(n=n, mass=1.0 / n, stiffness=float(n)).matrices()
+
+
+__all__ = ["NDofImpactProblem", "NDofParameters", "simulate_first_return", "chain_case_matrices"]

@@ -1,0 +1,119 @@
+"""Exact extrema of a finite sum of sinusoids ``f(t) = sum_l a_l cos(w_l t) + b_l sin(w_l t)``.
+
+Used to decide admissibility (Legrand et al. 2017, Definition 2.2) without trusting a sampling:
+the maximum of ``f`` on ``[t0, t1]`` is attained at an end or at a root of ``f'``. Roots of ``f'``
+are isolated by a certified subdivision: on a cell ``[a, b]`` the bound
+``|f''| <= L = sum_l w_l^2 sqrt(a_l^2 + b_l^2)`` gives ``|f'(t)| >= max(|f'(a)| - L (t - a),
+|f'(b)| - L (b - t))``, so a cell whose end values share a sign and satisfy
+``|f'(a)| + |f'(b)| > L (b - a)`` contains no root. Cells with a sign change are solved by
+safeguarded Newton/bisection to machine precision; cells that are neither certified nor bracketed
+are split (vectorised) until they are shorter than ``min_width``, where the remaining candidate
+(a tangential root of ``f'``) is taken at the point of smallest ``|f'|``. The result is exact up
+to round-off and ``L * min_width^2``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class TrigSum:
+    a: np.ndarray  # cosine coefficients
+    b: np.ndarray  # sine coefficients
+    w: np.ndarray  # angular frequencies (> 0)
+
+    def value(self, t: np.ndarray) -> np.ndarray:
+        wt = np.multiply.outer(np.asarray(t, dtype=float), self.w)
+        return np.cos(wt) @ self.a + np.sin(wt) @ self.b
+
+    def d1(self, t: np.ndarray) -> np.ndarray:
+        wt = np.multiply.outer(np.asarray(t, dtype=float), self.w)
+        return np.cos(wt) @ (self.b * self.w) - np.sin(wt) @ (self.a * self.w)
+
+    def d2(self, t: np.ndarray) -> np.ndarray:
+        wt = np.multiply.outer(np.asarray(t, dtype=float), self.w)
+        w2 = self.w**2
+        return -(np.cos(wt) @ (self.a * w2) + np.sin(wt) @ (self.b * w2))
+
+    @property
+    def d2_bound(self) -> float:
+        return float(np.sum(self.w**2 * np.hypot(self.a, self.b)))
+
+    def critical_points(self, t0: float, t1: float, cells_per_radian: float = 4.0,
+                        min_width: float | None = None) -> np.ndarray:
+        """All roots of ``f'`` in ``(t0, t1)`` (sorted), certified as described above."""
+        span = t1 - t0
+        if span <= 0:
+            return np.empty(0)
+        wmax = float(np.max(self.w))
+        n = int(max(16, np.ceil(span * wmax * cells_per_radian)))
+        min_width = 1e-13 * max(span, 1.0) if min_width is None else min_width
+        L = self.d2_bound
+        edges = np.linspace(t0, t1, n + 1)
+        lo, hi = edges[:-1], edges[1:]
+        flo, fhi = self.d1(lo), self.d1(hi)
+        roots: list[np.ndarray] = []
+        tangential: list[np.ndarray] = []
+        for _ in range(60):
+            if lo.size == 0:
+                break
+            sign_change = np.sign(flo) != np.sign(fhi)
+            if np.any(sign_change):
+                roots.append(self._bracketed_roots(lo[sign_change], hi[sign_change],
+                                                   flo[sign_change]))
+            rest = ~sign_change
+            lo, hi, flo, fhi = lo[rest], hi[rest], flo[rest], fhi[rest]
+            certified = np.abs(flo) + np.abs(fhi) > L * (hi - lo)
+            lo, hi, flo, fhi = lo[~certified], hi[~certified], flo[~certified], fhi[~certified]
+            small = (hi - lo) <= min_width
+            if np.any(small):
+                tangential.append(np.where(np.abs(flo[small]) < np.abs(fhi[small]),
+                                           lo[small], hi[small]))
+                lo, hi, flo, fhi = lo[~small], hi[~small], flo[~small], fhi[~small]
+            if lo.size == 0:
+                break
+            # split each remaining cell in 4
+            k = 4
+            frac = np.linspace(0.0, 1.0, k + 1)
+            new_edges = lo[:, None] + (hi - lo)[:, None] * frac[None, :]
+            fe = self.d1(new_edges.ravel()).reshape(new_edges.shape)
+            fe[:, 0], fe[:, -1] = flo, fhi
+            lo, hi = new_edges[:, :-1].ravel(), new_edges[:, 1:].ravel()
+            flo, fhi = fe[:, :-1].ravel(), fe[:, 1:].ravel()
+        out = np.concatenate(roots + tangential) if (roots or tangential) else np.empty(0)
+        out = out[(out > t0) & (out < t1)]
+        return np.sort(out)
+
+    def _bracketed_roots(self, lo: np.ndarray, hi: np.ndarray, flo: np.ndarray) -> np.ndarray:
+        """Safeguarded Newton on ``f'`` inside brackets with a sign change (vectorised)."""
+        lo, hi = lo.copy(), hi.copy()
+        slo = np.sign(flo)
+        t = 0.5 * (lo + hi)
+        for _ in range(100):
+            f = self.d1(t)
+            fp = self.d2(t)
+            same = np.sign(f) == slo
+            lo = np.where(same, t, lo)
+            hi = np.where(same, hi, t)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tn = t - f / fp
+            bad = ~np.isfinite(tn) | (tn <= lo) | (tn >= hi)
+            tn = np.where(bad, 0.5 * (lo + hi), tn)
+            done = np.abs(tn - t) <= 4 * np.finfo(float).eps * np.maximum(np.abs(t), 1.0)
+            t = tn
+            if np.all(done | (hi - lo <= 4 * np.finfo(float).eps * np.maximum(np.abs(t), 1.0))):
+                break
+        return t
+
+    def max_on(self, t0: float, t1: float) -> tuple[float, float]:
+        """``(max, argmax)`` of ``f`` over the critical points in the open interval ``(t0, t1)``;
+        ``(-inf, nan)`` when there are none."""
+        tc = self.critical_points(t0, t1)
+        if tc.size == 0:
+            return -np.inf, float("nan")
+        v = self.value(tc)
+        i = int(np.argmax(v))
+        return float(v[i]), float(tc[i])
