@@ -50,6 +50,9 @@ class ContinuationSettings:
     event_tol: float = 1e-12
     stop_on_inadmissible: bool = False
     detect_bifurcations: bool = True
+    stability_on_phantom: bool = False
+    #: location tolerance (arclength) for multiplier crossings, found by bisection
+    multiplier_event_tol: float = 1e-9
     #: 0: both directions from the start, +1 / -1: only towards increasing / decreasing parameter
     direction: int = 0
 
@@ -69,6 +72,8 @@ class Point:
     bordered_det: float
     newton_iterations: int = 0
     residual_norm: float = 0.0
+    #: unit-circle tolerance actually used at this point (see ContinuationEngine.analyse)
+    circle_tol: float = 0.0
 
     @property
     def admissible(self) -> bool:
@@ -166,22 +171,41 @@ class ContinuationEngine:
             t = -t
         return t
 
-    def analyse(self, y: np.ndarray, t: np.ndarray, s: float, iterations: int = 0) -> Point:
-        """Evaluate hooks at a corrected point."""
+    def analyse(self, y: np.ndarray, t: np.ndarray, s: float, iterations: int = 0,
+                tests: bool = True, floquet: bool = True) -> Point:
+        """Evaluate the problem's hooks at a corrected point.
+
+        ``tests``/``floquet`` switch off the admissibility tests or the multipliers while an event
+        of the other kind is being located (the located point is then analysed in full).
+        Multipliers are computed only on admissible points unless
+        ``settings.stability_on_phantom``: stability of a phantom orbit has no physical meaning.
+        """
         pr = self.problem
-        tests = pr.admissibility(y)
-        fl = pr.floquet(y, t)
+        test_values = pr.admissibility(y) if tests else {}
+        fl = None
+        if floquet and (self.settings.stability_on_phantom or not tests
+                        or all(v >= 0 for v in test_values.values())):
+            fl = pr.floquet(y, t)
         mult = None if fl is None else np.asarray(fl.multipliers)
-        n_out = 0 if mult is None else count_outside(mult, self.settings.unit_circle_tol)
+        circle_tol = self.settings.unit_circle_tol
+        if fl is not None:
+            # eigenvalues are known to ~ eps * |B| only: never classify below that
+            circle_tol = max(circle_tol, 1e3 * np.finfo(float).eps * fl.matrix_norm)
+        n_out = 0 if mult is None else count_outside(mult, circle_tol)
         A = self._bordered(y, t)
         sign, logdet = np.linalg.slogdet(A)
         det = float(sign * np.exp(min(logdet, 700.0))) if sign != 0 else 0.0
         return Point(
-            y=y, s=s, tangent=t, tests=tests, multipliers=mult,
+            y=y, s=s, tangent=t, tests=test_values, multipliers=mult,
             trivial_error=0.0 if fl is None else fl.trivial_error, n_unstable=n_out,
             derived=pr.derived(y), bordered_det=det, newton_iterations=iterations,
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
+            circle_tol=circle_tol,
         )
+
+    def full(self, p: Point) -> Point:
+        """``p`` analysed with every hook (after a partial analysis during event location)."""
+        return self.analyse(p.y, p.tangent, p.s, p.newton_iterations)
 
     # ------------------------------------------------------------------ start
     def correct_start(self, start: StartPoint) -> tuple[Point | None, str]:
@@ -217,6 +241,9 @@ class ContinuationEngine:
             t0 = p0.tangent * d
             first = Point(**{**p0.__dict__, "tangent": t0})
             pts, evs, reason = self._continue_one_direction(first)
+            if not any(ev.kind == "endpoint" and ev.point is pts[-1] for ev in evs):
+                evs.append(Event("endpoint", pts[-1], f"branch end: {reason}",
+                                 data={"reason": reason}))
             halves.append((d, pts, evs))
             termination["forward" if d == 1 else "backward"] = reason
         # merge: backward (reversed, negative arclength) + forward
@@ -286,7 +313,8 @@ class ContinuationEngine:
         return pts, events, reason
 
     # ------------------------------------------------------------------ events
-    def _point_at(self, a: Point, b: Point, sigma: float) -> Point | None:
+    def _point_at(self, a: Point, b: Point, sigma: float, tests: bool = True,
+                  floquet: bool = True) -> Point | None:
         """Corrected branch point at arclength ``sigma`` from ``a`` (between ``a`` and ``b``)."""
         h = b.s - a.s
         lam = sigma / h if h != 0 else 0.0
@@ -298,25 +326,25 @@ class ContinuationEngine:
             t = self.tangent(y, a.tangent)
         except np.linalg.LinAlgError:
             return None
-        return self.analyse(y, t, a.s + sigma, it)
+        return self.analyse(y, t, a.s + sigma, it, tests=tests, floquet=floquet)
 
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,
-                           hi: float | None = None, fhi: float | None = None
-                           ) -> tuple[Point, float]:
+                           hi: float | None = None, fhi: float | None = None,
+                           floquet: bool = False) -> tuple[Point, float]:
         h = b.s - a.s
         hi = h if hi is None else hi
         flo = fun(a) if flo is None else flo
         fhi = fun(b) if fhi is None else fhi
 
         def f(sig: float) -> tuple[float, Point | None]:
-            p = self._point_at(a, b, sig)
+            p = self._point_at(a, b, sig, tests=True, floquet=floquet)
             return (float("nan"), None) if p is None else (fun(p), p)
 
         sig, p, width = illinois(f, lo, flo, hi, fhi, self.settings.event_tol)
         if p is None:
             p = b if abs(sig - h) < abs(sig) else a
-        return p, width
+        return self.full(p), width
 
     def _events_between(self, a: Point, b: Point, history: list[Point]
                         ) -> tuple[list[Event], tuple[Point, str] | None]:
@@ -328,9 +356,11 @@ class ContinuationEngine:
         # 1. parameter bounds and bounds on derived quantities -> endpoint, stop
         bound_tests: list[tuple[str, Callable[[Point], float]]] = []
         if st.param_max is not None:
-            bound_tests.append((f"{self.problem.parameter} = max", lambda p: st.param_max - p.y[ip]))
+            bound_tests.append((f"{self.problem.parameter} = max",
+                                lambda p: st.param_max - p.y[ip]))
         if st.param_min is not None:
-            bound_tests.append((f"{self.problem.parameter} = min", lambda p: p.y[ip] - st.param_min))
+            bound_tests.append((f"{self.problem.parameter} = min",
+                                lambda p: p.y[ip] - st.param_min))
         for name, (lo, hi) in st.derived_bounds.items():
             if hi is not None:
                 bound_tests.append((f"{name} = max", lambda p, n=name, v=hi: v - p.derived[n]))
@@ -402,7 +432,7 @@ class ContinuationEngine:
         tol = self.settings.unit_circle_tol
 
         def f(sig: float) -> tuple[int | None, Point | None]:
-            p = self._point_at(a, b, sig)
+            p = self._point_at(a, b, sig, tests=False)
             return (None, None) if p is None else (p.n_unstable, p)
 
         events: list[Event] = []
@@ -412,11 +442,11 @@ class ContinuationEngine:
             if vlo == b.n_unstable:
                 break
             sig, p, width, vl, vr = bisect_predicate(f, lo, vlo, h, b.n_unstable,
-                                                     self.settings.event_tol)
-            if p is None:
-                p = b
-            left = self._point_at(a, b, max(sig - width, 0.0)) or plo
-            kind, leaving = classify_crossing(left.multipliers, p.multipliers, tol)
+                                                     self.settings.multiplier_event_tol)
+            p = b if p is None else self.full(p)
+            left = self._point_at(a, b, max(sig - width, 0.0), tests=False) or plo
+            kind, leaving = classify_crossing(left.multipliers, p.multipliers,
+                                              max(tol, p.circle_tol, left.circle_tol))
             stable_before, stable_after = vl == 0, vr == 0
             data = {"n_outside_before": int(vl), "n_outside_after": int(vr),
                     "stable_before": stable_before, "stable_after": stable_after,

@@ -98,7 +98,7 @@ def classify_crossing(before: np.ndarray, after: np.ndarray, tol: float,
 
 
 def product_test(multipliers: np.ndarray, at: float) -> float:
-    """Real test function ``prod_i (lambda_i - at)``; changes sign when a real pair passes ``at``."""
+    """Real test ``prod_i (lambda_i - at)``: changes sign when a real pair passes ``at``."""
     if multipliers.size == 0:
         return 1.0
     return float(np.real(np.prod(multipliers - at)))

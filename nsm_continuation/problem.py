@@ -51,6 +51,9 @@ class FloquetData:
 
     multipliers: np.ndarray
     trivial_error: float = 0.0
+    #: 2-norm of the matrix whose eigenvalues are ``multipliers``: eigenvalues are only known to
+    #: about ``eps * matrix_norm``, so the unit-circle test uses at least ``1e3 * eps * norm``
+    matrix_norm: float = 1.0
 
 
 @dataclass
@@ -145,16 +148,38 @@ class Problem(ABC):
         """Named derived quantities written with each point."""
         return {}
 
-    def start_points(self, start: Any) -> list[StartPoint]:
-        """Initial guesses from the YAML ``start:`` block (none by default)."""
+    def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
+                     ) -> list[StartPoint]:
+        """Initial guesses from the YAML ``start:`` block; ``window`` = parameter bounds."""
         raise ValueError(f"problem {self.name!r} does not generate starting points")
 
-    def parameter_from_user(self, name: str, value: float) -> float:
-        """Convert a user bound on ``name`` (e.g. ``omega``) to a value of ``self.parameter``."""
+    def parameter_bounds(self, name: str, lo: float | None, hi: float | None
+                         ) -> tuple[float | None, float | None]:
+        """Convert user bounds on ``name`` (e.g. ``omega``) to bounds on ``self.parameter``."""
         if name != self.parameter:
-            raise ValueError(f"cannot continue in {name!r}; this problem continues in "
-                             f"{self.parameter!r}")
-        return value
+            raise ValueError(f"continuation.parameter: cannot continue in {name!r}; this "
+                             f"problem continues in {self.parameter!r}")
+        return lo, hi
+
+    def summary(self) -> dict[str, Any]:
+        """Problem facts for the report (linear frequencies, coefficients, ...)."""
+        return {}
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Problem-specific results added to ``report.json`` under ``problem_results``."""
+        return {}
+
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float]) -> None:
+        """Draw problem-specific references on the frequency-energy plot (no-op by default)."""
+        return None
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        """Write problem-specific figures into ``out_dir``; return their file names."""
+        return []
+
+    #: derived quantities used as axes of the frequency-energy plot
+    fep_axes: tuple[str, str] = ("omega", "energy")
 
     def warnings(self) -> list[str]:
         """Warnings about the instance (e.g. a violated assumption) to put in the report."""

@@ -38,6 +38,7 @@ Conventions (differences from the paper, documented and tested):
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
 import casadi as ca
@@ -334,7 +335,9 @@ class NDofImpactProblem(Problem):
             return None
         B, lam, res = deflate_known_eigenvector(red, v)
         mult = np.linalg.eigvals(B) if B.size else np.empty(0, dtype=complex)
-        return FloquetData(np.asarray(mult, dtype=complex), trivial_error=abs(lam - 1.0) + res)
+        norm = float(np.linalg.norm(B, 2)) if B.size else 1.0
+        return FloquetData(np.asarray(mult, dtype=complex), trivial_error=abs(lam - 1.0) + res,
+                           matrix_norm=norm)
 
     def energy(self, y: np.ndarray) -> float:
         u0, du0, _ = self.state(y)
@@ -363,7 +366,9 @@ class NDofImpactProblem(Problem):
         u0 = self.g / Pj[self.c] * Pj
         return self.y_from_state(u0, np.zeros(self.N), k * self.T_lin[j])
 
-    def start_points(self, start: Any) -> list[StartPoint]:
+    def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
+                     ) -> list[StartPoint]:
+        """Starts from the YAML ``start`` block; ``window`` = (T_min, T_max) for ``all``."""
         specs = START_ADAPTER.validate_python(start)
         specs = specs if isinstance(specs, list) else [specs]
         out: list[StartPoint] = []
@@ -385,9 +390,35 @@ class NDofImpactProblem(Problem):
                 out.append(StartPoint(self.y_from_state(u0, du0, s.T), f"T = {s.T:g}",
                                       s.direction, {"T0": s.T}))
             else:
-                out.append(StartPoint(np.zeros(0), "all", 0,
-                                      {"all": True, "max_subharmonic": s.max_subharmonic}))
+                out.extend(self._all_starts(window, s.max_subharmonic))
         return out
+
+    def _all_starts(self, window: tuple[float | None, float | None], kmax: int
+                    ) -> list[StartPoint]:
+        """Every branch in the window: for g != 0 one start per pole ``k T_j`` (the branch
+        crosses the pole from its phantom to its admissible side) plus seeds in pole-free gaps;
+        for g = 0 the trivial branch, whose branch points are the roots of ``w_N``."""
+        lo, hi = window
+        if lo is None or hi is None:
+            raise ValueError("start: {all: true} needs continuation.min and continuation.max")
+        if self.g == 0.0:
+            y0 = self.y_from_state(np.zeros(self.N), np.zeros(self.N), lo)
+            return [StartPoint(y0, "trivial branch (g = 0)", +1, {"trivial": True})]
+        starts = [StartPoint(self.grazing_start(j, k), f"pole {k} T_{j + 1}", 0,
+                             {"mode": j + 1, "subharmonic": k, "pole_T": T,
+                              "skip_if_covered": True})
+                  for T, j, k in self.poles(lo, hi, kmax)]
+        # seeds between singularities that contain no pole (e.g. high frequencies T < T_N)
+        pole_set = [p[0] for p in self.poles(lo, hi, kmax)]
+        sing = sorted({lo, hi, *pole_set, *self.zeros_of_w_N(lo, hi, 10 * kmax).tolist()})
+        for a, b in zip(sing[:-1], sing[1:], strict=False):
+            if any(a - 1e-12 <= p <= b + 1e-12 for p in pole_set):
+                continue
+            Tm = 0.5 * (a + b)
+            u0, du0 = self.closed_form(Tm)
+            starts.append(StartPoint(self.y_from_state(u0, du0, Tm), f"T = {Tm:.6g}", 0,
+                                     {"T0": Tm, "skip_if_covered": True}))
+        return starts
 
     def poles(self, T_lo: float, T_hi: float, kmax: int) -> list[tuple[float, int, int]]:
         """Poles ``k T_j`` of ``w_N`` in ``[T_lo, T_hi]``: (T, mode j 0-based, k)."""
@@ -463,6 +494,105 @@ class NDofImpactProblem(Problem):
                 "formulation": self.formulation}
 
 
+    # ------------------------------------------------------------------ report and figure hooks
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float]
+                               ) -> None:
+        """Fig. 3.2 references: linear frequencies (thick) and subharmonics w_j / k (thin); the flat
+        (linear, contact-free) part of each mode up to its linear grazing energy; for g = 0 the
+        discrete spectrum (roots of w_N, Prop. 7.2)."""
+        import matplotlib.pyplot as plt
+
+        lo, hi = x_range
+        lo, hi = lo - 0.02 * (hi - lo), hi + 0.02 * (hi - lo)
+        colors = plt.get_cmap("tab10")
+        kmax = getattr(self, "_kmax", 10)
+        for j, w in enumerate(self.omega):
+            for k in range(1, kmax + 1):
+                if lo <= w / k <= hi:
+                    ax.axvline(w / k, color=colors(j % 10), lw=1.6 if k == 1 else 0.5,
+                               alpha=0.8 if k == 1 else 0.5, zorder=1)
+            if lo <= w <= hi and self.g != 0.0:
+                ax.plot([w, w], [1e-12, self.grazing_energy(j)], color=colors(j % 10), lw=3.2,
+                        solid_capstyle="butt", zorder=4)
+        if self.g == 0.0:
+            for T in getattr(self, "_spectrum", []):
+                w = 2 * np.pi / T
+                if lo <= w <= hi:
+                    ax.axvline(w, color="tab:green", lw=1.8, ls="--", zorder=2)
+
+
+    def legend_handles(self) -> list[Any]:
+        from matplotlib.lines import Line2D
+
+        h = [Line2D([], [], color="tab:blue", lw=1.6, label=r"linear $\omega_j$ (colour = mode)"),
+             Line2D([], [], color="tab:blue", lw=0.5, label=r"subharmonics $\omega_j/k$")]
+        if self.g != 0.0:
+            h.append(Line2D([], [], color="tab:blue", lw=3.2, label="linear (flat) part of a mode"))
+        else:
+            h.append(Line2D([], [], color="tab:green", lw=1.8, ls="--",
+                            label=r"roots of $w_N$ (g = 0 spectrum)"))
+        return h
+
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "linear_grazing_energies": [float(self.grazing_energy(j)) if self.g != 0 else 0.0
+                                        for j in range(self.N)]}
+        graz = []
+        for br in branches:
+            for ev in br.events:
+                if ev.kind == "grazing" and ev.data.get("test") == "clearance":
+                    graz.append({"branch": br.id, "T": ev.point.derived["T"],
+                                 "omega": ev.point.derived["omega"],
+                                 "energy": ev.point.derived["energy"],
+                                 "admissible_before": ev.data.get("admissible_before")})
+        if graz:
+            out["nonlinear_grazing_orbits"] = graz
+        if self.g == 0.0:
+            spec = []
+            for br in branches:
+                for ev in br.events:
+                    if ev.kind == "branch_point":
+                        T = float(ev.point.y[-1])
+                        spec.append({"T": T, "omega": 2 * np.pi / T, "w_N": float(self.w_N(T)),
+                                     "admissible": self.static_grazing_admissible(T)})
+            self._spectrum = [s["T"] for s in spec]
+            out["static_grazing_spectrum"] = spec
+        return out
+
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                          window: tuple[float | None, float | None]) -> list[str]:
+        """Fig. 3.1: w_N(T) with its poles k T_j and zeros."""
+        import matplotlib.pyplot as plt
+
+        lo, hi = window
+        lo = lo if lo is not None else 0.05 * self.T_lin[-1]
+        hi = hi if hi is not None else 1.2 * self.T_lin[0]
+        T = np.linspace(lo, hi, 20000)
+        wn = self.w_N(T)
+        kmax = getattr(self, "_kmax", 10)
+        fig, ax = plt.subplots(figsize=(9, 4.5))
+        poles = self.poles(lo, hi, kmax)
+        wn_plot = np.where(np.abs(wn) > 50 * np.median(np.abs(wn)), np.nan, wn)
+        ax.plot(T, wn_plot, color="k", lw=1.0)
+        cmap = plt.get_cmap("tab10")
+        for Tp, j, k in poles:
+            ax.axvline(Tp, color=cmap(j % 10), lw=1.4 if k == 1 else 0.6, alpha=0.8)
+        zeros = self.zeros_of_w_N(lo, hi)
+        ax.plot(zeros, np.zeros_like(zeros), "o", color="tab:green", ms=4, label=r"zeros of $w_N$")
+        ax.axhline(0, color="0.5", lw=0.6)
+        ax.set_xlabel("period T [s]")
+        ax.set_ylabel(r"$w_N(T) = \sum_j a_j \cot(\omega_j T/2)/\omega_j$")
+        ax.set_title(r"Fig. 3.1: $w_N$; poles at $kT_j$ (coloured by mode, thick: k = 1)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.25)
+        fig.tight_layout()
+        fig.savefig(Path(out_dir) / "w_N.png", dpi=130)
+        plt.close(fig)
+        return ["w_N.png"]
+
+
 def simulate_first_return(problem: NDofImpactProblem, u0: np.ndarray, du0: np.ndarray,
                           t_max: float, rtol: float = 1e-13, atol: float = 1e-15
                           ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -506,3 +636,4 @@ def chain_case_matrices(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 __all__ = ["NDofImpactProblem", "NDofParameters", "simulate_first_return", "chain_case_matrices"]
+

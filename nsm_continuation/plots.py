@@ -1,0 +1,172 @@
+"""Figures of a run: frequency-energy plot, multipliers vs frequency, multipliers in the plane.
+
+Conventions (as in Legrand et al. 2017, Fig. 3.2, 6.1, 6.2): admissible orbits thick, phantom
+(non-admissible) orbits thin grey; admissible-stable black, admissible-unstable red; unstable
+intervals shaded light red on the multiplier plots; the unit circle drawn in the complex plane.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+
+from .continuation import Branch  # noqa: E402
+from .run import RunResult  # noqa: E402
+
+MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
+           "neimark_sacker": ("o", "tab:green"), "branch_point": ("X", "tab:orange"),
+           "grazing": ("v", "tab:red")}
+
+
+def _segments(br: Branch, xk: str, yk: str):
+    """Consecutive runs of points with the same (admissible, stable) state."""
+    pts = br.points
+    if not pts:
+        return
+    key = [(p.admissible, p.stable) for p in pts]
+    start = 0
+    for i in range(1, len(pts) + 1):
+        if i == len(pts) or key[i] != key[start]:
+            seg = pts[start:min(i + 1, len(pts))]
+            x = np.array([p.derived.get(xk, np.nan) for p in seg])
+            y = np.array([p.derived.get(yk, np.nan) for p in seg])
+            yield key[start], x, y
+            start = i
+
+
+def fep(res: RunResult, path: Path) -> None:
+    xk, yk = res.problem.fep_axes
+    fig, ax = plt.subplots(figsize=(9, 5.5))
+    xs: list[float] = []
+    for br in res.branches:
+        for (adm, stable), x, y in _segments(br, xk, yk):
+            ok = np.isfinite(x) & np.isfinite(y) & (y > 0)
+            if not ok.any():
+                continue
+            xs += list(x[ok])
+            if not adm:
+                ax.plot(x, y, color="0.6", lw=0.8, zorder=2)
+            elif stable is False:
+                ax.plot(x, y, color="tab:red", lw=2.2, zorder=3)
+            else:
+                ax.plot(x, y, color="k", lw=2.2, zorder=3,
+                        ls="-" if stable else (0, (4, 1.5)))
+        for ev in br.events:
+            if ev.kind in MARKERS:
+                m, c = MARKERS[ev.kind]
+                ax.plot(ev.point.derived.get(xk), ev.point.derived.get(yk), m, color=c,
+                        ms=6, mec="k", mew=0.5, zorder=5)
+    lo, hi = res.window
+    x_range = (min(xs) if xs else 0.0, max(xs) if xs else 1.0)
+    res.problem.plot_decorations(ax, x_range)
+    ax.set_yscale("log")
+    ax.set_xlabel(r"frequency $\omega = 2\pi/T$ [rad/s]")
+    ax.set_ylabel(r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$")
+    ax.set_title(f"Frequency-energy plot: {res.case.name}")
+    handles = [Line2D([], [], color="k", lw=2.2, label="admissible, stable"),
+               Line2D([], [], color="tab:red", lw=2.2, label="admissible, unstable"),
+               Line2D([], [], color="k", lw=2.2, ls=(0, (4, 1.5)),
+                      label="admissible, stability not computed"),
+               Line2D([], [], color="0.6", lw=0.8, label="phantom (not admissible)")]
+    for k, (m, c) in MARKERS.items():
+        if any(ev.kind == k for br in res.branches for ev in br.events):
+            handles.append(Line2D([], [], marker=m, color=c, ls="", mec="k", label=k))
+    handles += getattr(res.problem, "legend_handles", lambda: [])()
+    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.9)
+    ax.grid(alpha=0.25, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def _unstable_spans(br: Branch, xk: str) -> list[tuple[float, float]]:
+    spans, cur = [], None
+    for p in br.points:
+        x = p.derived.get(xk)
+        if p.stable is False:
+            cur = [x, x] if cur is None else [cur[0], x]
+        elif cur is not None:
+            spans.append(tuple(cur))
+            cur = None
+    if cur is not None:
+        spans.append(tuple(cur))
+    return spans
+
+
+def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
+    xk = res.problem.fep_axes[0]
+    data = [(br, [p for p in br.points if p.multipliers is not None]) for br in res.branches]
+    if not any(pts for _, pts in data):
+        return False
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    for br, pts in data:
+        if not pts:
+            continue
+        for a, b in _unstable_spans(br, xk):
+            for ax in axes:
+                ax.axvspan(min(a, b), max(a, b), color="tab:red", alpha=0.12, lw=0)
+    allp = [p for _, pts in data for p in pts]
+    x = np.concatenate([np.full(p.multipliers.size, p.derived.get(xk)) for p in allp])
+    m = np.concatenate([p.multipliers for p in allp])
+    c = np.abs(m.real)
+    for ax, val in zip(axes, (np.abs(m), m.real, m.imag), strict=True):
+        ax.scatter(x, val, c=c, cmap="viridis", vmin=0, vmax=1, s=4)
+    axes[0].axhline(1.0, color="k", lw=0.8)
+    axes[0].set_yscale("log")
+    axes[0].set_ylabel(r"$|\lambda|$")
+    axes[1].set_ylabel(r"Re $\lambda$")
+    axes[2].set_ylabel(r"Im $\lambda$")
+    axes[2].set_xlabel(r"frequency $\omega$ [rad/s]")
+    axes[0].set_title("Floquet multipliers (trivial 0 and 1 removed); unstable zones shaded; "
+                      r"colour: $|$Re $\lambda|$")
+    for ax in axes:
+        ax.grid(alpha=0.25)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return True
+
+
+def multipliers_plane(res: RunResult, path: Path) -> bool:
+    xk = res.problem.fep_axes[0]
+    pts = [p for br in res.branches for p in br.points if p.multipliers is not None]
+    if not pts:
+        return False
+    fig, ax = plt.subplots(figsize=(6.2, 5.6))
+    th = np.linspace(0, 2 * np.pi, 400)
+    ax.plot(np.cos(th), np.sin(th), color="k", lw=0.8)
+    z = np.concatenate([p.multipliers for p in pts])
+    w = np.concatenate([np.full(p.multipliers.size, p.derived.get(xk)) for p in pts])
+    sc = ax.scatter(z.real, z.imag, c=w, cmap="plasma", s=5)
+    fig.colorbar(sc, ax=ax, label=r"frequency $\omega$ [rad/s]")
+    r = min(max(1.6, float(np.percentile(np.abs(z), 98)) * 1.1), 4.0)
+    ax.set_xlim(-r, r)
+    ax.set_ylim(-r, r)
+    ax.set_aspect("equal")
+    ax.set_xlabel(r"Re $\lambda$")
+    ax.set_ylabel(r"Im $\lambda$")
+    ax.set_title("Floquet multipliers in the complex plane")
+    ax.grid(alpha=0.25)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return True
+
+
+def make_all(res: RunResult, out: Path) -> list[str]:
+    files = []
+    if res.branches and any(br.points for br in res.branches):
+        fep(res, out / "fep.png")
+        files.append("fep.png")
+    if multipliers_vs_frequency(res, out / "multipliers_vs_frequency.png"):
+        files.append("multipliers_vs_frequency.png")
+    if multipliers_plane(res, out / "multipliers_complex_plane.png"):
+        files.append("multipliers_complex_plane.png")
+    files += res.problem.extra_plots(out, res.branches, res.window)
+    return files

@@ -1,0 +1,163 @@
+"""Run outputs (a stable contract): ``report.json``, ``branch_<id>.csv``, ``report.md``, plots.
+
+Everything is written into a temporary sibling directory which is renamed onto the output
+directory only when complete: a failed run leaves no half-written folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .continuation import Branch, Point
+from .events import Event
+from .run import RunResult
+
+
+def _f(x: Any) -> Any:
+    """JSON-safe float (NaN/inf -> None)."""
+    if isinstance(x, (float, np.floating)):
+        return float(x) if np.isfinite(x) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    return x
+
+
+def multipliers_list(m: np.ndarray | None) -> list[list[float]]:
+    if m is None:
+        return []
+    order = np.argsort(-np.abs(m), kind="stable")
+    return [[float(m[i].real), float(m[i].imag)] for i in order]
+
+
+def event_record(ev: Event) -> dict[str, Any]:
+    p = ev.point
+    rec: dict[str, Any] = {"kind": ev.kind, "detail": ev.detail}
+    rec.update({k: _f(v) for k, v in p.derived.items()})
+    rec["s"] = _f(p.s)
+    rec["multipliers"] = multipliers_list(p.multipliers)
+    rec["admissible"] = p.admissible
+    rec["stable"] = p.stable
+    rec["location_bracket"] = _f(ev.bracket)
+    for k, v in ev.data.items():
+        rec[k] = v if not isinstance(v, (float, np.floating)) else _f(v)
+    rec["y"] = [float(v) for v in p.y]
+    return rec
+
+
+def termination_text(br: Branch) -> str:
+    return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
+
+
+def branch_rows(br: Branch, variables: list[str]) -> tuple[list[str], list[list[Any]]]:
+    pts: list[Point] = br.points
+    derived_keys: list[str] = []
+    test_keys: list[str] = []
+    for p in pts:
+        for k in p.derived:
+            if k not in derived_keys:
+                derived_keys.append(k)
+        for k in p.tests:
+            if k not in test_keys:
+                test_keys.append(k)
+    n_mult = max((0 if p.multipliers is None else p.multipliers.size) for p in pts) if pts else 0
+    head = ["T", "omega", "energy"]
+    extra = [k for k in derived_keys if k not in head]
+    cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + extra
+            + [f"test_{k}" for k in test_keys]
+            + ["trivial_multiplier_error", "newton_iterations", "residual_inf"]
+            + [f"y_{v}" for v in variables]
+            + [f"mu{i + 1}_{part}" for i in range(n_mult) for part in ("re", "im")])
+    rows = []
+    for p in pts:
+        mult = multipliers_list(p.multipliers)
+        mult_flat = [c for z in mult for c in z] + [""] * (2 * n_mult - 2 * len(mult))
+        stable = "" if p.stable is None else int(p.stable)
+        mam = p.max_abs_multiplier
+        rows.append([p.derived.get(k, "") for k in head] + [int(p.admissible), stable,
+                    "" if not np.isfinite(mam) else mam, p.s]
+                    + [p.derived.get(k, "") for k in extra]
+                    + [p.tests.get(k, "") for k in test_keys]
+                    + [p.trivial_error if p.multipliers is not None else "",
+                       p.newton_iterations, p.residual_norm]
+                    + list(map(float, p.y)) + mult_flat)
+    return cols, rows
+
+
+def build_report(res: RunResult) -> dict[str, Any]:
+    pr = res.problem
+    branches = []
+    for br in res.branches:
+        branches.append({
+            "id": br.id, "label": br.label, "n_points": br.n_points,
+            "termination": termination_text(br), "termination_by_direction": br.termination,
+            "csv": f"branch_{br.id}.csv",
+            "parameter_range": ([float(min(p.y[pr.parameter_index] for p in br.points)),
+                                 float(max(p.y[pr.parameter_index] for p in br.points))]
+                                if br.points else None),
+            "admissible_points": int(sum(p.admissible for p in br.points)),
+            "info": {k: _f(v) for k, v in br.info.items()},
+            "events": [event_record(ev) for ev in br.events],
+        })
+    s = res.settings
+    return {
+        "case": {"name": res.case.name, "description": res.case.description,
+                 "input": res.case.model_dump(mode="json")},
+        "problem": pr.name,
+        "problem_summary": pr.summary(),
+        "parameters": res.case.parameters,
+        "warnings": pr.warnings(),
+        "continuation": {"parameter": pr.parameter, "window": [_f(w) for w in res.window],
+                         "settings": {k: _f(v) for k, v in s.__dict__.items()
+                                      if not isinstance(v, dict)}},
+        "timings": {k: ([_f(x) for x in v] if isinstance(v, list) else _f(v))
+                    for k, v in res.timings.items()},
+        "skipped_starts": res.skipped,
+        "branches": branches,
+        "problem_results": pr.report_extras(res.branches),
+    }
+
+
+def write_outputs(res: RunResult, out_dir: Path, plots: bool = True) -> Path:
+    """Write every output of a run atomically into ``out_dir``; returns ``out_dir``."""
+    from . import report as report_md
+
+    out_dir = Path(out_dir)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    try:
+        rep = build_report(res)
+        for br in res.branches:
+            cols, rows = branch_rows(br, res.problem.variables)
+            with open(tmp / f"branch_{br.id}.csv", "w", newline="") as fh:
+                w = csv.writer(fh)
+                w.writerow(cols)
+                w.writerows(rows)
+        figures: list[str] = []
+        if plots:
+            from . import plots as plotting
+
+            figures = plotting.make_all(res, tmp)
+        rep["figures"] = figures
+        (tmp / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
+        (tmp / "report.md").write_text(report_md.markdown(rep))
+        if out_dir.exists():
+            old = out_dir.with_name(f".{out_dir.name}.old-{os.getpid()}")
+            os.replace(out_dir, old)
+            os.replace(tmp, out_dir)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out_dir

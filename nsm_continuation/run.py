@@ -1,0 +1,97 @@
+"""Run a validated case: build settings, continue every start, collect the results."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .cases import Case, CaseError
+from .continuation import Branch, ContinuationEngine, ContinuationSettings
+from .problem import Problem, StartPoint
+
+
+@dataclass
+class RunResult:
+    case: Case
+    problem: Problem
+    branches: list[Branch]
+    settings: ContinuationSettings
+    window: tuple[float | None, float | None]
+    timings: dict[str, Any] = field(default_factory=dict)
+    skipped: list[str] = field(default_factory=list)
+
+
+def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettings,
+                                                              tuple[float | None, float | None]]:
+    c, a = case.continuation, case.analysis
+    lo, hi = problem.parameter_bounds(c.parameter, c.min, c.max)
+    settings = ContinuationSettings(
+        step_initial=c.step.initial, step_min=c.step.min, step_max=c.step.max,
+        max_points=c.max_points, newton_tol=c.newton_tol, max_angle=c.max_angle,
+        param_min=lo, param_max=hi,
+        derived_bounds={"energy": (None, c.max_energy)} if c.max_energy is not None else {},
+        unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
+        multiplier_event_tol=a.multiplier_event_tol,
+        stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
+        stability_on_phantom=a.stability_on_phantom,
+        direction={"both": 0, "increase": 1, "decrease": -1}[c.direction],
+    )
+    return settings, (lo, hi)
+
+
+def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
+    """Whether a start lies on an already computed branch (within 1e-6 relative)."""
+    y0 = np.asarray(start.y)
+    p0 = y0[ip]
+    for br in branches:
+        ys = np.array([p.y for p in br.points]) if br.points else np.empty((0, len(y0)))
+        for k in range(len(ys) - 1):
+            a, b = ys[k, ip], ys[k + 1, ip]
+            if min(a, b) <= p0 <= max(a, b) and a != b:
+                lam = (p0 - a) / (b - a)
+                yi = (1 - lam) * ys[k] + lam * ys[k + 1]
+                if np.linalg.norm(yi - y0) <= 1e-6 * (1 + np.linalg.norm(y0)) + \
+                        1e-3 * np.linalg.norm(ys[k + 1] - ys[k]):
+                    return True
+    return False
+
+
+def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
+    settings, window = settings_from_case(case, problem)
+    if case.analysis.stability is False:
+        problem.floquet = lambda y, t: None  # type: ignore[method-assign]
+    try:
+        starts = problem.start_points(case.start, window)
+    except ValueError as exc:
+        raise CaseError(f"start: {exc}") from None
+    t0 = time.perf_counter()
+    _ = problem.compiled  # build CasADi functions once
+    t_build = time.perf_counter() - t0
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(starts) * settings.max_points, unit="pt", leave=False,
+                   desc=case.name, disable=None)
+    engine = ContinuationEngine(problem, settings, progress=bar.update if bar else None)
+    branches: list[Branch] = []
+    skipped: list[str] = []
+    per_branch = []
+    for start in starts:
+        if start.info.get("skip_if_covered") and _covered(start, branches, problem.parameter_index):
+            skipped.append(start.label)
+            continue
+        tb = time.perf_counter()
+        br = engine.run(start, branch_id=len(branches))
+        per_branch.append(time.perf_counter() - tb)
+        branches.append(br)
+    if bar is not None:
+        bar.close()
+    total = time.perf_counter() - t0
+    timings = {"total_s": total, "build_casadi_s": t_build, "per_branch_s": per_branch,
+               "n_points": int(sum(b.n_points for b in branches)),
+               "residual_evaluations": engine.n_evaluations}
+    return RunResult(case, problem, branches, settings, window, timings, skipped)
