@@ -239,7 +239,8 @@ class ContinuationEngine:
         termination: dict[str, str] = {}
         for d in directions:
             t0 = p0.tangent * d
-            first = Point(**{**p0.__dict__, "tangent": t0})
+            # det[G_y; t^T] is odd in t: flip it with the tangent
+            first = Point(**{**p0.__dict__, "tangent": t0, "bordered_det": p0.bordered_det * d})
             pts, evs, reason = self._continue_one_direction(first)
             if not any(ev.kind == "endpoint" and ev.point is pts[-1] for ev in evs):
                 evs.append(Event("endpoint", pts[-1], f"branch end: {reason}",
@@ -373,6 +374,10 @@ class ContinuationEngine:
                 ev = Event("endpoint", p, f"bound reached: {label}", bracket=w)
                 found.append(ev)
                 stops.append((p, f"bound: {label}"))
+            elif fa < 0 and fb < fa:
+                # started outside the bound and moving further out: stop here
+                found.append(Event("endpoint", b, f"outside bound and leaving: {label}"))
+                stops.append((b, f"bound: {label} (start outside, moving away)"))
 
         # 2. admissibility test functions -> grazing (nonsmooth) events
         for name in b.tests:
@@ -422,6 +427,7 @@ class ContinuationEngine:
                     and a.n_unstable != b.n_unstable:
                 found.extend(self._locate_multiplier_crossings(a, b))
 
+        found = _merge_coincident_grazing(found, self.settings.event_tol)
         if stops:
             stop = min(stops, key=lambda sp: sp[0].s)
             return found, stop
@@ -465,3 +471,24 @@ class ContinuationEngine:
                                     "unstable -> stable", data=dict(data), bracket=width))
             lo, vlo, plo = p.s - a.s, vr, p
         return events
+
+
+def _merge_coincident_grazing(events: list[Event], tol: float) -> list[Event]:
+    """Several admissibility tests vanishing at the same point are one grazing event (for the
+    impact oscillator: zero outgoing velocity and a critical point entering at t = 0+ together
+    make a linear grazing orbit). The merged event lists every test in ``data['tests']``."""
+    graz = sorted((e for e in events if e.kind == "grazing"), key=lambda e: e.point.s)
+    others = [e for e in events if e.kind != "grazing"]
+    merged: list[Event] = []
+    for ev in graz:
+        ev.data.setdefault("tests", [ev.data.get("test")])
+        # 1e-7 in arclength: a test that jumps at a switching point (a critical point entering
+        # the period at t = 0+) is located only to the round-off of the value it jumps to
+        if merged and abs(ev.point.s - merged[-1].point.s) <= max(
+                1e-7 * (1 + abs(ev.point.s)), 2 * ev.bracket, 2 * merged[-1].bracket):
+            last = merged[-1]
+            last.data["tests"] = sorted(set(last.data["tests"]) | set(ev.data["tests"]))
+            last.detail = f"test functions {last.data['tests']} vanish together"
+            continue
+        merged.append(ev)
+    return others + merged

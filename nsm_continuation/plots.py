@@ -42,7 +42,7 @@ def _segments(br: Branch, xk: str, yk: str):
 
 def fep(res: RunResult, path: Path) -> None:
     xk, yk = res.problem.fep_axes
-    fig, ax = plt.subplots(figsize=(9, 5.5))
+    fig, ax = plt.subplots(figsize=(11, 5.5))
     xs: list[float] = []
     for br in res.branches:
         for (adm, stable), x, y in _segments(br, xk, yk):
@@ -62,10 +62,12 @@ def fep(res: RunResult, path: Path) -> None:
                 m, c = MARKERS[ev.kind]
                 ax.plot(ev.point.derived.get(xk), ev.point.derived.get(yk), m, color=c,
                         ms=6, mec="k", mew=0.5, zorder=5)
-    lo, hi = res.window
     x_range = (min(xs) if xs else 0.0, max(xs) if xs else 1.0)
+    if xs:
+        ax.set_yscale("log")
+    ylim = ax.get_ylim()
     res.problem.plot_decorations(ax, x_range)
-    ax.set_yscale("log")
+    ax.set_ylim(ylim)
     ax.set_xlabel(r"frequency $\omega = 2\pi/T$ [rad/s]")
     ax.set_ylabel(r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$")
     ax.set_title(f"Frequency-energy plot: {res.case.name}")
@@ -78,7 +80,8 @@ def fep(res: RunResult, path: Path) -> None:
         if any(ev.kind == k for br in res.branches for ev in br.events):
             handles.append(Line2D([], [], marker=m, color=c, ls="", mec="k", label=k))
     handles += getattr(res.problem, "legend_handles", lambda: [])()
-    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.9)
+    ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              framealpha=0.9)
     ax.grid(alpha=0.25, which="both")
     fig.tight_layout()
     fig.savefig(path, dpi=130)

@@ -447,6 +447,19 @@ class NDofImpactProblem(Problem):
                     roots.append(r)
         return np.array(roots)
 
+    def polish_root(self, T0: float) -> float:
+        """Root of ``w_N`` near ``T0`` by Newton on the closed form (``w_N' < 0`` between poles
+        when every ``a_j > 0``; falls back to ``T0`` if Newton leaves the neighbourhood)."""
+        T = T0
+        for _ in range(50):
+            h = 1e-7 * T
+            d = (self.w_N(T + h) - self.w_N(T - h)) / (2 * h)
+            step = float(self.w_N(T) / d)
+            T -= step
+            if abs(step) < 1e-15 * T:
+                break
+        return float(T) if abs(T - T0) < 1e-3 * T0 else float(T0)
+
     def static_grazing_admissible(self, T: float) -> bool:
         """For ``g = 0``: the orbit ``x = v (w(T), e_c)`` with ``v < 0`` (Prop. 7.2, sign
         corrected) is admissible iff ``u_c <= 0`` on ``(0, T)``; its shape is ``v``-independent."""
@@ -512,7 +525,7 @@ class NDofImpactProblem(Problem):
                     ax.axvline(w / k, color=colors(j % 10), lw=1.6 if k == 1 else 0.5,
                                alpha=0.8 if k == 1 else 0.5, zorder=1)
             if lo <= w <= hi and self.g != 0.0:
-                ax.plot([w, w], [1e-12, self.grazing_energy(j)], color=colors(j % 10), lw=3.2,
+                ax.plot([w, w], [1e-300, self.grazing_energy(j)], color=colors(j % 10), lw=3.2,
                         solid_capstyle="butt", zorder=4)
         if self.g == 0.0:
             for T in getattr(self, "_spectrum", []):
@@ -541,7 +554,7 @@ class NDofImpactProblem(Problem):
         graz = []
         for br in branches:
             for ev in br.events:
-                if ev.kind == "grazing" and ev.data.get("test") == "clearance":
+                if ev.kind == "grazing" and ev.data.get("tests") == ["clearance"]:
                     graz.append({"branch": br.id, "T": ev.point.derived["T"],
                                  "omega": ev.point.derived["omega"],
                                  "energy": ev.point.derived["energy"],
@@ -553,8 +566,10 @@ class NDofImpactProblem(Problem):
             for br in branches:
                 for ev in br.events:
                     if ev.kind == "branch_point":
-                        T = float(ev.point.y[-1])
-                        spec.append({"T": T, "omega": 2 * np.pi / T, "w_N": float(self.w_N(T)),
+                        T_bp = float(ev.point.y[-1])
+                        T = self.polish_root(T_bp)
+                        spec.append({"T": T, "omega": 2 * np.pi / T, "T_branch_point": T_bp,
+                                     "w_N(T_branch_point)": float(self.w_N(T_bp)),
                                      "admissible": self.static_grazing_admissible(T)})
             self._spectrum = [s["T"] for s in spec]
             out["static_grazing_spectrum"] = spec

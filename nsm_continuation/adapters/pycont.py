@@ -35,6 +35,10 @@ Notes on pycont-lite 0.6 (read from its source):
   :mod:`nsm_continuation.problems.ndof_impact` that number has no dynamical meaning (stability is
   given by the Floquet multipliers, ``problem.floquet``), so :func:`run_pycont` switches it off
   unless asked for;
+* a fold (``LP``) is placed on the chord between the two points that bracket it
+  (``x_left + alpha (x_right - x_left)``) and is not corrected back onto the curve: that one point
+  of the returned branch is ``O(ds^2)`` off the solution set. Fold and bifurcation tests are
+  evaluated every fifth step only;
 * ``hopf_detection`` evaluates ``G`` at complex arguments; CasADi residuals are real, so the
   adapter rejects complex input with a :class:`TypeError`.
 """
