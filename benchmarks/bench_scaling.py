@@ -17,8 +17,9 @@ engine):
   ``eigvals`` of a ``(2N - 2)`` square matrix, its 2-norm);
 * ``admissibility``: ``problem.admissibility`` (exact maximum of ``u_N(t)`` over ``(0, T)`` by
   certified subdivision, :class:`~nsm_continuation.problems.trig_sum.TrigSum`);
-* ``per point``: wall time of ``ContinuationEngine.run`` (bifurcation detection off, no bounds)
-  divided by the number of points it returns: Newton corrections + tangent + every hook.
+* ``per point``: wall time of ``ContinuationEngine.run`` (bifurcation detection off, no bounds,
+  multipliers also on phantom points) divided by the number of points it returns: Newton
+  corrections + tangent + every hook.
 
 Time: best of several repeats. Peak memory: ``tracemalloc`` peak above the baseline during one
 call (Python and numpy allocations; CasADi's C++ heap and BLAS workspaces are not traced).
@@ -157,6 +158,10 @@ def measure_size(n: int, points: int) -> SizeResult:
     _ = problem.compiled
     res.symbolic = problem.symbolic
     settings = ContinuationSettings(detect_bifurcations=False, max_points=points, direction=-1)
+    if hasattr(settings, "stability_on_phantom"):
+        # multipliers at every point (the engine skips them on phantom points otherwise; the
+        # poles crowd below T_1 for large N, so a few steps may leave the admissible part)
+        settings.stability_on_phantom = True
     engine = ContinuationEngine(problem, settings)
     T = branch1_period(problem)
     u0, du0 = problem.closed_form(T)

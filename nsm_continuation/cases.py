@@ -69,6 +69,7 @@ class AnalysisSpec(BaseModel):
     unit_circle_tol: PosFloat = 1e-7
     event_tol: PosFloat = 1e-12
     multiplier_event_tol: PosFloat = 1e-9
+    max_multiplier_step: PosFloat = 0.02
 
 
 class OutputSpec(BaseModel):

@@ -76,6 +76,7 @@ class CompiledResidual:
 
     G: ca.Function
     J: ca.Function
+    GJ: ca.Function
     n: int
 
     def residual(self, y: np.ndarray) -> np.ndarray:
@@ -83,6 +84,11 @@ class CompiledResidual:
 
     def jacobian(self, y: np.ndarray) -> np.ndarray:
         return np.asarray(self.J(y), dtype=float).reshape(self.n, self.n + 1)
+
+    def both(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        g, j = self.GJ(y)
+        return (np.asarray(g, dtype=float).reshape(-1),
+                np.asarray(j, dtype=float).reshape(self.n, self.n + 1))
 
 
 class Problem(ABC):
@@ -125,15 +131,21 @@ class Problem(ABC):
                 f"problem {self.name!r}: residual has {n} equations for {self.dim} unknowns "
                 "(continuation needs n equations in n + 1 unknowns)"
             )
+        jac = ca.jacobian(g, y)
         G = ca.Function("G", [y], [g])
-        J = ca.Function("J", [y], [ca.jacobian(g, y)])
-        return CompiledResidual(G=G, J=J, n=n)
+        J = ca.Function("J", [y], [jac])
+        GJ = ca.Function("GJ", [y], [g, jac])
+        return CompiledResidual(G=G, J=J, GJ=GJ, n=n)
 
     def evaluate(self, y: np.ndarray) -> np.ndarray:
         return self.compiled.residual(y)
 
     def jacobian(self, y: np.ndarray) -> np.ndarray:
         return self.compiled.jacobian(y)
+
+    def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(G(y), G_y(y))`` in one call (override together with evaluate/jacobian)."""
+        return self.compiled.both(y)
 
     # -- optional hooks -------------------------------------------------------------------------
     def admissibility(self, y: np.ndarray) -> dict[str, float]:

@@ -34,7 +34,7 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
         param_min=lo, param_max=hi,
         derived_bounds={"energy": (None, c.max_energy)} if c.max_energy is not None else {},
         unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
-        multiplier_event_tol=a.multiplier_event_tol,
+        multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
         stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
         stability_on_phantom=a.stability_on_phantom,
         direction={"both": 0, "increase": 1, "decrease": -1}[c.direction],

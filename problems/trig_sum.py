@@ -43,6 +43,14 @@ class TrigSum:
         w2 = self.w**2
         return -(np.cos(wt) @ (self.a * w2) + np.sin(wt) @ (self.b * w2))
 
+    def d12(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(f', f'')`` sharing one evaluation of the sines and cosines."""
+        wt = np.multiply.outer(np.asarray(t, dtype=float), self.w)
+        c, s = np.cos(wt), np.sin(wt)
+        w2 = self.w**2
+        d1 = c @ (self.b * self.w) - s @ (self.a * self.w)
+        return d1, -(c @ (self.a * w2) + s @ (self.b * w2))
+
     @property
     def d2_bound(self) -> float:
         return float(np.sum(self.w**2 * np.hypot(self.a, self.b)))
@@ -109,8 +117,7 @@ class TrigSum:
             if active.size == 0:
                 break
             ta = t[active]
-            f = self.d1(ta)
-            fp = self.d2(ta)
+            f, fp = self.d12(ta)
             same = np.sign(f) == slo[active]
             la = np.where(same, ta, lo[active])
             ha = np.where(same, hi[active], ta)

@@ -37,10 +37,10 @@ def multiset_distance(x: np.ndarray, y: np.ndarray) -> float:
     return float(cost[r, c].max())
 
 
-def matrix_with_spectrum(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray,
-                                                                     np.ndarray, np.ndarray]:
-    """Real ``A = V D V^-1`` with real and complex-pair eigenvalues; returns (A, V, eigs, ireal)
-    where column ``ireal`` of ``V`` is a real eigenvector for the real eigenvalue ``eigs[0]``."""
+def matrix_with_spectrum(rng: np.random.Generator, n: int
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Real ``A = V D V^-1`` with real and complex-pair eigenvalues; returns ``(A, V, eigs)``;
+    column 0 of ``V`` is a real eigenvector for the real eigenvalue ``eigs[0]``."""
     D = np.zeros((n, n))
     eigs = []
     i = 0
@@ -59,14 +59,14 @@ def matrix_with_spectrum(rng: np.random.Generator, n: int) -> tuple[np.ndarray, 
     # well-conditioned V: orthogonal times a mild diagonal scaling
     Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
     V = Q @ np.diag(rng.uniform(0.5, 2.0, n))
-    return V @ D @ np.linalg.inv(V), V, np.array(eigs, dtype=complex), np.array(0)
+    return V @ D @ np.linalg.inv(V), V, np.array(eigs, dtype=complex)
 
 
 @settings(max_examples=25, deadline=None)
 @given(n=st.integers(2, 9), seed=st.integers(0, 2**31 - 1), flip=st.booleans())
 def test_deflation_removes_exactly_the_known_eigenvalue(n: int, seed: int, flip: bool) -> None:
     rng = np.random.default_rng(seed)
-    A, V, eigs, _ = matrix_with_spectrum(rng, n)
+    A, V, eigs = matrix_with_spectrum(rng, n)
     v = V[:, 0] * (-1.0 if flip else 1.0)  # either sign of the first component (Householder)
     B, lam, res = deflate_known_eigenvector(A, v)
     assert B.shape == (n - 1, n - 1)
@@ -85,7 +85,7 @@ def test_deflation_removes_exactly_the_known_eigenvalue(n: int, seed: int, flip:
 def test_deflation_reports_a_wrong_eigenvector() -> None:
     """An approximate eigenvector is flagged by the residual: ``|A u - lam u|`` ~ perturbation."""
     rng = np.random.default_rng(3)
-    A, V, _, _ = matrix_with_spectrum(rng, 6)
+    A, V, _ = matrix_with_spectrum(rng, 6)
     v = V[:, 0] + 1e-4 * rng.normal(size=6)
     _, _, res = deflate_known_eigenvector(A, v)
     assert 1e-7 < res < 1e-2

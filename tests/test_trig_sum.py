@@ -17,9 +17,8 @@ import time
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-
 from nsm_continuation.problems.trig_sum import TrigSum
+from scipy.optimize import brentq
 
 EPS = np.finfo(float).eps
 

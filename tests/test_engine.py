@@ -1,0 +1,171 @@
+"""The generic continuation engine on toy problems with analytic answers (no impacts involved).
+
+Oracles: the fold of a circle at p = +-1, the branch point of a pitchfork at p = 0, multipliers
+prescribed as functions of the parameter (crossings at known parameter values), a test function
+with a hidden double zero inside one step, a residual that becomes NaN.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import casadi as ca
+import numpy as np
+import pytest
+from pydantic import BaseModel
+
+from nsm_continuation.continuation import ContinuationEngine, ContinuationSettings
+from nsm_continuation.problem import FloquetData, Problem, StartPoint
+
+
+class _Params(BaseModel):
+    pass
+
+
+class Circle(Problem):
+    """x^2 + p^2 = 1: folds (limit points in p) at (0, +-1)."""
+
+    name: ClassVar[str] = "circle"
+    Parameters: ClassVar[type[BaseModel]] = _Params
+
+    def __init__(self) -> None:
+        super().__init__(_Params())
+        self.variables = ["x", "p"]
+        self.parameter = "p"
+
+    def residual(self, y: Any) -> Any:
+        return y[0] ** 2 + y[1] ** 2 - 1
+
+
+class Pitchfork(Problem):
+    """x (x^2 - p) = 0: the trivial branch x = 0 has a branch point at p = 0."""
+
+    name: ClassVar[str] = "pitchfork"
+    Parameters: ClassVar[type[BaseModel]] = _Params
+
+    def __init__(self) -> None:
+        super().__init__(_Params())
+        self.variables = ["x", "p"]
+        self.parameter = "p"
+
+    def residual(self, y: Any) -> Any:
+        return y[0] * (y[0] ** 2 - y[1])
+
+
+class Line(Problem):
+    """x = p, with multipliers and a test function given as functions of p."""
+
+    name: ClassVar[str] = "line"
+    Parameters: ClassVar[type[BaseModel]] = _Params
+
+    def __init__(self, mult=None, test=None) -> None:
+        super().__init__(_Params())
+        self.variables = ["x", "p"]
+        self.parameter = "p"
+        self._mult = mult
+        self._test = test
+
+    def residual(self, y: Any) -> Any:
+        return y[0] - y[1]
+
+    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
+        if self._mult is None:
+            return None
+        return FloquetData(np.asarray(self._mult(float(y[1])), dtype=complex))
+
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        return {} if self._test is None else {"phi": float(self._test(float(y[1])))}
+
+
+class NaNBeyond(Problem):
+    """x = p for p < 1, NaN residual beyond: the branch must end with a recorded reason."""
+
+    name: ClassVar[str] = "nan_beyond"
+    Parameters: ClassVar[type[BaseModel]] = _Params
+
+    def __init__(self) -> None:
+        super().__init__(_Params())
+        self.variables = ["x", "p"]
+        self.parameter = "p"
+
+    def residual(self, y: Any) -> Any:
+        return y[0] - y[1] + ca.if_else(y[1] > 1, np.nan, 0)
+
+
+def _run(problem: Problem, y0, direction=1, **kw):
+    settings = ContinuationSettings(**{"step_initial": 0.05, "step_max": 0.1, "max_points": 200,
+                                       **kw})
+    return ContinuationEngine(problem, settings).run(StartPoint(np.array(y0, float), "t",
+                                                                direction))
+
+
+def test_circle_folds_located_and_passed():
+    br = _run(Circle(), [1.0, 0.0], direction=1, max_points=150)
+    folds = [e for e in br.events if e.kind == "fold"]
+    assert len(folds) >= 2, [e.kind for e in br.events]
+    ps = sorted(abs(e.point.y[1]) for e in folds)
+    # the limit point in p is (x, p) = (0, +-1)
+    for e in folds:
+        assert abs(abs(e.point.y[1]) - 1.0) < 1e-12
+        assert abs(e.point.y[0]) < 1e-6
+    assert ps[0] > 0.999
+    # points stay on the circle (the corrector passes the folds)
+    for p in br.points:
+        assert abs(p.y[0] ** 2 + p.y[1] ** 2 - 1) < 1e-10
+
+
+def test_pitchfork_branch_point_located():
+    br = _run(Pitchfork(), [0.0, -0.5], direction=1, param_max=0.5)
+    bps = [e for e in br.events if e.kind == "branch_point"]
+    assert len(bps) == 1
+    assert abs(bps[0].point.y[1]) < 1e-10
+    assert br.termination["forward"].startswith("bound")
+    assert abs(br.points[-1].y[1] - 0.5) < 1e-12  # endpoint located at the bound
+
+
+@pytest.mark.parametrize("mult, kind, p_star", [
+    (lambda p: [1.0 + p, 0.5], "fold", 0.1),
+    (lambda p: [-(1.0 + p), 0.5j, -0.5j], "period_doubling", 0.1),
+    (lambda p: [(1 + p) * np.exp(0.7j), (1 + p) * np.exp(-0.7j), 0.5], "neimark_sacker", 0.1),
+])
+def test_multiplier_crossings_classified_and_located(mult, kind, p_star):
+    problem = Line(mult=lambda p: mult(p - p_star))
+    br = _run(problem, [-0.3, -0.3], direction=1, param_max=0.6)
+    ev = [e for e in br.events if e.kind == kind]
+    sc = [e for e in br.events if e.kind == "stability_change"]
+    assert len(ev) == 1 and len(sc) == 1
+    tol = ContinuationSettings().unit_circle_tol
+    # the crossing is where |lambda| = 1 + tol, i.e. p = p_star + tol (to the bisection tol)
+    assert abs(ev[0].point.y[1] - (p_star + tol)) < 1e-8
+    assert sc[0].data["stable_before"] is True and sc[0].data["stable_after"] is False
+
+
+def test_hidden_double_crossing_inside_one_step_is_found():
+    """phi = (p - 0.5)^2 - 1e-4 is negative only on (0.49, 0.51); with steps of 0.1 both ends
+    of the step around p = 0.5 are positive: the parabola check must find both crossings."""
+    problem = Line(test=lambda p: (p - 0.5) ** 2 - 1e-4)
+    br = _run(problem, [0.0, 0.0], direction=1, param_max=1.0, step_initial=0.1, step_max=0.1,
+              step_min=0.1)
+    graz = sorted(e.point.y[1] for e in br.events if e.kind == "grazing")
+    assert len(graz) == 2, graz
+    assert abs(graz[0] - 0.49) < 1e-10 and abs(graz[1] - 0.51) < 1e-10
+
+
+def test_stop_on_inadmissible_ends_branch_at_grazing():
+    problem = Line(test=lambda p: 0.3 - p)
+    br = _run(problem, [0.0, 0.0], direction=1, param_max=1.0, stop_on_inadmissible=True)
+    assert br.termination["forward"].startswith("grazing")
+    assert abs(br.points[-1].y[1] - 0.3) < 1e-11
+
+
+def test_nan_residual_ends_with_reason_not_exception():
+    br = _run(NaNBeyond(), [0.0, 0.0], direction=1, max_points=100)
+    reason = br.termination["forward"]
+    assert reason.startswith("step_below_minimum"), reason
+    assert all(np.isfinite(p.y).all() for p in br.points)
+    assert br.points[-1].y[1] <= 1.0 + 1e-9
+
+
+def test_start_that_does_not_converge_is_recorded():
+    br = _run(Circle(), [np.nan, 0.0])
+    assert br.points == [] and "start" in br.termination
