@@ -134,7 +134,7 @@ def pycont_branch(paper_problem: NDofImpactProblem) -> np.ndarray:
 def engine_branch(paper_problem: NDofImpactProblem) -> np.ndarray:
     T1 = paper_problem.T_lin[0]
     y0 = closed_form_y(paper_problem, T_START * T1)
-    settings = ContinuationSettings(direction=-1, param_min=T_STOP * T1, max_points=200,
+    settings = ContinuationSettings(direction=-1, param_min=T_STOP * T1, max_points=5000,
                                     detect_bifurcations=False)
     branch = ContinuationEngine(paper_problem, settings).run(StartPoint(y0, "branch 1", -1))
     assert branch.points, branch.termination
