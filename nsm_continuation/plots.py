@@ -122,6 +122,15 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
         ax.scatter(x, val, c=c, cmap="viridis", vmin=0, vmax=1, s=4)
     axes[0].axhline(1.0, color="k", lw=0.8)
     axes[0].set_yscale("log")
+    # multipliers of near-grazing orbits grow like 1/v: keep the unit circle readable
+    lim = float(np.clip(np.nanmax(np.abs(m)) if m.size else 1.0, 1.2, 3.0))
+    axes[1].set_ylim(-lim, lim)
+    axes[2].set_ylim(-lim, lim)
+    big = np.nanmax(np.abs(m)) if m.size else 0.0
+    if big > 1e3:
+        axes[0].set_ylim(max(np.nanmin(np.abs(m)), 1e-4), 1e4)
+        axes[1].text(0.01, 0.95, f"clipped: max |lambda| = {big:.2g}", transform=axes[1].transAxes,
+                     fontsize=7, va="top")
     axes[0].set_ylabel(r"$|\lambda|$")
     axes[1].set_ylabel(r"Re $\lambda$")
     axes[2].set_ylabel(r"Im $\lambda$")
