@@ -631,9 +631,12 @@ def simulate_first_return(problem: NDofImpactProblem, u0: np.ndarray, du0: np.nd
     hit.terminal = True  # type: ignore[attr-defined]
     hit.direction = 1.0  # type: ignore[attr-defined]
     z0 = np.concatenate([u0, du0])
-    # leave the wall first: the start sits on u_c = g with u_c' < 0
+    # the event function is only checked at step ends: a short excursion above the wall (a
+    # near-grazing return) could hide inside one step, so steps are capped well below the
+    # shortest linear period
+    max_step = float(problem.T_lin.min()) / 200.0
     sol = solve_ivp(rhs, (0.0, t_max), z0, method="DOP853", rtol=rtol, atol=atol,
-                    events=hit, dense_output=False)
+                    events=hit, dense_output=False, max_step=max_step)
     if not sol.t_events[0].size:
         raise RuntimeError("no impact before t_max")
     T = float(sol.t_events[0][0])
