@@ -16,6 +16,11 @@ Methods (each one a marker series in the chart):
   branch points are located by bisection/Illinois on the curve: many extra corrected points);
 * ``engine, hooks off``: the engine on the same problem with ``admissibility`` and ``floquet``
   returning nothing: the bare predictor-corrector, the work pycont-lite does;
+* ``engine, coarse steps`` / ``engine + det., coarse``: hooks on, but without the step control
+  by multiplier motion (``max_multiplier_step = inf``). On this conservative system the stable
+  multipliers sit on the unit circle and turn with ``T``; limiting their motion to 0.02 per step
+  (the default) costs ~30x more points on this window, and is what makes the detection find every
+  crossing (compare the event counts);
 * ``pycont``: pycont-lite (matrix-free Newton-Krylov, finite-difference Jacobian-vector
   products) through :mod:`nsm_continuation.adapters.pycont`, bifurcation detection and stability
   analysis off, several ``tolerance``;
@@ -33,20 +38,24 @@ Wall time: best of ``--repeat`` runs (CasADi functions built before timing, once
 prints a table, the speed ratio at equal or better accuracy, and writes
 ``benchmarks/results/engine_vs_pycont.png`` (error vs wall time, log-log).
 
-Run: ``python benchmarks/bench_engine_vs_pycont.py [--repeat 5]`` (about half a minute).
+Run: ``python benchmarks/bench_engine_vs_pycont.py [--repeat 5]`` (under a minute).
 """
 
 from __future__ import annotations
 
-import argparse
-import statistics
-import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from pathlib import Path
+import os
 
-import matplotlib
-import numpy as np
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # see bench_scaling.py: 2 threads thrash here
+
+import argparse  # noqa: E402
+import statistics  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from dataclasses import dataclass, field  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import matplotlib  # noqa: E402
+import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -115,12 +124,14 @@ def start_y(problem: NDofImpactProblem) -> np.ndarray:
     return problem.y_from_state(u0, du0, T)
 
 
-def run_engine(problem: NDofImpactProblem, tol: float, detect: bool
+def run_engine(problem: NDofImpactProblem, tol: float, detect: bool, coarse: bool = False
                ) -> tuple[np.ndarray, int, list[str]]:
     T1 = problem.T_lin[0]
     settings = ContinuationSettings(step_initial=STEP_INITIAL, step_max=STEP_MAX,
                                     step_min=STEP_MIN, newton_tol=tol, param_min=T_STOP * T1,
                                     max_points=10_000, direction=-1, detect_bifurcations=detect)
+    if coarse and hasattr(settings, "max_multiplier_step"):
+        settings.max_multiplier_step = float("inf")  # no step control by multiplier motion
     engine = ContinuationEngine(problem, settings)
     branch = engine.run(StartPoint(start_y(problem), "branch 1", -1))
     if not branch.points:
@@ -167,7 +178,8 @@ def speed_ratios(rows: list[Row], engine_methods: tuple[str, ...], pycont_method
 def chart(rows: list[Row], path: Path) -> None:
     styles = {
         "engine": ("o", "C0"), "engine + detection": ("s", "C1"),
-        "engine, hooks off": ("D", "C2"), "pycont": ("^", "C3"),
+        "engine, hooks off": ("D", "C2"), "engine, coarse steps": ("P", "C5"),
+        "engine + det., coarse": ("X", "C6"), "pycont": ("^", "C3"),
         "pycont + bif + stab": ("v", "C4"),
     }
     fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharex=True)
@@ -219,6 +231,13 @@ def main(argv: list[str] | None = None) -> list[Row]:
                             lambda t=tol: run_engine(problem, t, True), problem, args.repeat))
         rows.append(measure("engine, hooks off", tol, lambda t=tol: run_engine(bare, t, False),
                             problem, args.repeat))
+        if hasattr(ContinuationSettings(), "max_multiplier_step"):
+            rows.append(measure("engine, coarse steps", tol,
+                                lambda t=tol: run_engine(problem, t, False, True), problem,
+                                args.repeat))
+            rows.append(measure("engine + det., coarse", tol,
+                                lambda t=tol: run_engine(problem, t, True, True), problem,
+                                args.repeat))
     for tol in PYCONT_TOLS:
         rows.append(measure("pycont", tol, lambda t=tol: run_pycont_once(problem, t, False),
                             problem, args.repeat))
@@ -245,6 +264,8 @@ def main(argv: list[str] | None = None) -> list[Row]:
     pairs = [
         ("pycont", ("engine",), "engine (hooks on, detection off) vs pycont (bif/stab off)"),
         ("pycont", ("engine, hooks off",), "engine hooks off vs pycont (bif/stab off)"),
+        ("pycont", ("engine, coarse steps",),
+         "engine coarse steps (hooks on, detection off) vs pycont (bif/stab off)"),
         ("pycont + bif + stab", ("engine + detection",),
          "engine + detection vs pycont + bif + stab"),
     ]

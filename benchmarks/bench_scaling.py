@@ -32,27 +32,36 @@ On this 2-core machine, shared with other jobs, two OpenBLAS threads made ``eigh
 the N = 500 matrices up to 100x slower and erratic (0.03 s vs 0.07-4 s for the same ``eigh``):
 spinning threads contend for the cores. Matrices of size <= 1000 gain nothing from threads here.
 
-What limits large N, and how cost grows (measured on this machine, 1 BLAS thread; exponents are
-least-squares slopes of log(time) vs log(N) over N = 20..500; rerun to update):
+What limits large N, and how cost grows (measured on this machine at commit dc6491e, 1 BLAS
+thread; exponents are least-squares slopes of log(time) vs log(N) over N = 20..500; rerun to
+update):
 
-* the Floquet multipliers dominate from N ~ 100 on: dense nonsymmetric ``eigvals`` of size
-  ``2N - 2`` (``O(N^3)``) plus the spectral 2-norm ``np.linalg.norm(B, 2)`` (an SVD, ``O(N^3)``,
-  as costly as the eigenvalues) and ``H @ A @ H`` (``O(N^3)``); measured exponent ~2.4 up to
-  N = 500 (the cubic regime is not reached yet: at N = 100 the ``O(N^2)`` parts still count);
-* admissibility grows like ``N^2``: the subdivision uses ``~ 4 T omega_max`` cells with
-  ``T ~ T_1 ~ N`` for a chain (``omega_1 ~ 1/N``) and ``omega_max ~ 1``, and every evaluation of
-  ``u_N'`` costs ``N`` (dense ``cells x N`` cos/sin tables, which also make its memory ``O(N^2)``:
-  about 130 MB at N = 500);
-* Newton / tangent steps cost ``O(N^2)`` for the dense CasADi Jacobian (MX, ``P^-1`` dense) plus
-  an ``O(N^3)`` dense solve, small next to the hooks (~1-2 % of a point at N = 500);
-* the model build is dominated by the generalised eigenproblem (``O(N^3)``) and, for MX, by the
-  symbolic Jacobian; it is paid once per problem.
+* the hooks, not the continuation: at N = 100 and 500 about 90 % of the time per point goes to
+  Floquet multipliers + admissibility; G + J, a Newton step and a tangent are each < 1 %;
+* Floquet multipliers (~N^2.4 measured, O(N^3) asymptotically; 0.8 s at N = 500): dense
+  nonsymmetric ``eigvals`` of size ``2N - 2`` (0.5 s at N = 500), the spectral norm
+  ``np.linalg.norm(B, 2)`` used to scale the unit-circle tolerance (an SVD: 0.23 s, where a 1-norm
+  would take 1 ms), the Householder deflation ``H @ A @ H`` and the return-map Jacobian (A.8);
+* admissibility (~N^2.1; 0.7 s and ~100 MB traced at N = 500): the certified subdivision uses
+  ``~ 4 T omega_max`` cells with ``T ~ T_1 ~ N`` for a chain (``omega_1 ~ 1/N``,
+  ``omega_max ~ 1``), and every evaluation of ``u_N'`` costs ``N`` (dense ``cells x N`` cos/sin
+  tables: time and memory ``O(N^2)``);
+* step rejections after the hooks ran: the engine's multiplier-motion step control rejects a step
+  after ``analyse`` (hooks included), so at N = 500 it analysed 3.8 points per accepted point
+  (1.5 at N = 5): ~6.5 s per accepted point at N = 500 for ~1.5 s of hooks per analysis;
+* Newton / tangent steps: ``O(N^2)`` dense CasADi Jacobian (MX with a dense ``P^-1``) plus an
+  ``O(N^3)`` LU of size ``N + 2`` (measured ~N^1.5 up to 500: 13 ms at N = 500);
+* building the model (once per problem): the generalised eigenproblem (~N^1.8, 33 ms at
+  N = 500) and the CasADi Functions (0.13 s at N = 500, MX).
 
-So one point of a 500-dof chain costs about a second, ~90 % of it Floquet + admissibility. Larger
-N would need a sparse / structured eigen-solver for a few leading multipliers (shift-invert
-Arnoldi) and an admissibility test that does not tabulate all N modes on all cells.
+Per accepted point: ~N^2.4 overall (1 ms at N = 5, 3.3 ms at 20, 82 ms at 100, 6.5 s at 500).
+Larger N would need a few leading multipliers from a sparse/structured eigensolver (shift-invert
+Arnoldi on the return map) instead of the full spectrum, no 2-norm SVD, an admissibility test
+that does not tabulate all N modes on every cell, and the step-control check before the
+admissibility hook.
 
-Run: ``python benchmarks/bench_scaling.py [--sizes 5 20 100 500] [--skip-fep]`` (about 1-2 min).
+Run: ``python benchmarks/bench_scaling.py [--sizes 5 20 100 500] [--skip-fep]`` (about 2 min,
+90 % of it N = 500; the FEP case adds ~10 s).
 """
 
 from __future__ import annotations
@@ -136,6 +145,10 @@ class SizeResult:
     memory: dict[str, float] = field(default_factory=dict)
     n_points: int = 0
     symbolic: str = ""
+    #: hook evaluations (ContinuationEngine.analyse calls) and residual evaluations in one run:
+    #: more analyses than points = steps rejected after their hooks ran, or event location
+    analyses: int = 0
+    evaluations: int = 0
 
 
 def measure_size(n: int, points: int) -> SizeResult:
@@ -187,8 +200,18 @@ def measure_size(n: int, points: int) -> SizeResult:
 
     def run() -> None:
         nonlocal n_pts
-        branch = ContinuationEngine(problem, settings).run(start_conv)
+        eng = ContinuationEngine(problem, settings)
+        analyse = eng.analyse
+
+        def counted(*a: Any, **k: Any) -> Any:
+            res.analyses += 1
+            return analyse(*a, **k)
+
+        eng.analyse = counted  # type: ignore[method-assign]
+        res.analyses = 0
+        branch = eng.run(start_conv)
         n_pts = len(branch.points)
+        res.evaluations = eng.n_evaluations
 
     t_run = best_time(run, min_total=0.5, max_repeat=5, min_repeat=1 if n >= 500 else 2)
     res.n_points = n_pts
@@ -212,11 +235,13 @@ def chart(results: list[SizeResult], path: Path) -> None:
     for name, (color, marker, ls, lw) in styles.items():
         ts = [r.time[name] for r in results]
         slope = exponent(ns[1:], ts[1:]) if len(ns) > 2 else float("nan")
+        label = f"{name} (once per problem)" if name.startswith("build") else name
         ax.loglog(ns, ts, color=color, marker=marker, linestyle=ls, linewidth=lw,
-                  label=f"{name} (~N^{slope:.1f})" if np.isfinite(slope) else name)
+                  label=f"{label} ~N^{slope:.1f}" if np.isfinite(slope) else label)
     ax.set_xlabel("number of degrees of freedom N")
     ax.set_ylabel("wall time [s] (best of repeats, 1 BLAS thread)")
-    ax.set_title("Cost per continuation point and its components, random chains")
+    ax.set_title("Cost per continuation point and its components, random chains\n"
+                 "(slopes: log-log fit over N = 20..500)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
@@ -262,10 +287,11 @@ def main(argv: list[str] | None = None) -> list[SizeResult]:
 
     cols = ["build: problem", "build: CasADi", *COMPONENTS]
     print("\ntime [ms] (best of repeats)")
-    print(f"{'N':>5} {'sym':>4}" + "".join(f"{c:>15}" for c in cols) + f"{'pts':>5}")
+    print(f"{'N':>5} {'sym':>4}" + "".join(f"{c:>15}" for c in cols)
+          + f"{'pts':>5}{'analyses':>9}{'G evals':>8}")
     for r in results:
         print(f"{r.n:>5} {r.symbolic:>4}" + "".join(f"{1e3 * r.time[c]:>15.3f}" for c in cols)
-              + f"{r.n_points:>5}")
+              + f"{r.n_points:>5}{r.analyses:>9}{r.evaluations:>8}")
     if len(results) > 2:
         ns = [r.n for r in results[1:]]
         print(f"{'slope':>10}" + "".join(
@@ -279,10 +305,14 @@ def main(argv: list[str] | None = None) -> list[SizeResult]:
         print(f"{r.n:>5}     " + "".join(
             f"{r.memory[c] / 2**20:>25.3f}" if i == 0 else f"{r.memory[c] / 2**20:>15.3f}"
             for i, c in enumerate(mcols)))
-    print("\nshare of the time per point [%]")
+    print("\nshare of the time per point [%] (component at the start point x analyses per point"
+          " for Floquet/admissibility)")
     for r in results:
+        per = r.analyses / max(r.n_points, 1)
         share = {c: 100 * r.time[c] / r.time["per point"] for c in COMPONENTS[:-1]}
-        print(f"  N = {r.n:>4}: " + "   ".join(f"{c} {v:5.1f}" for c, v in share.items()))
+        hooks = 100 * per * (r.time["Floquet"] + r.time["admissibility"]) / r.time["per point"]
+        print(f"  N = {r.n:>4}: " + "   ".join(f"{c} {v:5.1f}" for c, v in share.items())
+              + f"   | {per:.2f} analyses/point -> hooks ~{hooks:5.1f}")
     chart(results, args.out)
     print(f"\nchart: {args.out}")
     if not args.skip_fep:

@@ -28,7 +28,7 @@ import numpy as np
 
 from .events import Event, bisect_predicate, illinois, interior_extremum
 from .floquet import classify_crossing, count_outside
-from .problem import Problem, StartPoint
+from .problem import FloquetData, Problem, StartPoint
 
 
 @dataclass
@@ -176,7 +176,8 @@ class ContinuationEngine:
         return t
 
     def analyse(self, y: np.ndarray, t: np.ndarray, s: float, iterations: int = 0,
-                tests: bool = True, floquet: bool = True) -> Point:
+                tests: bool = True, floquet: bool = True,
+                known: FloquetData | None = None) -> Point:
         """Evaluate the problem's hooks at a corrected point.
 
         ``tests``/``floquet`` switch off the admissibility tests or the multipliers while an event
@@ -189,7 +190,7 @@ class ContinuationEngine:
         fl = None
         if floquet and (self.settings.stability_on_phantom or not tests
                         or all(v >= 0 for v in test_values.values())):
-            fl = pr.floquet(y, t)
+            fl = known if known is not None else self._floquet(y, t)
         mult = None if fl is None else np.asarray(fl.multipliers)
         circle_tol = self.settings.unit_circle_tol
         if fl is not None:
@@ -206,6 +207,17 @@ class ContinuationEngine:
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
             circle_tol=circle_tol,
         )
+
+    def _floquet(self, y: np.ndarray, t: np.ndarray) -> FloquetData | None:
+        """The problem's multipliers, or None where they cannot be computed (e.g. exactly at
+        grazing, where the return map is not differentiable): recorded as unknown."""
+        try:
+            fl = self.problem.floquet(y, t)
+        except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError):
+            return None
+        if fl is None or not np.all(np.isfinite(fl.multipliers)):
+            return None
+        return fl
 
     def full(self, p: Point) -> Point:
         """``p`` analysed with every hook (after a partial analysis during event location)."""
@@ -298,14 +310,18 @@ class ContinuationEngine:
             if angle > st.max_angle and h > 2 * st.step_min:
                 h *= 0.5
                 continue
-            b = self.analyse(y_new, t_new, a.s + h, it)
-            if (a.multipliers is not None and b.multipliers is not None
-                    and multiplier_motion(a.multipliers, b.multipliers) > st.max_multiplier_step
-                    and h > 4 * st.step_min):
-                # multipliers near the unit circle moved too far in one step: a collision and
-                # a narrow instability window (out and back in) could hide inside it
-                h *= 0.5
-                continue
+            if a.multipliers is not None and h > 4 * st.step_min:
+                # multipliers near the unit circle must not move too far in one step: a
+                # collision and a narrow instability window (out and back in) could hide inside
+                # it. Checked before the (costlier) admissibility tests of the new point.
+                pre = self._floquet(y_new, t_new)
+                if pre is not None and multiplier_motion(
+                        a.multipliers, np.asarray(pre.multipliers)) > st.max_multiplier_step:
+                    h *= 0.5
+                    continue
+            else:
+                pre = None
+            b = self.analyse(y_new, t_new, a.s + h, it, known=pre)
             new_events, stop = self._events_between(a, b, pts)
             if stop is not None:
                 stop_point, stop_reason = stop
@@ -339,6 +355,23 @@ class ContinuationEngine:
         except np.linalg.LinAlgError:
             return None
         return self.analyse(y, t, a.s + sigma, it, tests=tests, floquet=floquet)
+
+    def _point_at_parameter(self, a: Point, b: Point, lam: float, value: float) -> Point | None:
+        """Corrected point with the parameter fixed at ``value`` (a bound), by Newton at fixed
+        parameter from the chord (a parameter bound needs no root finding on the curve)."""
+        e = np.zeros(len(a.y))
+        e[self.ip] = 1.0
+        guess = (1 - lam) * a.y + lam * b.y
+        ref = guess.copy()
+        ref[self.ip] = value
+        y, it, _ = self.correct(guess, e, ref, 0.0)
+        if y is None:
+            return None
+        try:
+            t = self.tangent(y, a.tangent)
+        except np.linalg.LinAlgError:
+            return None
+        return self.analyse(y, t, a.s + float(a.tangent @ (y - a.y)), it)
 
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,
@@ -381,7 +414,13 @@ class ContinuationEngine:
         for label, fun in bound_tests:
             fa, fb = fun(a), fun(b)
             if fa >= 0 and fb < 0:
-                p, w = self._locate_continuous(a, b, fun, flo=fa, fhi=fb)
+                p, w = None, 0.0
+                if label.startswith(f"{self.problem.parameter} ="):
+                    p = self._point_at_parameter(a, b, fa / (fa - fb),
+                                                 st.param_max if label.endswith("max")
+                                                 else st.param_min)
+                if p is None:
+                    p, w = self._locate_continuous(a, b, fun, flo=fa, fhi=fb)
                 ev = Event("endpoint", p, f"bound reached: {label}", bracket=w)
                 found.append(ev)
                 stops.append((p, f"bound: {label}"))

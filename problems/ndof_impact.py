@@ -322,7 +322,9 @@ class NDofImpactProblem(Problem):
         """Eigenvalues of the linearised first return map (3.5) with the extraneous 0 (section
         normal, removed by restriction) and 1 (family direction, deflated) removed (sec. 6.1)."""
         u0, du0, _ = self.state(y)
-        if self.g == 0.0 or abs(du0[self.c]) < 1e-300:
+        # at (numerically) exact grazing the return map is not differentiable (sec. 6, [21]):
+        # DF ~ 1/v, so no multipliers are reported there
+        if self.g == 0.0 or abs(du0[self.c]) <= 1e-9 * abs(self.g) * self.omega[0]:
             return None
         DF = self.return_map_jacobian(y)
         red = restrict_to_section(DF, self.c)
@@ -335,7 +337,7 @@ class NDofImpactProblem(Problem):
             return None
         B, lam, res = deflate_known_eigenvector(red, v)
         mult = np.linalg.eigvals(B) if B.size else np.empty(0, dtype=complex)
-        norm = float(np.linalg.norm(B, 2)) if B.size else 1.0
+        norm = float(np.linalg.norm(B)) if B.size else 1.0  # Frobenius: cheap, >= 2-norm
         return FloquetData(np.asarray(mult, dtype=complex), trivial_error=abs(lam - 1.0) + res,
                            matrix_norm=norm)
 
