@@ -341,20 +341,27 @@ class ContinuationEngine:
         return pts, events, reason
 
     # ------------------------------------------------------------------ events
-    def _point_at(self, a: Point, b: Point, sigma: float, tests: bool = True,
-                  floquet: bool = True) -> Point | None:
-        """Corrected branch point at arclength ``sigma`` from ``a`` (between ``a`` and ``b``)."""
-        h = b.s - a.s
-        lam = sigma / h if h != 0 else 0.0
-        guess = (1 - lam) * a.y + lam * b.y
-        y, it, _ = self.correct(guess, a.tangent, a.y, sigma)
+    def _corrected_point(self, a: Point, guess: np.ndarray, t_ref: np.ndarray,
+                         y_ref: np.ndarray, sigma: float, **flags: bool) -> Point | None:
+        """Newton on ``[G; t_ref . (y - y_ref) - sigma]`` from ``guess``, then analysed (the
+        arclength is measured from ``a`` along its tangent)."""
+        y, it, _ = self.correct(guess, t_ref, y_ref, sigma)
         if y is None:
             return None
         try:
             t = self.tangent(y, a.tangent)
         except np.linalg.LinAlgError:
             return None
-        return self.analyse(y, t, a.s + sigma, it, tests=tests, floquet=floquet)
+        return self.analyse(y, t, a.s + float(a.tangent @ (y - a.y)), it, **flags)
+
+    def _point_at(self, a: Point, b: Point, sigma: float, tests: bool = True,
+                  floquet: bool = True) -> Point | None:
+        """Corrected branch point at arclength ``sigma`` from ``a`` (between ``a`` and ``b``)."""
+        h = b.s - a.s
+        lam = sigma / h if h != 0 else 0.0
+        guess = (1 - lam) * a.y + lam * b.y
+        return self._corrected_point(a, guess, a.tangent, a.y, sigma, tests=tests,
+                                     floquet=floquet)
 
     def _point_at_parameter(self, a: Point, b: Point, lam: float, value: float) -> Point | None:
         """Corrected point with the parameter fixed at ``value`` (a bound), by Newton at fixed
@@ -364,14 +371,7 @@ class ContinuationEngine:
         guess = (1 - lam) * a.y + lam * b.y
         ref = guess.copy()
         ref[self.ip] = value
-        y, it, _ = self.correct(guess, e, ref, 0.0)
-        if y is None:
-            return None
-        try:
-            t = self.tangent(y, a.tangent)
-        except np.linalg.LinAlgError:
-            return None
-        return self.analyse(y, t, a.s + float(a.tangent @ (y - a.y)), it)
+        return self._corrected_point(a, guess, e, ref, 0.0)
 
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,

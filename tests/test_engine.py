@@ -22,31 +22,30 @@ class _Params(BaseModel):
     pass
 
 
-class Circle(Problem):
-    """x^2 + p^2 = 1: folds (limit points in p) at (0, +-1)."""
+class _Toy(Problem):
+    """One unknown x and the parameter p."""
 
-    name: ClassVar[str] = "circle"
     Parameters: ClassVar[type[BaseModel]] = _Params
 
     def __init__(self) -> None:
         super().__init__(_Params())
         self.variables = ["x", "p"]
         self.parameter = "p"
+
+
+class Circle(_Toy):
+    """x^2 + p^2 = 1: folds (limit points in p) at (0, +-1)."""
+
+    name: ClassVar[str] = "circle"
 
     def residual(self, y: Any) -> Any:
         return y[0] ** 2 + y[1] ** 2 - 1
 
 
-class Pitchfork(Problem):
+class Pitchfork(_Toy):
     """x (x^2 - p) = 0: the trivial branch x = 0 has a branch point at p = 0."""
 
     name: ClassVar[str] = "pitchfork"
-    Parameters: ClassVar[type[BaseModel]] = _Params
-
-    def __init__(self) -> None:
-        super().__init__(_Params())
-        self.variables = ["x", "p"]
-        self.parameter = "p"
 
     def residual(self, y: Any) -> Any:
         return y[0] * (y[0] ** 2 - y[1])
@@ -77,16 +76,10 @@ class Line(Problem):
         return {} if self._test is None else {"phi": float(self._test(float(y[1])))}
 
 
-class NaNBeyond(Problem):
+class NaNBeyond(_Toy):
     """x = p for p < 1, NaN residual beyond: the branch must end with a recorded reason."""
 
     name: ClassVar[str] = "nan_beyond"
-    Parameters: ClassVar[type[BaseModel]] = _Params
-
-    def __init__(self) -> None:
-        super().__init__(_Params())
-        self.variables = ["x", "p"]
-        self.parameter = "p"
 
     def residual(self, y: Any) -> Any:
         return y[0] - y[1] + ca.if_else(y[1] > 1, np.nan, 0)
