@@ -105,17 +105,27 @@ def build_report(res: RunResult) -> dict[str, Any]:
                                  float(max(p.y[pr.parameter_index] for p in br.points))]
                                 if br.points else None),
             "admissible_points": int(sum(p.admissible for p in br.points)),
+            # BifurcationKit's habit: the trivial multiplier is a free accuracy check
+            "max_trivial_multiplier_error": _f(max((p.trivial_error for p in br.points
+                                                     if p.multipliers is not None),
+                                                    default=float("nan"))),
             "info": {k: _f(v) for k, v in br.info.items()},
             "events": [event_record(ev) for ev in br.events],
         })
     s = res.settings
+    warnings = list(pr.warnings())
+    for b in branches:
+        err = b["max_trivial_multiplier_error"]
+        if err is not None and err > 1e-6:
+            warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
+                            " multipliers near the unit circle are not reliable there")
     return {
         "case": {"name": res.case.name, "description": res.case.description,
                  "input": res.case.model_dump(mode="json")},
         "problem": pr.name,
         "problem_summary": pr.summary(),
         "parameters": res.case.parameters,
-        "warnings": pr.warnings(),
+        "warnings": warnings,
         "continuation": {"parameter": pr.parameter, "window": [_f(w) for w in res.window],
                          "settings": {k: _f(v) for k, v in s.__dict__.items()
                                       if not isinstance(v, dict)}},
