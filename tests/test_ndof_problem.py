@@ -692,3 +692,23 @@ def test_internal_resonance_is_reported_and_does_not_raise() -> None:
         assert np.max(np.abs(p.evaluate(q.y))) < 1e-9
     # a non-resonant chain raises no such warning
     assert not any("internal resonance" in w for w in paper().warnings())
+
+
+def test_alpha_is_static_compliance_and_high_frequency_limit():
+    """alpha = sum_j a_j / w_j^2 (Prop. 5.2) equals (K^-1 M)_cc, since K^-1 M = P Omega^-2 P^-1;
+    and w_N(T) ~ 2 alpha / T as T -> 0 (eq. 5.12). For the paper's chain alpha = m sum 1/k_i =
+    (1/5) * 5 * (1/5) = 0.2 > 0: admissible frequencies are bounded."""
+    from nsm_continuation.problems.ndof_impact import NDofImpactProblem
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 5, 8):
+        chain = {"n": n, "mass": rng.uniform(0.5, 2, n).tolist(),
+                 "stiffness": rng.uniform(0.5, 2, n).tolist()}
+        pr = NDofImpactProblem({"chain": chain, "gap": 1.0})
+        alpha = float(np.sum(pr.a / pr.omega**2))
+        oracle = np.linalg.solve(pr.K, pr.M)[pr.c, pr.c]
+        assert abs(alpha - oracle) < 1e-12 * oracle
+        T = 1e-4 * pr.T_lin[-1]
+        assert abs(float(pr.w_N(T)) * T / (2 * alpha) - 1) < 1e-6
+    paper = NDofImpactProblem({"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
+    assert abs(float(np.sum(paper.a / paper.omega**2)) - 0.2) < 1e-14
