@@ -55,6 +55,10 @@ class ContinuationSettings:
     multiplier_event_tol: float = 1e-9
     #: largest move of a multiplier near the unit circle in one step (see multiplier_motion)
     max_multiplier_step: float = 0.02
+    #: at most this many halvings of one step for multiplier motion (then the step is taken and
+    #: counted in ``ContinuationEngine.motion_limited_steps``): multipliers that move fast for
+    #: any step (near grazing, DF ~ 1/v; dense spectra at large N) must not stall the branch
+    max_multiplier_halvings: int = 10
     #: 0: both directions from the start, +1 / -1: only towards increasing / decreasing parameter
     direction: int = 0
 
@@ -120,6 +124,7 @@ class ContinuationEngine:
         self.progress = progress
         self.ip = problem.parameter_index
         self.n_evaluations = 0
+        self.motion_limited_steps = 0
 
     # ------------------------------------------------------------------ linear algebra
     def _bordered(self, y: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -290,6 +295,7 @@ class ContinuationEngine:
         if (st.param_min is not None and par < st.param_min) or (
                 st.param_max is not None and par > st.param_max):
             return pts, events, "start outside parameter bounds"
+        motion_halvings = 0
         while len(pts) < st.max_points:
             a = pts[-1]
             y_pred = a.y + h * a.tangent
@@ -310,7 +316,8 @@ class ContinuationEngine:
             if angle > st.max_angle and h > 2 * st.step_min:
                 h *= 0.5
                 continue
-            if a.multipliers is not None and h > 4 * st.step_min:
+            if a.multipliers is not None and h > 4 * st.step_min \
+                    and motion_halvings < st.max_multiplier_halvings:
                 # multipliers near the unit circle must not move too far in one step: a
                 # collision and a narrow instability window (out and back in) could hide inside
                 # it. Checked before the (costlier) admissibility tests of the new point.
@@ -318,6 +325,9 @@ class ContinuationEngine:
                 if pre is not None and multiplier_motion(
                         a.multipliers, np.asarray(pre.multipliers)) > st.max_multiplier_step:
                     h *= 0.5
+                    motion_halvings += 1
+                    if motion_halvings == st.max_multiplier_halvings:
+                        self.motion_limited_steps += 1
                     continue
             else:
                 pre = None
@@ -331,6 +341,7 @@ class ContinuationEngine:
                 break
             events.extend(new_events)
             pts.append(b)
+            motion_halvings = 0
             if self.progress is not None:
                 self.progress(1)
             # step adaptation: few iterations and small turning -> grow
