@@ -32,36 +32,8 @@ On this 2-core machine, shared with other jobs, two OpenBLAS threads made ``eigh
 the N = 500 matrices up to 100x slower and erratic (0.03 s vs 0.07-4 s for the same ``eigh``):
 spinning threads contend for the cores. Matrices of size <= 1000 gain nothing from threads here.
 
-What limits large N, and how cost grows (measured on this machine at commit dc6491e, 1 BLAS
-thread; exponents are least-squares slopes of log(time) vs log(N) over N = 20..500; rerun to
-update):
-
-* the hooks, not the continuation: at N = 100 and 500 about 90 % of the time per point goes to
-  Floquet multipliers + admissibility; G + J, a Newton step and a tangent are each < 1 %;
-* Floquet multipliers (~N^2.4 measured, O(N^3) asymptotically; 0.8 s at N = 500): dense
-  nonsymmetric ``eigvals`` of size ``2N - 2`` (0.5 s at N = 500), the spectral norm
-  ``np.linalg.norm(B, 2)`` used to scale the unit-circle tolerance (an SVD: 0.23 s, where a 1-norm
-  would take 1 ms), the Householder deflation ``H @ A @ H`` and the return-map Jacobian (A.8);
-* admissibility (~N^2.1; 0.7 s and ~100 MB traced at N = 500): the certified subdivision uses
-  ``~ 4 T omega_max`` cells with ``T ~ T_1 ~ N`` for a chain (``omega_1 ~ 1/N``,
-  ``omega_max ~ 1``), and every evaluation of ``u_N'`` costs ``N`` (dense ``cells x N`` cos/sin
-  tables: time and memory ``O(N^2)``);
-* step rejections after the hooks ran: the engine's multiplier-motion step control rejects a step
-  after ``analyse`` (hooks included), so at N = 500 it analysed 3.8 points per accepted point
-  (1.5 at N = 5): ~6.5 s per accepted point at N = 500 for ~1.5 s of hooks per analysis;
-* Newton / tangent steps: ``O(N^2)`` dense CasADi Jacobian (MX with a dense ``P^-1``) plus an
-  ``O(N^3)`` LU of size ``N + 2`` (measured ~N^1.5 up to 500: 13 ms at N = 500);
-* building the model (once per problem): the generalised eigenproblem (~N^1.8, 33 ms at
-  N = 500) and the CasADi Functions (0.13 s at N = 500, MX).
-
-Per accepted point: ~N^2.4 overall (1 ms at N = 5, 3.3 ms at 20, 82 ms at 100, 6.5 s at 500).
-Larger N would need a few leading multipliers from a sparse/structured eigensolver (shift-invert
-Arnoldi on the return map) instead of the full spectrum, no 2-norm SVD, an admissibility test
-that does not tabulate all N modes on every cell, and the step-control check before the
-admissibility hook.
-
-Run: ``python benchmarks/bench_scaling.py [--sizes 5 20 100 500] [--skip-fep]`` (about 2 min,
-90 % of it N = 500; the FEP case adds ~10 s).
+What limits large N and how cost grows with N: measured numbers are in benchmarks/README.md
+(they change with the code; rerun this script to update them).
 """
 
 from __future__ import annotations
