@@ -273,10 +273,10 @@ class ContinuationEngine:
         events: list[Event] = []
         for d, pts, evs in halves:
             if d == -1:
-                for p in pts:
+                # negate the arclength of every point once (an event may sit on a branch point)
+                flipped = {id(p): p for p in pts} | {id(ev.point): ev.point for ev in evs}
+                for p in flipped.values():
                     p.s = -p.s
-                for ev in evs:
-                    ev.point.s = -ev.point.s
                 points = list(reversed(pts[1:])) + points
             else:
                 points = points + pts

@@ -162,3 +162,18 @@ def test_nan_residual_ends_with_reason_not_exception():
 def test_start_that_does_not_converge_is_recorded():
     br = _run(Circle(), [np.nan, 0.0])
     assert br.points == [] and "start" in br.termination
+
+
+def test_both_directions_merge_with_signed_arclength():
+    """A branch run both ways is ordered by arclength: negative backwards, each event at the
+    arclength of its point (no point negated twice)."""
+    br = _run(Line(test=lambda p: 0.25 - abs(p)), [0.0, 0.0], direction=0, param_max=0.5,
+              param_min=-0.5)
+    s = np.array([p.s for p in br.points])
+    assert np.all(np.diff(s) > 0) and s[0] < 0 < s[-1]
+    for ev in br.events:
+        assert np.sign(ev.point.s) == np.sign(ev.point.y[1]), (ev.kind, ev.point.s, ev.point.y)
+    ends = sorted(ev.point.y[1] for ev in br.events if ev.kind == "endpoint")
+    assert ends == pytest.approx([-0.5, 0.5], abs=1e-12)
+    graz = sorted(ev.point.y[1] for ev in br.events if ev.kind == "grazing")
+    assert graz == pytest.approx([-0.25, 0.25], abs=1e-11)
