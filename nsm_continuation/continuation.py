@@ -125,6 +125,7 @@ class ContinuationEngine:
         self.ip = problem.parameter_index
         self.n_evaluations = 0
         self.motion_limited_steps = 0
+        self.unlocated_events = 0
 
     # ------------------------------------------------------------------ linear algebra
     def _bordered(self, y: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -353,11 +354,13 @@ class ContinuationEngine:
 
     # ------------------------------------------------------------------ events
     def _corrected_point(self, a: Point, guess: np.ndarray, t_ref: np.ndarray,
-                         y_ref: np.ndarray, sigma: float, **flags: bool) -> Point | None:
+                         y_ref: np.ndarray, sigma: float, max_dist: float = np.inf,
+                         **flags: bool) -> Point | None:
         """Newton on ``[G; t_ref . (y - y_ref) - sigma]`` from ``guess``, then analysed (the
-        arclength is measured from ``a`` along its tangent)."""
+        arclength is measured from ``a`` along its tangent). A solution farther than
+        ``max_dist`` from the guess belongs to another branch and is rejected."""
         y, it, _ = self.correct(guess, t_ref, y_ref, sigma)
-        if y is None:
+        if y is None or np.linalg.norm(y - guess) > max_dist:
             return None
         try:
             t = self.tangent(y, a.tangent)
@@ -371,7 +374,9 @@ class ContinuationEngine:
         h = b.s - a.s
         lam = sigma / h if h != 0 else 0.0
         guess = (1 - lam) * a.y + lam * b.y
-        return self._corrected_point(a, guess, a.tangent, a.y, sigma, tests=tests,
+        # the arc between two accepted points stays within ~h sin(max_angle) of the chord
+        return self._corrected_point(a, guess, a.tangent, a.y, sigma,
+                                     max_dist=0.5 * abs(h) + 1e-12, tests=tests,
                                      floquet=floquet)
 
     def _point_at_parameter(self, a: Point, b: Point, lam: float, value: float) -> Point | None:
@@ -382,7 +387,8 @@ class ContinuationEngine:
         guess = (1 - lam) * a.y + lam * b.y
         ref = guess.copy()
         ref[self.ip] = value
-        return self._corrected_point(a, guess, e, ref, 0.0)
+        return self._corrected_point(a, guess, e, ref, 0.0,
+                                     max_dist=0.5 * abs(b.s - a.s) + 1e-12)
 
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,
@@ -401,6 +407,18 @@ class ContinuationEngine:
         if p is None:
             p = b if abs(sig - h) < abs(sig) else a
         return self.full(p), width
+
+    def _on_arc(self, a: Point, b: Point, p: Point) -> bool:
+        """Whether a located point can lie on the arc between ``a`` and ``b``: where the
+        parameter is monotone over the step (no fold), it must lie between theirs. A point
+        outside was reached by a corrector that jumped to another solution: the event is not
+        recorded (counted in ``unlocated_events``) rather than placed on the wrong curve."""
+        ip = self.ip
+        if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]):
+            return True
+        lo, hi = sorted((a.y[ip], b.y[ip]))
+        tol = 1e-9 * (1.0 + abs(hi))
+        return lo - tol <= p.y[ip] <= hi + tol
 
     def _events_between(self, a: Point, b: Point, history: list[Point]
                         ) -> tuple[list[Event], tuple[Point, str] | None]:
@@ -461,6 +479,9 @@ class ContinuationEngine:
                 def fun(p: Point, n: str = name) -> float:
                     return p.tests[n]
                 p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
+                if not self._on_arc(a, b, p):
+                    self.unlocated_events += 1
+                    continue
                 leaving = flo >= 0 > fhi
                 ev = Event("grazing", p, f"test function '{name}' "
                            + ("becomes negative: admissibility lost" if leaving
@@ -480,9 +501,12 @@ class ContinuationEngine:
             # 4. branch point: determinant of the bordered Jacobian changes sign
             elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
                 p, w = self._locate_continuous(a, b, lambda q: q.bordered_det)
-                found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
-                                   "changes sign", data={"test": "bordered_determinant"},
-                                   bracket=w))
+                if self._on_arc(a, b, p):
+                    found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
+                                       "changes sign", data={"test": "bordered_determinant"},
+                                       bracket=w))
+                else:
+                    self.unlocated_events += 1
             # 5. multipliers crossing the unit circle
             if a.multipliers is not None and b.multipliers is not None \
                     and a.n_unstable != b.n_unstable:
@@ -510,10 +534,15 @@ class ContinuationEngine:
                 break
             sig, p, width, vl, vr = bisect_predicate(f, lo, vlo, h, b.n_unstable,
                                                      self.settings.multiplier_event_tol)
+            right = b if p is None else p  # has multipliers (analysed without tests)
             p = b if p is None else self.full(p)
             left = self._point_at(a, b, max(sig - width, 0.0), tests=False) or plo
-            kind, leaving = classify_crossing(left.multipliers, p.multipliers,
-                                              max(tol, p.circle_tol, left.circle_tol))
+            if left.multipliers is None:
+                left = plo
+            kind, leaving = classify_crossing(left.multipliers, right.multipliers,
+                                              max(tol, right.circle_tol, left.circle_tol))
+            if p.multipliers is None:  # the crossing point itself is a phantom: keep them
+                p.multipliers, p.n_unstable = right.multipliers, right.n_unstable
             stable_before, stable_after = vl == 0, vr == 0
             data = {"n_outside_before": int(vl), "n_outside_after": int(vr),
                     "stable_before": stable_before, "stable_after": stable_after,

@@ -86,7 +86,9 @@ def classify_crossing(before: np.ndarray, after: np.ndarray, tol: float,
     leaving = side[np.abs(side) > 1.0 + tol]
     if leaving.size == 0:
         return "stability_change", leaving
-    lam = leaving[np.argmax(np.abs(leaving))]
+    # the multiplier that has just crossed is the outside one closest to the circle (others
+    # may have been outside for a while)
+    lam = leaving[np.argmin(np.abs(leaving))]
     ang = float(np.angle(lam))
     if abs(lam.imag) <= angle_tol * abs(lam) and lam.real > 0:
         return CROSSING_PLUS_ONE, leaving

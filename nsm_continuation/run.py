@@ -94,5 +94,6 @@ def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
     timings = {"total_s": total, "build_casadi_s": t_build, "per_branch_s": per_branch,
                "n_points": int(sum(b.n_points for b in branches)),
                "residual_evaluations": engine.n_evaluations,
-               "steps_taken_despite_multiplier_motion": engine.motion_limited_steps}
+               "steps_taken_despite_multiplier_motion": engine.motion_limited_steps,
+               "events_not_located_on_their_arc": engine.unlocated_events}
     return RunResult(case, problem, branches, settings, window, timings, skipped)
