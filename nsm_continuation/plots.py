@@ -44,12 +44,14 @@ def fep(res: RunResult, path: Path) -> None:
     xk, yk = res.problem.fep_axes
     fig, ax = plt.subplots(figsize=(11, 5.5))
     xs: list[float] = []
+    ys: list[float] = []
     for br in res.branches:
         for (adm, stable), x, y in _segments(br, xk, yk):
             ok = np.isfinite(x) & np.isfinite(y) & (y > 0)
             if not ok.any():
                 continue
             xs += list(x[ok])
+            ys += list(y[ok])
             if not adm:
                 ax.plot(x, y, color="0.6", lw=0.8, zorder=2)
             elif stable is False:
@@ -57,8 +59,12 @@ def fep(res: RunResult, path: Path) -> None:
             else:
                 ax.plot(x, y, color="k", lw=2.2, zorder=3,
                         ls="-" if stable else (0, (4, 1.5)))
+    y_top = 1.05 * max(ys) if ys else np.inf
+    for br in res.branches:
         for ev in br.events:
-            if ev.kind in MARKERS:
+            # events of a branch start outside the plotted window (e.g. a linear grazing orbit
+            # above the energy bound) are listed in the report, not drawn
+            if ev.kind in MARKERS and ev.point.derived.get(yk, np.inf) <= y_top:
                 m, c = MARKERS[ev.kind]
                 ax.plot(ev.point.derived.get(xk), ev.point.derived.get(yk), m, color=c,
                         ms=6, mec="k", mew=0.5, zorder=5)
