@@ -31,6 +31,9 @@ EVENT_KINDS = (
     "stability_change",
     "grazing",
     "endpoint",
+    # lattice problems (nsm_continuation.lattice): energy without bound, change of phase pattern
+    "asymptote",
+    "pattern_change",
 )
 
 

@@ -74,8 +74,11 @@ def fep(res: RunResult, path: Path) -> None:
     ylim = ax.get_ylim()
     res.problem.plot_decorations(ax, x_range)
     ax.set_ylim(ylim)
-    ax.set_xlabel(r"frequency $\omega = 2\pi/T$ [rad/s]")
-    ax.set_ylabel(r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$")
+    xl, yl = getattr(res.problem, "fep_labels", (
+        r"frequency $\omega = 2\pi/T$ [rad/s]",
+        r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$"))
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl)
     ax.set_title(f"Frequency-energy plot: {res.case.name}")
     handles = [Line2D([], [], color="k", lw=2.2, label="admissible, stable"),
                Line2D([], [], color="tab:red", lw=2.2, label="admissible, unstable"),

@@ -19,7 +19,8 @@ from importlib.metadata import entry_points
 from .problem import Problem
 
 GROUP = "nsm_continuation.problems"
-BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProblem"}
+BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProblem",
+           "wfem_bar": "nsm_continuation.problems.wfem_bar:WfemBarProblem"}
 
 
 class UnknownProblemError(LookupError):

@@ -17,6 +17,9 @@ MEANING = {
                "tangentially (nonlinear grazing) or leaves it with zero velocity (linear "
                "grazing); beyond it the orbit is a phantom",
     "endpoint": "end of the computed branch (bound reached or numerical termination)",
+    "asymptote": "the energy grows without bound as the frequency approaches a limit (estimated "
+                 "from the last points)",
+    "pattern_change": "the phase pattern of the orbit changes character along the branch",
 }
 
 

@@ -32,7 +32,8 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
         step_initial=c.step.initial, step_min=c.step.min, step_max=c.step.max,
         max_points=c.max_points, newton_tol=c.newton_tol, max_angle=c.max_angle,
         param_min=lo, param_max=hi,
-        derived_bounds={"energy": (None, c.max_energy)} if c.max_energy is not None else {},
+        derived_bounds=({problem.fep_axes[1]: (None, c.max_energy)}
+                        if c.max_energy is not None else {}),
         unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
         multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
         stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
@@ -61,6 +62,8 @@ def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
 
 def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
     settings, window = settings_from_case(case, problem)
+    if getattr(problem, "lattice", False):
+        return run_lattice_case(case, problem, settings, window, progress)
     if case.analysis.stability is False:
         problem.floquet = lambda y, t: None  # type: ignore[method-assign]
     try:
@@ -96,4 +99,41 @@ def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
                "residual_evaluations": engine.n_evaluations,
                "steps_taken_despite_multiplier_motion": engine.motion_limited_steps,
                "events_not_located_on_their_arc": engine.unlocated_events}
+    return RunResult(case, problem, branches, settings, window, timings, skipped)
+
+
+def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSettings,
+                     window: tuple[float | None, float | None], progress: bool) -> RunResult:
+    """Same contract as :func:`run_case` for a :class:`~nsm_continuation.lattice.LatticeProblem`."""
+    from .lattice import LatticeContinuation, LatticeProblem
+
+    assert isinstance(problem, LatticeProblem)
+    t0 = time.perf_counter()
+    try:
+        seeds = problem.lattice_seeds(case.start, window)
+    except ValueError as exc:
+        raise CaseError(f"start: {exc}") from None
+    t_seed = time.perf_counter() - t0
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(seeds) * settings.max_points, unit="pt", leave=False,
+                   desc=case.name, disable=None)
+    engine = LatticeContinuation(problem, settings, progress=bar.update if bar else None)
+    branches: list[Branch] = []
+    skipped: list[str] = []
+    per_branch = []
+    for seed in seeds:
+        if problem.lattice_key(seed.solution) in engine.visited:
+            skipped.append(seed.label)
+            continue
+        tb = time.perf_counter()
+        branches.append(engine.run(seed, branch_id=len(branches)))
+        per_branch.append(time.perf_counter() - tb)
+    if bar is not None:
+        bar.close()
+    timings = {"total_s": time.perf_counter() - t0, "seeds_s": t_seed,
+               "per_branch_s": per_branch, "n_points": int(sum(b.n_points for b in branches)),
+               "lattice_steps": engine.n_evaluations}
     return RunResult(case, problem, branches, settings, window, timings, skipped)

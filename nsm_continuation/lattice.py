@@ -1,0 +1,162 @@
+"""Continuation on an integer lattice: branches of problems whose solutions sit on lattice nodes.
+
+Some discretisations only have solutions at discrete parameter values: the WFEM bar of Yoong,
+Thorin, Legrand (2017) has periodic orbits only at periods ``T = (m + p) dt`` with integer phase
+lengths. There is no smooth residual to correct, but a branch is still a one-parameter family,
+and the engine's job is the same: predict where the next solution is, correct (here: pick the
+lattice solution that continues the previous one), record events where the branch ends or changes
+character, and stop with a recorded reason. This module does that generically; it produces the
+same :class:`~nsm_continuation.continuation.Branch` / ``Point`` / ``Event`` records as the
+pseudo-arclength engine, so results, reports and plots are shared.
+
+A lattice problem (subclass of :class:`LatticeProblem`) implements:
+
+1. :meth:`LatticeProblem.lattice_seeds`: starting solutions from the YAML ``start:`` block.
+2. :meth:`LatticeProblem.lattice_next`: predictor + corrector. Given the accepted solutions of
+   the branch (last one last) and a direction, return the next solution (or ``None`` and a reason).
+3. :meth:`LatticeProblem.lattice_point`: ``(y, tests, derived)`` of a solution for the records.
+4. :meth:`LatticeProblem.lattice_character`: named integers (e.g. number of grazing instants);
+   a change between consecutive points is reported as an event.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .continuation import Branch, ContinuationSettings, Point
+from .events import Event
+from .problem import Problem
+
+
+@dataclass
+class LatticeSeed:
+    """A starting solution and the label of its branch."""
+
+    solution: Any
+    label: str
+    direction: int = 0
+
+
+class LatticeProblem(Problem):
+    """A problem continued on a lattice (see module docstring); no smooth residual."""
+
+    lattice: ClassVar[bool] = True
+
+    def residual(self, y: Any) -> Any:  # pragma: no cover - never called by the lattice engine
+        raise TypeError(f"problem {self.name!r} is a lattice problem: it has no smooth residual")
+
+    @abstractmethod
+    def lattice_seeds(self, start: Any, window: tuple[float | None, float | None]
+                      ) -> list[LatticeSeed]:
+        """Starting solutions from the YAML ``start:`` block."""
+
+    @abstractmethod
+    def lattice_next(self, history: list[Any], direction: int,
+                     window: tuple[float | None, float | None]) -> tuple[Any | None, str]:
+        """The solution continuing ``history`` in ``direction`` (+1: increasing parameter)."""
+
+    @abstractmethod
+    def lattice_point(self, sol: Any) -> tuple[np.ndarray, dict[str, float], dict[str, Any]]:
+        """``(y, tests, derived)`` of a solution."""
+
+    def lattice_character(self, sol: Any) -> dict[str, int]:
+        return {}
+
+    def lattice_key(self, sol: Any) -> Any:
+        """Hashable identity of a solution (used to skip seeds already on a branch)."""
+        return id(sol)
+
+    def asymptote(self, points: list[Point]) -> dict[str, float] | None:
+        """Estimate of where the energy grows without bound, from the last points (optional)."""
+        return None
+
+
+class LatticeContinuation:
+    """Continue the branches of a :class:`LatticeProblem`."""
+
+    def __init__(self, problem: LatticeProblem, settings: ContinuationSettings,
+                 progress: Callable[[int], None] | None = None) -> None:
+        self.problem = problem
+        self.settings = settings
+        self.progress = progress
+        self.n_evaluations = 0
+        self.motion_limited_steps = 0
+        self.unlocated_events = 0
+        self.visited: set[Any] = set()
+
+    def _point(self, sol: Any, s: float) -> Point:
+        y, tests, derived = self.problem.lattice_point(sol)
+        return Point(y=np.asarray(y, float), s=s, tangent=np.zeros(len(y)), tests=tests,
+                     multipliers=None, trivial_error=0.0, n_unstable=0, derived=derived,
+                     bordered_det=float("nan"))
+
+    def _bounded(self, pt: Point) -> str | None:
+        for key, (lo, hi) in self.settings.derived_bounds.items():
+            v = pt.derived.get(key)
+            if v is None:
+                continue
+            if hi is not None and v > hi:
+                return f"{key} above {hi:g}"
+            if lo is not None and v < lo:
+                return f"{key} below {lo:g}"
+        return None
+
+    def _walk(self, seed: LatticeSeed, direction: int, branch_id: int
+              ) -> tuple[list[Point], list[Event], str]:
+        pr = self.problem
+        window = (self.settings.param_min, self.settings.param_max)
+        history = [seed.solution]
+        pts = [self._point(seed.solution, 0.0)]
+        events: list[Event] = []
+        s = 0.0
+        while True:
+            if len(pts) >= self.settings.max_points:
+                return pts, events, f"max_points ({self.settings.max_points}) reached"
+            sol, reason = pr.lattice_next(history, direction, window)
+            self.n_evaluations += 1
+            if sol is None:
+                return pts, events, reason
+            pt = self._point(sol, 0.0)
+            s += direction * float(np.linalg.norm(pt.y - pts[-1].y))
+            pt.s = s
+            bound = self._bounded(pt)
+            if bound is not None:
+                asym = pr.asymptote(pts)
+                if asym is not None:
+                    events.append(Event("asymptote", pts[-1], detail=asym.pop("detail", ""),
+                                        data=asym))
+                return pts, events, f"{bound} (next lattice solution not kept)"
+            old, new = pr.lattice_character(history[-1]), pr.lattice_character(sol)
+            for k in new:
+                if k in old and new[k] != old[k]:
+                    kind = "grazing" if "grazing" in k else "pattern_change"
+                    events.append(Event(kind, pt, detail=f"{k}: {old[k]} -> {new[k]}",
+                                        data={k: new[k], f"{k}_before": old[k]}))
+            history.append(sol)
+            self.visited.add(pr.lattice_key(sol))
+            pts.append(pt)
+            if self.progress:
+                self.progress(1)
+
+    def run(self, seed: LatticeSeed, branch_id: int = 0) -> Branch:
+        self.visited.add(self.problem.lattice_key(seed.solution))
+        dirs = [seed.direction] if seed.direction else [-1, 1]
+        term: dict[str, str] = {}
+        all_pts: list[Point] = []
+        all_ev: list[Event] = []
+        for d in dirs:
+            pts, evs, reason = self._walk(seed, d, branch_id)
+            term["increase" if d > 0 else "decrease"] = reason
+            if not all_pts:
+                all_pts = pts
+            else:  # the other direction: prepend, reversed, without the shared seed
+                all_pts = pts[::-1][:-1] + all_pts
+            all_ev += evs
+        all_pts.sort(key=lambda p: p.s)
+        return Branch(id=branch_id, label=seed.label, points=all_pts, events=all_ev,
+                      termination=term)
