@@ -29,8 +29,8 @@ Appendix A are not consistent with (A.18)-(A.19):
 * (A.26)-(A.27): with the printed corner entries ``A_1 = A_g(-1,1,1,1)``, ``A_2 = rho c
   A_g(-1,1,-1,-1)``, ``A_4 = A_g(1,1,1,-1)`` the matrix describes a bar *free at x = 0 and fixed
   at x = L*, the mirror image of the text (Fig. 1 and (A.20)-(A.21)), and so does the printed
-  ``A_3 = A_g(1,1,-1,1)/(rho c)``. The corner entries consistent with (A.18)-(A.21) are ``A_g(1,1,1,-1)``,
-  ``rho c A_g(1,1,-1,1)``, ``A_g(-1,1,-1,-1)/(rho c)``, ``A_g(-1,1,1,1)``.
+  ``A_3 = A_g(1,1,-1,1)/(rho c)``. The corner entries consistent with (A.18)-(A.21) are
+  ``A_g(1,1,1,-1)``, ``rho c A_g(1,1,-1,1)``, ``A_g(-1,1,-1,-1)/(rho c)``, ``A_g(-1,1,1,1)``.
 
 Both are checked in ``tests/test_wfem_operators.py`` (energy conservation, which end is fixed,
 agreement of the structured and dense operators).
@@ -82,7 +82,7 @@ def pattern_from_counts(*counts: int) -> Pattern:
 
 
 def _count_congruent(n0: int, n1: int, r: np.ndarray, period: int) -> np.ndarray:
-    """Number of integers n in [n0, n1) with n = r (mod period), vectorised over r in [0, period)."""
+    """Number of integers n in [n0, n1) with n = r (mod period), vectorised over r."""
     def upto(n: int) -> np.ndarray:  # count in [0, n)
         if n <= 0:
             return np.zeros_like(r)
