@@ -95,7 +95,8 @@ def _format(err: ValidationError, prefix: str = "") -> str:
     e = err.errors()[0]
     loc = ".".join(str(p) for p in e["loc"] if not str(p).startswith("function-after"))
     # drop pydantic's union-member tags (e.g. 'ModeStart') from the location
-    parts = [p for p in loc.split(".") if p and not p[0].isupper()]
+    parts = [p for p in loc.split(".")
+             if p and not (p[0].isupper() and any(ch.islower() for ch in p))]
     where = ".".join(([prefix] if prefix else []) + parts)
     msg = e["msg"].removeprefix("Value error, ")
     extra = " (unknown key)" if e["type"] == "extra_forbidden" else ""
