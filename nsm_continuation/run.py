@@ -109,6 +109,8 @@ def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSetting
 
     assert isinstance(problem, LatticeProblem)
     t0 = time.perf_counter()
+    if hasattr(problem, "energy_cap"):
+        problem.energy_cap = case.continuation.max_energy
     try:
         seeds = problem.lattice_seeds(case.start, window)
     except ValueError as exc:

@@ -38,6 +38,7 @@ from .wfem_lattice import (
     node_solutions,
     profile_jumps,
 )
+from .wfem_operators import kernel_dimensions_at_period
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -83,7 +84,7 @@ class NodeStart(BaseModel):
     direction: Literal["both", "increase", "decrease"] = "both"
 
 
-StartSpec = MainStart | ScanStart | NodeStart
+StartSpec = MainStart | ScanStart | NodeStart | list[MainStart | ScanStart | NodeStart]
 
 
 def main_asymptote(k: int) -> float:
@@ -122,6 +123,8 @@ class WfemBarProblem(LatticeProblem):
         self._cache: dict[tuple[int, ...], list[LatticeSolution]] = {}
         self.filter_counts: dict[str, int] = {}
         self.node_evaluations = 0
+        #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
+        self.energy_cap: float | None = None
 
     # -- lattice <-> frequency -------------------------------------------------------------
     def M_of(self, omega_ratio: float) -> float:
@@ -163,15 +166,21 @@ class WfemBarProblem(LatticeProblem):
         return keep
 
     def scan_window(self, window: tuple[float | None, float | None]) -> list[LatticeSolution]:
-        """All physical one-contact-phase orbits with omega_ratio in the window."""
+        """All physical one-contact-phase orbits with omega_ratio in the window.
+
+        The kernel dimension of every node of a period comes from one vectorised sweep
+        (:func:`problems.wfem_operators.kernel_dimensions_at_period`); only nodes with
+        ``1 <= h <= 8`` are solved.
+        """
         lo, hi = window
         N = self.model.N
         M_hi = int(np.floor(4 * N / lo)) if lo else 8 * N
         M_lo = int(np.ceil(4 * N / hi)) if hi else 2
         out = []
         for M in range(max(M_lo, 2), M_hi + 1):
-            for p in range(1, M):
-                out += self.physical((M - p, p))
+            h = kernel_dimensions_at_period(N, M)
+            for m in np.nonzero((h >= 1) & (h <= 8))[0] + 1:
+                out += self.physical((int(m), M - int(m)))
         return out
 
     # -- seeds ---------------------------------------------------------------------------------
@@ -179,6 +188,8 @@ class WfemBarProblem(LatticeProblem):
                       ) -> list[LatticeSeed]:
         spec = self.start_adapter.validate_python(start) if not isinstance(
             start, BaseModel) else start
+        if isinstance(spec, list):
+            return [seed for one in spec for seed in self.lattice_seeds(one, window)]
         md = self.model
         if isinstance(spec, NodeStart):
             if len(spec.node) not in (2, 4):
@@ -191,6 +202,9 @@ class WfemBarProblem(LatticeProblem):
         if isinstance(spec, ScanStart):
             sols = self.scan_window(window)
             sols.sort(key=lambda s: (profile_jumps(s.w0), s.energy))
+            cap = self.energy_cap
+            if cap is not None:  # seeds above the energy bound would give one-point branches
+                sols = [s for s in sols if s.energy / md.energy_ref <= cap]
             return [LatticeSeed(s, f"scan seed (m, p) = {s.counts}", 0)
                     for s in sols[:spec.max_seeds]]
         k = spec.mode
@@ -332,6 +346,13 @@ class WfemBarProblem(LatticeProblem):
                                (main_asymptote(k), "--", "0.5")):
                 if lo - 0.05 <= x <= hi + 0.05:
                     ax.axvline(x, ls=ls, color=col, lw=0.8, zorder=1)
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        """Space-time fields (Fig. 8a, 10a, 13, 17), contact-end series, manifold (Fig. 9)."""
+        from . import wfem_plots
+
+        return wfem_plots.extra_plots(out_dir, branches, self)
 
     def legend_handles(self) -> list[Any]:
         from matplotlib.lines import Line2D

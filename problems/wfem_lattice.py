@@ -126,6 +126,7 @@ class LatticeSolution:
         md = self.model
         return {
             "M": self.M, "m": self.counts[0], "p": self.counts[1],
+            **({"k": self.counts[2], "l": self.counts[3]} if len(self.counts) == 4 else {}),
             "omega": self.omega, "omega_ratio": self.omega / md.omega1,
             "period": self.period, "energy": self.energy,
             "energy_ratio": self.energy / md.energy_ref,
@@ -396,19 +397,24 @@ def node_solutions(model: BarModel, counts: tuple[int, ...], *, max_enumerated_h
     h = K.shape[1]
     if h > max_enumerated_h:
         return f"h > q (h = {h}, not enumerated)", []
-    out = []
     Js = np.array([end_series(K[:, j], pattern) for j in range(h)])
     closure = _closure_rows(Js, counts)
-    signs = np.array(np.meshgrid(*([[1.0, -1.0]] * (h - 1)), indexing="ij")).reshape(h - 1, -1).T \
-        if h > 1 else np.zeros((1, 0))
-    for eps in signs:
-        alpha = np.concatenate([[1.0], eps])
-        if closure.size and np.any(np.abs(closure @ alpha) > 1e-9 * np.abs(Js).max() * sum(counts)):
-            continue
-        total = K.sum(axis=0) @ alpha
-        if abs(total) < 1e-12:
-            continue
-        alpha *= 2 * model.E * model.g0 / model.dx / total
+    signs = np.array(np.meshgrid(*([[1.0, -1.0]] * (h - 1)), indexing="ij")).reshape(h - 1, -1)
+    alphas = np.vstack([np.ones((1, signs.shape[1])), signs])  # (h, 2^(h-1)) combinations
+    total = K.sum(axis=0) @ alphas
+    ok = np.abs(total) > 1e-12
+    if closure.size:
+        ok &= np.all(np.abs(closure @ alphas) <= 1e-9 * np.abs(Js).max() * sum(counts), axis=0)
+    alphas = alphas[:, ok] * (2 * model.E * model.g0 / model.dx / total[ok])
+    Jall = Js.T @ alphas  # (M, combos): vectorised COND1 / COND2 screening
+    free, contact, phases = _masks(counts)
+    A = np.abs(Jall).max(axis=0)
+    good = np.all(Jall[contact] <= 1e-9 * A, axis=0) if contact.any() else np.ones_like(A, bool)
+    for a, b in phases:
+        P = np.cumsum(Jall[a:b], axis=0)
+        good &= np.all(P[:-1] >= -1e-9 * A * (b - a), axis=0)
+    out = []
+    for alpha in alphas[:, good].T:
         w0 = K @ alpha
         J = alpha @ Js
         margins, grazing = admissibility_margins(model, w0, J, counts)

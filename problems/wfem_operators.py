@@ -260,3 +260,21 @@ def ring_basis(N: int, Z: float) -> np.ndarray:
         T[i, i], T[i, N + i] = 1.0, -Z                  # b_i
         T[2 * N - 1 - i, i], T[2 * N - 1 - i, N + i] = 1.0, Z  # a_i
     return T
+
+
+def kernel_dimensions_at_period(N: int, M: int) -> np.ndarray:
+    """``h(m)`` for every one-contact-phase node ``(m, M - m)``, m = 1..M-1, in one sweep.
+
+    All nodes of a period share the rotation (shift M mod 2N), hence the cycles; only the signs
+    differ: slot k picks up one -1 for each free step n < m with n = N-1-k (mod 2N). Vectorised
+    over m: O(M N) for the whole period instead of M separate calls (used by the lattice scan).
+    """
+    n = 2 * N
+    k = np.arange(n)
+    r = (N - 1 - k) % n
+    m = np.arange(1, M)[:, None]
+    count = np.where(r[None, :] < m, (m - 1 - r[None, :]) // n + 1, 0)
+    sign = 1 - 2 * (count % 2)  # (M-1, 2N) of +-1
+    cyc = SignedRotation(N, M % n, np.ones(n)).cycles()
+    prod = np.prod(sign[:, cyc], axis=2)
+    return np.sum(prod > 0, axis=1)
