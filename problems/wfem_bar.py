@@ -68,6 +68,15 @@ class MainStart(BaseModel):
     mode: Annotated[int, Field(ge=1, le=50)] = 1
 
 
+class SubharmonicStart(BaseModel):
+    """The n-th subharmonic backbone of mode k (g0 > 0), starting near eq. (15)."""
+
+    model_config = ConfigDict(extra="forbid")
+    branch: Literal["subharmonic"]
+    mode: Annotated[int, Field(ge=1, le=50)] = 1
+    n: Annotated[int, Field(ge=1, le=50)] = 1
+
+
 class ScanStart(BaseModel):
     """Every physical admissible orbit in the window seeds a branch (Fig. 12, 16)."""
 
@@ -84,7 +93,8 @@ class NodeStart(BaseModel):
     direction: Literal["both", "increase", "decrease"] = "both"
 
 
-StartSpec = MainStart | ScanStart | NodeStart | list[MainStart | ScanStart | NodeStart]
+OneStart = MainStart | SubharmonicStart | ScanStart | NodeStart
+StartSpec = OneStart | list[OneStart]
 
 
 def main_asymptote(k: int) -> float:
@@ -209,20 +219,39 @@ class WfemBarProblem(LatticeProblem):
                     for s in sols[:spec.max_seeds]]
         k = spec.mode
         N = md.N
+        if isinstance(spec, SubharmonicStart):
+            if md.g0 <= 0:
+                raise ValueError("branch: subharmonic starts are defined for gap > 0 (eq. 15)")
+            r0 = subharmonic_start(k, spec.n)
+            return self._first_seed(int(np.floor(4 * N / r0)) - 1, -1, 1,
+                                    f"subharmonic n = {spec.n} of mode {k} (eq. 15: "
+                                    f"{r0:.4f} omega_1)")
         if md.g0 == 0:
             return self._grazing_seeds(k)
         if md.g0 > 0:  # hardening from omega_k = (2k - 1) omega_1: periods just below T_k
-            M0, dM, d = int(np.floor(4 * N / (2 * k - 1))) - 1, -1, 1
-        else:  # softening from Omega_k = 2k omega_1: periods just above
-            M0, dM, d = int(np.ceil(2 * N / k)) + 1, 1, -1
-        for j in range(max(4, int(0.1 * N / k))):
+            return self._first_seed(int(np.floor(4 * N / (2 * k - 1))) - 1, -1, 1,
+                                    f"main backbone, mode {k}")
+        # softening from Omega_k = 2k omega_1: periods just above
+        return self._first_seed(int(np.ceil(2 * N / k)) + 1, 1, -1, f"main backbone, mode {k}")
+
+    def _first_seed(self, M0: int, dM: int, direction: int, label: str) -> list[LatticeSeed]:
+        """First physical orbit met from period M0 on (step dM), fewest jumps then lowest energy.
+
+        Near the start of a backbone one phase is short (contact for g0 > 0, free for g0 < 0),
+        so only nodes whose short phase is at most 5 % of the period are tried.
+        """
+        N = self.model.N
+        for j in range(max(4, int(0.1 * N))):
             M = M0 + dM * j
-            cands = [s for p in range(1, M) for s in self.physical((M - p, p))]
+            short = max(2, int(0.05 * M))
+            pairs = ([(M - p, p) for p in range(1, short)] if direction > 0
+                     else [(m, M - m) for m in range(1, short)])
+            cands = [s for c in pairs for s in self.physical(c)]
             if cands:
                 best = min(cands, key=lambda s: (profile_jumps(s.w0), s.energy))
-                return [LatticeSeed(best, f"main backbone, mode {k}", d)]
-        raise ValueError(f"no physical orbit found near the start of the main backbone of "
-                         f"mode {k} (N = {N}); increase cells")
+                return [LatticeSeed(best, label, direction)]
+        raise ValueError(f"no physical orbit found near the start of the {label} (N = {N}); "
+                         "increase cells")
 
     def _grazing_seeds(self, k: int) -> list[LatticeSeed]:
         """g0 = 0: the vertical backbone of mode k at its asymptote (section 6.1).
@@ -272,8 +301,10 @@ class WfemBarProblem(LatticeProblem):
                 width = W
                 e_pred = self._energy_predict(history, M)
             else:
-                m_c = int(round(last.counts[0] * M / last.M))
-                width = W + 3 * j
+                # continuum limit: t_f = k T + const with k = number of profile jumps (the jump
+                # set is a chain of k points spaced by the period, bar_continuum), so dm/dM = k
+                m_c = last.counts[0] + jumps * (M - last.M)
+                width = W + 2 * j
                 e_pred = last.energy
             cands = []
             for m in range(max(1, m_c - width), min(M - 1, m_c + width) + 1):
@@ -285,9 +316,12 @@ class WfemBarProblem(LatticeProblem):
                         continue
                     counts = (m, p, k, p)
                 cands += self.physical(counts)
+            # continuity: same characteristic profile structure (number of jumps) and, once the
+            # branch direction is known, an energy within 25 % of the extrapolated one
+            cands = [c for c in cands if profile_jumps(c.w0) == jumps
+                     and (slopes is None or abs(np.log(c.energy / e_pred)) < 0.25)]
             if cands:
-                best = min(cands, key=lambda s: (profile_jumps(s.w0) != jumps,
-                                                 abs(np.log(s.energy / e_pred)),
+                best = min(cands, key=lambda s: (abs(np.log(s.energy / e_pred)),
                                                  abs(s.counts[0] - m_c)))
                 return best, ""
         return None, (f"no physical admissible lattice orbit within {max_gap} period steps "
@@ -335,7 +369,18 @@ class WfemBarProblem(LatticeProblem):
                 "cells": md.N, "gap": md.g0}
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        return {"filter_removed": dict(self.filter_counts),
+        formulas = {f"main mode {k} (sec. 6.1)": main_asymptote(k) for k in range(1, 6)}
+        formulas.update({f"subharmonic k={k}, n={n} (eq. 16)": subharmonic_asymptote(k, n)
+                         for k in range(1, 5) for n in range(1, 8)})
+        asym = []
+        for br in branches:
+            for ev in br.events:
+                if ev.kind == "asymptote":
+                    r = ev.data["omega_ratio"]
+                    name, val = min(formulas.items(), key=lambda kv: abs(kv[1] - r))
+                    asym.append({"branch": br.id, "label": br.label, "lattice": r,
+                                 "nearest_formula": name, "formula": val, "difference": r - val})
+        return {"asymptotes_vs_paper": asym, "filter_removed": dict(self.filter_counts),
                 "lattice_nodes_evaluated": self.node_evaluations,
                 "main_asymptotes_omega_ratio": [main_asymptote(k) for k in (1, 2, 3)]}
 
