@@ -308,14 +308,15 @@ class WfemBarProblem(LatticeProblem):
                 e_pred = last.energy
             cands = []
             for m in range(max(1, m_c - width), min(M - 1, m_c + width) + 1):
-                counts = (m, M - m) if len(last.counts) == 2 else None
-                if counts is None:  # two contact phases: keep the p = l symmetry (eq. 18)
-                    p = int(round(pred[1])) if slopes is not None else last.counts[1]
+                if len(last.counts) == 2:
+                    cands += self.physical((m, M - m))
+                    continue
+                # two contact phases: keep the p = l symmetry (section 6.4), search p as well
+                p_c = int(round(pred[1])) if slopes is not None else last.counts[1]
+                for p in range(max(1, p_c - width), p_c + width + 1):
                     k = M - m - 2 * p
-                    if k < 1:
-                        continue
-                    counts = (m, p, k, p)
-                cands += self.physical(counts)
+                    if k >= 1:
+                        cands += self.physical((m, p, k, p))
             # continuity: same characteristic profile structure (number of jumps) and, once the
             # branch direction is known, an energy within 25 % of the extrapolated one
             cands = [c for c in cands if profile_jumps(c.w0) == jumps

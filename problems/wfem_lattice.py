@@ -374,7 +374,7 @@ def scan(model: BarModel, M_range: tuple[int, int], *, contact_phases: int = 1,
     return out
 
 
-def node_solutions(model: BarModel, counts: tuple[int, ...], *, max_enumerated_h: int = 8
+def node_solutions(model: BarModel, counts: tuple[int, ...], *, max_enumerated_h: int = 12
                    ) -> tuple[str, list[LatticeSolution]]:
     """All admissible candidates at a node, including nodes with ``h > q``.
 
