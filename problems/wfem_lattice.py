@@ -188,7 +188,11 @@ def admissibility_margins(model: BarModel, w0: np.ndarray, J: np.ndarray,
     cond2 = float(-J[contact].max() / A) if contact.any() else np.inf
     # |sigma| <= max|w| (sigma is the mean of two characteristics): exact bound for COND3
     cond3 = float(1.0 - A / model.E)
-    return {"cond1_gap": cond1, "cond2_contact_force": cond2, "cond3_strain": cond3}, grazing
+    margins = {"cond1_gap": cond1, "cond2_contact_force": cond2, "cond3_strain": cond3}
+    # a grazing instant or the closure has margin 0 in exact arithmetic: round-off of order
+    # 1e-9 (relative, per step) is not a violation
+    margins = {k: (0.0 if -1e-9 <= v < 0 else v) for k, v in margins.items()}
+    return margins, grazing
 
 
 def solve_node(model: BarModel, counts: tuple[int, ...], *, tol: float = 1e-9
