@@ -20,7 +20,8 @@ from .problem import Problem
 
 GROUP = "nsm_continuation.problems"
 BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProblem",
-           "wfem_bar": "nsm_continuation.problems.wfem_bar:WfemBarProblem"}
+           "wfem_bar": "nsm_continuation.problems.wfem_bar:WfemBarProblem",
+           "bar_continuum": "nsm_continuation.problems.bar_continuum:BarContinuumProblem"}
 
 
 class UnknownProblemError(LookupError):
