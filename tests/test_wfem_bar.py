@@ -9,11 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-
-from nsm_continuation import cases
-from nsm_continuation.cli import main as cli_main
-from nsm_continuation.run import run_case
-from problems.wfem_lattice import (
+from nsm_continuation.problems.wfem_lattice import (
     BarModel,
     classify,
     feasible_cone,
@@ -21,7 +17,11 @@ from problems.wfem_lattice import (
     profile_jumps,
     solve_node,
 )
-from problems.wfem_operators import CONTACT, FREE, phase_operator, ring_step
+from nsm_continuation.problems.wfem_operators import CONTACT, FREE, phase_operator, ring_step
+
+from nsm_continuation import cases
+from nsm_continuation.cli import main as cli_main
+from nsm_continuation.run import run_case
 
 
 def main_energy(model: BarModel, T: float) -> float:
@@ -102,7 +102,7 @@ def test_end_displacement_from_stresses_equals_integrated_end_velocity() -> None
 @pytest.mark.parametrize("N", [20, 24])
 def test_g0_zero_periods_are_exact(N: int) -> None:
     """Section 6.1: g0 = 0 backbones have T = 3L/c (contact L/c) and 5L/(4c) (contact L/(4c))."""
-    from problems.wfem_bar import WfemBarParameters, WfemBarProblem
+    from nsm_continuation.problems.wfem_bar import WfemBarParameters, WfemBarProblem
 
     pr = WfemBarProblem(WfemBarParameters(cells=N, gap=0.0))
     s1 = pr.lattice_seeds({"branch": "main", "mode": 1}, (None, None))[0].solution
@@ -146,7 +146,7 @@ def test_filter_removes_relabelled_and_grid_scale_orbits() -> None:
     md_neg = BarModel(1.0, 1.0, 1.0, 20, -1e-3)
     _, sols = node_solutions(md_neg, (38, 3))
     assert sols and profile_jumps(sols[0].w0) == 38
-    from problems.wfem_bar import WfemBarParameters, WfemBarProblem
+    from nsm_continuation.problems.wfem_bar import WfemBarParameters, WfemBarProblem
 
     pr = WfemBarProblem(WfemBarParameters(cells=20, gap=-1e-3))
     assert pr.physical((38, 3)) == []

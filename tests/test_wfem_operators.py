@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from problems.wfem_operators import (
+from nsm_continuation.problems.wfem_operators import (
     CONTACT,
     FREE,
     A_g,
