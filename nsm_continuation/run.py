@@ -60,6 +60,15 @@ def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
     return False
 
 
+def _progress_bar(case: Case, total: int, progress: bool) -> Any:
+    """A tqdm bar over the expected number of points (None without progress)."""
+    if not progress:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
+
+
 def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
     settings, window = settings_from_case(case, problem)
     if getattr(problem, "lattice", False):
@@ -73,12 +82,7 @@ def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
     t0 = time.perf_counter()
     _ = problem.compiled  # build CasADi functions once
     t_build = time.perf_counter() - t0
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(starts) * settings.max_points, unit="pt", leave=False,
-                   desc=case.name, disable=None)
+    bar = _progress_bar(case, len(starts) * settings.max_points, progress)
     engine = ContinuationEngine(problem, settings, progress=bar.update if bar else None)
     branches: list[Branch] = []
     skipped: list[str] = []
@@ -116,12 +120,7 @@ def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSetting
     except ValueError as exc:
         raise CaseError(f"start: {exc}") from None
     t_seed = time.perf_counter() - t0
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(seeds) * settings.max_points, unit="pt", leave=False,
-                   desc=case.name, disable=None)
+    bar = _progress_bar(case, len(seeds) * settings.max_points, progress)
     engine = LatticeContinuation(problem, settings, progress=bar.update if bar else None)
     branches: list[Branch] = []
     skipped: list[str] = []

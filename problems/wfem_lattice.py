@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from .wfem_operators import (
+    BarConstants,
     Pattern,
     end_series,
     pattern_from_counts,
@@ -45,7 +46,7 @@ from .wfem_operators import (
 
 
 @dataclass(frozen=True)
-class BarModel:
+class BarModel(BarConstants):
     """Bar data: E, rho, L, cells N, signed gap g0 (S = 1)."""
 
     E: float
@@ -55,25 +56,8 @@ class BarModel:
     g0: float
 
     @property
-    def c(self) -> float:
-        return float(np.sqrt(self.E / self.rho))
-
-    @property
-    def Z(self) -> float:
-        return self.rho * self.c
-
-    @property
-    def dx(self) -> float:
-        return self.L / self.N
-
-    @property
     def dt(self) -> float:
         return self.dx / self.c
-
-    @property
-    def omega1(self) -> float:
-        """First fixed-free linear frequency (13): pi c / (2L)."""
-        return float(np.pi * self.c / (2 * self.L))
 
     @property
     def energy_ref(self) -> float:
@@ -352,30 +336,6 @@ def classify(sol: LatticeSolution, check_refinement: bool = True) -> str:
     if check_refinement and not persists_under_refinement(sol):
         return "grid-scale (does not persist under N -> 2N)"
     return "physical"
-
-
-def scan(model: BarModel, M_range: tuple[int, int], *, contact_phases: int = 1,
-         check_refinement: bool = True, max_p: int | None = None) -> dict[str, Any]:
-    """All admissible nodes with ``M`` in ``M_range`` (one contact phase), classified.
-
-    Returns ``{"physical": [solutions], "removed": {reason: count}, "h_counts": {...}}``.
-    """
-    if contact_phases != 1:
-        raise NotImplementedError("scan over two-phase patterns: use solve_node on (m, p, k, p)")
-    out: dict[str, Any] = {"physical": [], "removed": {}, "status": {}}
-    for M in range(M_range[0], M_range[1] + 1):
-        for p in range(1, M if max_p is None else min(M, max_p + 1)):
-            status, sol = solve_node(model, (M - p, p))
-            key = status.split(":")[0]
-            out["status"][key] = out["status"].get(key, 0) + 1
-            if status != "admissible" or sol is None:
-                continue
-            reason = classify(sol, check_refinement)
-            if reason == "physical":
-                out["physical"].append(sol)
-            else:
-                out["removed"][reason] = out["removed"].get(reason, 0) + 1
-    return out
 
 
 def node_solutions(model: BarModel, counts: tuple[int, ...], *, max_enumerated_h: int = 12

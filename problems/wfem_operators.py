@@ -47,6 +47,33 @@ FREE = -1
 CONTACT = 1
 
 
+class BarConstants:
+    """Wave speed, impedance, mesh size and omega_1 of a bar with fields E, rho, L, N."""
+
+    E: float
+    rho: float
+    L: float
+    N: int
+
+    @property
+    def c(self) -> float:
+        return float(np.sqrt(self.E / self.rho))
+
+    @property
+    def Z(self) -> float:
+        """Impedance rho c."""
+        return self.rho * self.c
+
+    @property
+    def dx(self) -> float:
+        return self.L / self.N
+
+    @property
+    def omega1(self) -> float:
+        """First fixed-free linear frequency (13): pi c / (2L)."""
+        return float(np.pi * self.c / (2 * self.L))
+
+
 # -- state conversions ---------------------------------------------------------------------------
 def to_ring(sigma: np.ndarray, v: np.ndarray, Z: float) -> np.ndarray:
     """Cell averages ``(sigma_i, v_i)`` -> ring vector ``w`` of length 2N (module docstring)."""

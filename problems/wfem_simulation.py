@@ -76,7 +76,7 @@ from typing import Literal
 
 import numpy as np
 
-from .wfem_operators import from_ring, to_ring
+from .wfem_operators import BarConstants, from_ring, to_ring
 
 ForceField = Callable[[np.ndarray, float], np.ndarray]
 
@@ -98,7 +98,7 @@ def _check_finite(name: str, value: float, positive: bool = False,
 
 # -- data ----------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class BarParams:
+class BarParams(BarConstants):
     """Bar and mesh: Young's modulus, density, length, cells, cross-section, gap, left end.
 
     ``dt`` is fixed by the WFEM to ``dx / c`` (CFL number 1, (A.18)); passing ``dt`` only checks
@@ -131,25 +131,8 @@ class BarParams:
                                  f"got {dt!r}")
 
     @property
-    def c(self) -> float:
-        return math.sqrt(self.E / self.rho)
-
-    @property
-    def Z(self) -> float:
-        return self.rho * self.c
-
-    @property
-    def dx(self) -> float:
-        return self.L / self.N
-
-    @property
     def time_step(self) -> float:
         return self.dx / self.c
-
-    @property
-    def omega1(self) -> float:
-        """First free-fixed linear frequency ``pi c / (2L)`` (13)."""
-        return math.pi * self.c / (2.0 * self.L)
 
     @property
     def energy_ref(self) -> float:
