@@ -52,6 +52,10 @@ class ContinuationSpec(BaseModel):
     direction: Literal["both", "increase", "decrease"] = "both"
     newton_tol: PosFloat = 1e-11
     max_angle: PosFloat = 0.25
+    #: bounds on derived quantities ``{name: [min, max]}`` (null for none), e.g.
+    #: ``period: [null, 60]``; the branch stops where one is reached (an event of the kind the
+    #: problem maps the quantity to, e.g. ``homoclinic_approach`` for the period)
+    bounds: dict[str, tuple[Finite | None, Finite | None]] = {}
 
     @model_validator(mode="after")
     def _bounds(self) -> ContinuationSpec:

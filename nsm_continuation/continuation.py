@@ -61,6 +61,8 @@ class ContinuationSettings:
     max_multiplier_halvings: int = 10
     #: 0: both directions from the start, +1 / -1: only towards increasing / decreasing parameter
     direction: int = 0
+    #: location tolerance (arclength) of a change of the problem's event signature
+    signature_event_tol: float = 1e-6
 
 
 @dataclass
@@ -80,6 +82,8 @@ class Point:
     residual_norm: float = 0.0
     #: unit-circle tolerance actually used at this point (see ContinuationEngine.analyse)
     circle_tol: float = 0.0
+    #: the problem's discrete signature (e.g. the event sequence of a hybrid orbit), if any
+    signature: str | None = None
 
     @property
     def admissible(self) -> bool:
@@ -212,6 +216,7 @@ class ContinuationEngine:
             derived=pr.derived(y), bordered_det=det, newton_iterations=iterations,
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
             circle_tol=circle_tol,
+            signature=pr.signature(y) if hasattr(pr, "signature") else None,
         )
 
     def _floquet(self, y: np.ndarray, t: np.ndarray) -> FloquetData | None:
@@ -450,7 +455,12 @@ class ContinuationEngine:
                                                  else st.param_min)
                 if p is None:
                     p, w = self._locate_continuous(a, b, fun, flo=fa, fhi=fb)
-                ev = Event("endpoint", p, f"bound reached: {label}", bracket=w)
+                kind = "endpoint"
+                for name_, kind_ in getattr(self.problem, "bound_kinds", {}).items():
+                    if label.startswith(f"{name_} ="):
+                        kind = kind_
+                ev = Event(kind, p, f"bound reached: {label}", bracket=w,
+                           data={"bound": label})
                 found.append(ev)
                 stops.append((p, f"bound: {label}"))
             elif fa < 0 and fb < fa:
@@ -483,7 +493,8 @@ class ContinuationEngine:
                     self.unlocated_events += 1
                     continue
                 leaving = flo >= 0 > fhi
-                ev = Event("grazing", p, f"test function '{name}' "
+                kind = getattr(self.problem, "test_kinds", {}).get(name, "grazing")
+                ev = Event(kind, p, f"test function '{name}' "
                            + ("becomes negative: admissibility lost" if leaving
                               else "becomes positive: admissibility regained"),
                            data={"test": name, "admissible_before": bool(flo >= 0),
@@ -512,11 +523,28 @@ class ContinuationEngine:
                     and a.n_unstable != b.n_unstable:
                 found.extend(self._locate_multiplier_crossings(a, b))
 
+        # 6. the problem's discrete signature (event sequence of a hybrid orbit) changes
+        if a.signature is not None and b.signature is not None and a.signature != b.signature:
+            found.extend(self._locate_signature_change(a, b))
+
         found = _merge_coincident_grazing(found, self.settings.event_tol)
         if stops:
             stop = min(stops, key=lambda sp: sp[0].s)
             return found, stop
         return found, None
+
+    def _locate_signature_change(self, a: Point, b: Point) -> list[Event]:
+        """Bisection on the signature between two points; one event at the first change."""
+        def f(sig: float) -> tuple[str | None, Point | None]:
+            p = self._point_at(a, b, sig, tests=False, floquet=False)
+            return (None, None) if p is None else (p.signature, p)
+
+        sig, p, width, vl, vr = bisect_predicate(f, 0.0, a.signature, b.s - a.s, b.signature,
+                                                 self.settings.signature_event_tol)
+        p = b if p is None else self.full(p)
+        kind = getattr(self.problem, "signature_kind", "pattern_change")
+        return [Event(kind, p, f"event sequence {vl} -> {vr}",
+                      data={"signature_before": vl, "signature_after": vr}, bracket=width)]
 
     def _locate_multiplier_crossings(self, a: Point, b: Point) -> list[Event]:
         """Locate where the number of multipliers outside the unit circle changes."""

@@ -34,6 +34,10 @@ EVENT_KINDS = (
     # lattice problems (nsm_continuation.lattice): energy without bound, change of phase pattern
     "asymptote",
     "pattern_change",
+    # hybrid (impacting) systems with chattering (nsm_continuation.hybrid)
+    "sticking_lost",
+    "impact_sequence_change",
+    "homoclinic_approach",
 )
 
 

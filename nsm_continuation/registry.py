@@ -21,7 +21,11 @@ from .problem import Problem
 GROUP = "nsm_continuation.problems"
 BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProblem",
            "wfem_bar": "nsm_continuation.problems.wfem_bar:WfemBarProblem",
-           "bar_continuum": "nsm_continuation.problems.bar_continuum:BarContinuumProblem"}
+           "bar_continuum": "nsm_continuation.problems.bar_continuum:BarContinuumProblem",
+           "double_pendulum":
+               "nsm_continuation.problems.double_pendulum:DoublePendulumProblem",
+           "impact_oscillator":
+               "nsm_continuation.problems.impact_oscillator:ImpactOscillatorProblem"}
 
 
 class UnknownProblemError(LookupError):

@@ -20,6 +20,14 @@ MEANING = {
     "asymptote": "the energy grows without bound as the frequency approaches a limit (estimated "
                  "from the last points)",
     "pattern_change": "the phase pattern of the orbit changes character along the branch",
+    "sticking_lost": "the sticking time tends to zero: complete chattering turns into "
+                     "incomplete chattering (the branch of orbits with sticking ends; located "
+                     "where the sticking time reaches its floor, extrapolated to zero)",
+    "impact_sequence_change": "the sequence of events over one period changes (an impact is "
+                              "gained or lost, or the number of impacts resolved before the "
+                              "chatter map changes)",
+    "homoclinic_approach": "the period grows without bound: the orbit approaches a homoclinic "
+                           "orbit of a saddle (limit parameter from a fit T ~ -ln|p - p*|/mu)",
 }
 
 

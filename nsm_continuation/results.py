@@ -58,7 +58,8 @@ def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
 
 
-def branch_rows(br: Branch, variables: list[str]) -> tuple[list[str], list[list[Any]]]:
+def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
+                ) -> tuple[list[str], list[list[Any]]]:
     pts: list[Point] = br.points
     derived_keys: list[str] = []
     test_keys: list[str] = []
@@ -70,7 +71,7 @@ def branch_rows(br: Branch, variables: list[str]) -> tuple[list[str], list[list[
             if k not in test_keys:
                 test_keys.append(k)
     n_mult = max((0 if p.multipliers is None else p.multipliers.size) for p in pts) if pts else 0
-    head = ["T", "omega", "energy"]
+    head = list(head) if head is not None else ["T", "omega", "energy"]
     extra = [k for k in derived_keys if k not in head]
     cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + extra
             + [f"test_{k}" for k in test_keys]
@@ -147,7 +148,8 @@ def write_outputs(res: RunResult, out_dir: Path, plots: bool = True) -> Path:
     try:
         rep = build_report(res)
         for br in res.branches:
-            cols, rows = branch_rows(br, res.problem.variables)
+            cols, rows = branch_rows(br, res.problem.variables,
+                                     getattr(res.problem, "csv_head", None))
             with open(tmp / f"branch_{br.id}.csv", "w", newline="") as fh:
                 w = csv.writer(fh)
                 w.writerow(cols)

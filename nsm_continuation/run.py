@@ -28,12 +28,14 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
                                                               tuple[float | None, float | None]]:
     c, a = case.continuation, case.analysis
     lo, hi = problem.parameter_bounds(c.parameter, c.min, c.max)
+    derived_bounds = ({problem.fep_axes[1]: (None, c.max_energy)}
+                      if c.max_energy is not None else {})
+    derived_bounds.update({k: (v[0], v[1]) for k, v in c.bounds.items()})
     settings = ContinuationSettings(
         step_initial=c.step.initial, step_min=c.step.min, step_max=c.step.max,
         max_points=c.max_points, newton_tol=c.newton_tol, max_angle=c.max_angle,
         param_min=lo, param_max=hi,
-        derived_bounds=({problem.fep_axes[1]: (None, c.max_energy)}
-                        if c.max_energy is not None else {}),
+        derived_bounds=derived_bounds,
         unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
         multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
         stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,

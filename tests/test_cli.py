@@ -166,7 +166,9 @@ def test_every_bundled_case_validates():
     assert len(files) >= 6
     for f in files:
         case, problem = cases.load(f)
-        prefix = {"ndof": "ndof_impact", "wfem": "wfem_bar", "bar": "bar_continuum"}
+        prefix = {"ndof": "ndof_impact", "wfem": "wfem_bar", "bar": "bar_continuum",
+                  "impact": "impact_oscillator", "pendulum": "double_pendulum",
+                  "ball": "bouncing_ball", "chain": "two_mass_chain"}
         assert case.problem == prefix[f.name.split("_")[0]]
         if case.problem == "ndof_impact":
             assert problem.N == 5

@@ -1,0 +1,447 @@
+"""Periodic orbits of an impacting system on a Poincaré section, as a continuation Problem.
+
+Unknowns ``y = (z, p)``: ``z`` the state on the section ``x_k = c`` without its fixed component
+``x_k``, ``p`` the continuation parameter. The residual is ``G(z, p) = P(x0) - x0 - shift``
+restricted to the components other than ``k``, where ``P`` is the return map simulated by
+:class:`~nsm_continuation.hybrid.simulate.Simulator` (impacts, chatter map, sticking, release:
+the event order is *not* prescribed, sec. 1) and ``shift`` is ``delta`` on the section component
+(``-2 pi`` for one revolution of the pendulum's upper bar, ``2 pi m`` for ``m`` forcing periods
+of a forced system whose phase is the clock ``x_3 = omega t``). Its Jacobian ``[P_z - I, P_p]``
+is the saltation-chained monodromy of the simulation, with the parameter lifted into the state:
+no finite differences.
+
+The Floquet multipliers are the eigenvalues of ``P_z`` (the trivial multiplier of an autonomous
+orbit is removed by the section); the free accuracy check is the time-fixed monodromy
+``Phi_T = P_x - F J_t`` mapping the flow direction to itself (``trivial_error``).
+After sticking, ``P_x`` loses rank (``H_x P_x = 0``, ``v_x P_x = 0``, sec. 4.4): such orbits have
+zero multipliers, which are exact, not round-off.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..problem import FloquetData, Problem
+from .simulate import SimOptions, SimResult, SimulationError, Simulator
+from .system import CompiledHybrid
+
+
+@dataclass
+class Section:
+    """Poincaré section ``x[index] = value``; one period moves ``x[index]`` by ``shift``."""
+
+    index: int
+    value: float
+    shift: float
+
+    @property
+    def direction(self) -> int:
+        return 1 if self.shift > 0 else -1
+
+
+class ShootingFailure(Exception):
+    pass
+
+
+class HybridShooting:
+    """Return map, residual and Jacobian of a compiled hybrid system on a section (cached)."""
+
+    def __init__(self, c: CompiledHybrid, section: Section, opts: SimOptions,
+                 cache_size: int = 16) -> None:
+        self.c = c
+        self.section = section
+        self.sim = Simulator(c, opts)
+        self.free_idx = [i for i in range(c.n) if i != section.index]
+        self._cache: OrderedDict[bytes, SimResult | str] = OrderedDict()
+        self.cache_size = cache_size
+        self.n_simulations = 0
+
+    def x0(self, y: np.ndarray) -> np.ndarray:
+        """Full initial state (with the freed parameters) from the unknowns ``y``."""
+        c = self.c
+        X = np.empty(c.N)
+        X[self.free_idx] = y[: c.n - 1]
+        X[self.section.index] = self.section.value
+        X[c.n:] = y[c.n - 1:]
+        return X
+
+    def simulate(self, y: np.ndarray) -> SimResult:
+        key = np.asarray(y, dtype=float).tobytes()
+        hit = self._cache.get(key)
+        if hit is None:
+            s = self.section
+            try:
+                hit = self.sim.run(self.x0(y), section=(s.index, s.value + s.shift,
+                                                          s.direction))
+            except SimulationError as exc:
+                hit = exc.reason
+            self.n_simulations += 1
+            self._cache[key] = hit
+            if len(self._cache) > self.cache_size:
+                self._cache.popitem(last=False)
+        if isinstance(hit, str):
+            raise ShootingFailure(hit)
+        return hit
+
+    def residual_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        c = self.c
+        res = self.simulate(y)
+        fi = self.free_idx
+        g = res.X[fi] - self.x0(y)[fi]
+        cols = fi + list(range(c.n, c.N))
+        Jm = res.J[np.ix_(fi, cols)].copy()
+        Jm[:, : len(fi)] -= np.eye(len(fi))
+        return g, Jm
+
+    def poincare_jacobian(self, y: np.ndarray) -> np.ndarray:
+        res = self.simulate(y)
+        fi = self.free_idx
+        return res.J[np.ix_(fi, fi)]
+
+    def trivial_error(self, y: np.ndarray) -> float:
+        """``|Phi_T F(x0) - F(x_T)| / |F|`` with ``Phi_T = P_x - F(x_T) J_t``."""
+        c = self.c
+        res = self.simulate(y)
+        X0 = self.x0(y)
+        n = c.n
+        F0 = np.asarray(c.f(X0), dtype=float).ravel()[:n]
+        FT = np.asarray(c.f(res.X), dtype=float).ravel()[:n]
+        Phi = res.J[:n, :n] - np.outer(FT, res.Jt[:n])
+        return float(np.linalg.norm(Phi @ F0 - FT) / max(np.linalg.norm(F0), 1e-300))
+
+
+class HybridShootingProblem(Problem):
+    """Base class of shooting problems on a hybrid system (the concrete problem builds
+    ``self.shooting`` in ``__init__`` and sets ``variables`` / ``parameter``).
+
+    Hooks: ``derived`` (period, sticking time, impacts before the chatter map, ...), the
+    admissibility tests (the sticking time ``tau`` for orbits with sticking: its zero is the
+    transition to incomplete chattering, reported as ``sticking_lost``), and the event signature
+    (a change is ``impact_sequence_change``).
+    """
+
+    shooting: HybridShooting
+    #: admissibility test -> event kind reported when it changes sign
+    test_kinds = {"sticking_time": "sticking_lost", "near_approach": "grazing"}
+    signature_kind = "impact_sequence_change"
+    #: derived-bound name -> event kind (the branch stops there)
+    bound_kinds = {"period": "homoclinic_approach", "sticking_time": "sticking_lost"}
+    fep_axes: tuple[str, str] = ("parameter", "period")
+
+    def residual(self, y: Any) -> Any:  # pragma: no cover - numeric problem
+        raise NotImplementedError("hybrid shooting problems evaluate numerically")
+
+    def evaluate(self, y: np.ndarray) -> np.ndarray:
+        try:
+            return self.shooting.residual_jacobian(np.asarray(y, dtype=float))[0]
+        except ShootingFailure:
+            return np.full(self.dim - 1, np.nan)
+
+    def jacobian(self, y: np.ndarray) -> np.ndarray:
+        try:
+            return self.shooting.residual_jacobian(np.asarray(y, dtype=float))[1]
+        except ShootingFailure:
+            return np.full((self.dim - 1, self.dim), np.nan)
+
+    def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        try:
+            return self.shooting.residual_jacobian(np.asarray(y, dtype=float))
+        except ShootingFailure:
+            return np.full(self.dim - 1, np.nan), np.full((self.dim - 1, self.dim), np.nan)
+
+    @property
+    def compiled(self) -> Any:  # the engine touches ``problem.compiled`` once: nothing to build
+        return None
+
+    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
+        try:
+            P = self.shooting.poincare_jacobian(y)
+            triv = self.shooting.trivial_error(y)
+        except ShootingFailure:
+            return None
+        mult = np.linalg.eigvals(P)
+        return FloquetData(multipliers=mult, trivial_error=triv,
+                           matrix_norm=float(np.linalg.norm(P, 2)))
+
+    def sim(self, y: np.ndarray) -> SimResult | None:
+        try:
+            return self.shooting.simulate(np.asarray(y, dtype=float))
+        except ShootingFailure:
+            return None
+
+    def derived(self, y: np.ndarray) -> dict[str, float]:
+        res = self.sim(y)
+        p = float(y[self.parameter_index])
+        if res is None:
+            return {self.parameter: p, "period": np.nan, "sticking_time": np.nan,
+                    "n_impacts_before_chatter": np.nan}
+        return {
+            self.parameter: p,
+            "period": float(res.t),
+            "sticking_time": res.sticking_time,
+            "n_impacts_before_chatter": float(res.n_impacts_before_chatter),
+            "n_sticking_phases": float(len(res.sticking_intervals)),
+            "n_impacts": float(res.n_impacts),
+            "min_impact_velocity": (float(res.min_impact_velocity)
+                                    if np.isfinite(res.min_impact_velocity) else np.nan),
+        }
+
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        res = self.sim(y)
+        if res is None:
+            return {}
+        tests: dict[str, float] = {}
+        if getattr(self, "watch_sticking", True) and res.sticking_intervals:
+            tests["sticking_time"] = res.sticking_time
+        if np.isfinite(res.grazing_margin):
+            tests["near_approach"] = res.grazing_margin
+        return tests
+
+    def signature(self, y: np.ndarray) -> str | None:
+        res = self.sim(y)
+        return None if res is None else res.signature
+
+
+# ---------------------------------------------------------------------- YAML-facing base class
+from typing import ClassVar, Literal  # noqa: E402
+
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter  # noqa: E402
+
+from ..problem import StartPoint  # noqa: E402
+from .system import HybridDeclarationError, HybridSystem  # noqa: E402
+
+
+class IntegratorSpec(BaseModel):
+    """``parameters.integrator``: numerics of the hybrid simulator (defaults are the ones the
+    speed-accuracy chart in ``benchmarks/bench_chatter.py`` recommends)."""
+
+    model_config = ConfigDict(extra="forbid")
+    method: Literal["dop853", "dopri5"] = "dop853"
+    rtol: float = Field(1e-10, gt=0, lt=1e-2)
+    atol: float = Field(1e-12, gt=0, lt=1e-2)
+    chatter_tol: float = Field(1e-10, gt=0, lt=1e-2)
+    chatter_order: int = Field(2, ge=1, le=4)
+    max_chatter_impacts: int = Field(2000, ge=2)
+    wall_time: float = Field(30.0, gt=0)
+
+    def options(self, sensitivities: bool = True) -> SimOptions:
+        return SimOptions(rtol=self.rtol, atol=self.atol, chatter_tol=self.chatter_tol,
+                          chatter_order=self.chatter_order,
+                          max_chatter_impacts=self.max_chatter_impacts,
+                          wall_time=self.wall_time, sensitivities=sensitivities)
+
+
+class HybridStartSpec(BaseModel):
+    """``start:`` of a hybrid shooting case. ``guess`` gives the section coordinates of a
+    periodic orbit; without it the orbit is found by simulation from ``initial`` (a full state,
+    default: the problem's) over ``transient`` returns to the section (a stable orbit)."""
+
+    model_config = ConfigDict(extra="forbid")
+    guess: dict[str, float] | None = None
+    initial: dict[str, float] | None = None
+    transient: int = Field(40, ge=0)
+    #: returns to the section per period (2 for a period-2 orbit)
+    returns: int = Field(1, ge=1)
+    direction: Literal["both", "increase", "decrease"] = "both"
+    label: str | None = None
+
+
+START_ADAPTER = TypeAdapter(HybridStartSpec | list[HybridStartSpec])
+
+
+class HybridCaseProblem(HybridShootingProblem):
+    """A hybrid system with a Poincaré section, continued in any of its parameters.
+
+    A concrete problem sets ``name``, ``Parameters`` (with an ``integrator`` field of type
+    :class:`IntegratorSpec`) and implements :meth:`system` (the CasADi declaration),
+    :meth:`section` and :meth:`default_initial`. Everything else (residual, Jacobian,
+    multipliers, starts, events) is generic.
+    """
+
+    start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
+    symbolic = "SX"
+
+    def __init__(self, params: BaseModel | dict[str, Any]) -> None:
+        if isinstance(params, dict):
+            params = self.Parameters.model_validate(params)
+        super().__init__(params)
+        dumped = params.model_dump()
+        self.integrator: IntegratorSpec = params.integrator  # type: ignore[attr-defined]
+        self.values = {k: float(v) for k, v in dumped.items() if k != "integrator"}
+        self.check_parameters(self.values)
+        self.hybrid: HybridSystem = self.system()
+        self.returns = 1
+        self._compiled_for: str | None = None
+        self.set_parameter(self.default_parameter)
+
+    # -- to implement -----------------------------------------------------------------------
+    default_parameter: ClassVar[str] = ""
+
+    def system(self) -> HybridSystem:
+        raise NotImplementedError
+
+    def section(self) -> Section:
+        raise NotImplementedError
+
+    def default_initial(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def check_parameters(self, values: dict[str, float]) -> None:
+        """Physical checks with messages naming the field (override; call super)."""
+        if "e" in values and not 0.0 <= values["e"] < 1.0:
+            raise ValueError(f"parameters.e: restitution {values['e']} must lie in [0, 1) "
+                             "(complete chattering needs r = e < 1, sec. 3)")
+
+    # -- generic ----------------------------------------------------------------------------
+    def set_parameter(self, name: str, returns: int | None = None) -> None:
+        if name not in self.values:
+            raise ValueError(f"continuation.parameter: {name!r} is not a parameter of "
+                             f"{self.name!r} (one of {sorted(self.values)})")
+        returns = self.returns if returns is None else returns
+        if self._compiled_for == name and returns == self.returns:
+            return
+        self.parameter = name
+        self.returns = returns
+        try:
+            c = self.hybrid.compile(self.values, free=[name], method=self.integrator.method)
+        except HybridDeclarationError as exc:
+            raise ValueError(f"parameters: {exc}") from None
+        sec = self.section()
+        sec = Section(sec.index, sec.value, sec.shift * returns)
+        self.shooting = HybridShooting(c, sec, self.integrator.options())
+        names = self.hybrid.state_names
+        self.variables = [names[i] for i in self.shooting.free_idx] + [name]
+        self._compiled_for = name
+        self.fep_axes = (name, "period")
+        self.csv_head = [name, "period", "sticking_time", "n_impacts_before_chatter"]
+
+    @property
+    def compiled_hybrid(self) -> CompiledHybrid:
+        return self.shooting.c
+
+    def parameter_bounds(self, name: str, lo: float | None, hi: float | None
+                         ) -> tuple[float | None, float | None]:
+        self.set_parameter(name)
+        return lo, hi
+
+    def transient(self, X: np.ndarray, returns: int) -> np.ndarray:
+        """State on the section after ``returns`` section crossings from ``X`` (no
+        sensitivities): the orbit a stable periodic orbit is found from."""
+        c = self.shooting.c
+        sim = Simulator(c, self.integrator.options(sensitivities=False))
+        sec = self.section()
+        Xc = X.copy()
+        if abs(Xc[sec.index] - sec.value) > 1e-12:
+            # first reach the section
+            target = sec.value
+            if sec.shift < 0 and Xc[sec.index] < target:
+                target -= abs(sec.shift)
+            if sec.shift > 0 and Xc[sec.index] > target:
+                target += abs(sec.shift)
+            res = sim.run(Xc, section=(sec.index, target, sec.direction))
+            Xc = res.X.copy()
+            Xc[sec.index] = sec.value
+        for _ in range(returns):
+            res = sim.run(Xc, section=(sec.index, sec.value + sec.shift, sec.direction))
+            Xc = res.X.copy()
+            Xc[sec.index] = sec.value
+        return Xc
+
+    def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
+                     ) -> list[StartPoint]:
+        specs = START_ADAPTER.validate_python(start if start is not None else {})
+        specs = specs if isinstance(specs, list) else [specs]
+        out = []
+        names = self.hybrid.state_names
+        for s in specs:
+            self.set_parameter(self.parameter, s.returns)
+            c = self.shooting.c
+            fi = self.shooting.free_idx
+            p0 = self.values[self.parameter]
+            if s.guess is not None:
+                unknown = set(s.guess) - {names[i] for i in fi}
+                missing = {names[i] for i in fi} - set(s.guess)
+                if unknown or missing:
+                    raise ValueError(f"start.guess: needs exactly {[names[i] for i in fi]} "
+                                     f"(unknown {sorted(unknown)}, missing {sorted(missing)})")
+                z = np.array([s.guess[names[i]] for i in fi])
+                how = "guess"
+            else:
+                X = np.append(self.default_initial(), [p0])
+                if s.initial is not None:
+                    for k, v in s.initial.items():
+                        if k not in names:
+                            raise ValueError(f"start.initial: unknown state {k!r} (one of "
+                                             f"{names})")
+                        X[names.index(k)] = v
+                try:
+                    Xs = self.transient(X, s.transient * s.returns)
+                except (SimulationError, HybridDeclarationError) as exc:
+                    raise ValueError(f"start: transient simulation failed ({exc})") from None
+                z = Xs[fi]
+                how = f"simulation ({s.transient} periods)"
+            y = np.append(z, [p0])
+            d = {"both": 0, "increase": 1, "decrease": -1}[s.direction]
+            label = s.label or (f"period-{s.returns} orbit" if s.returns > 1 else
+                                "period-1 orbit")
+            out.append(StartPoint(y, label, d, {"start": how, "returns": s.returns,
+                                                "n_state": c.n}))
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        sec = self.shooting.section
+        return {"parameters": dict(self.values), "integrator": self.integrator.model_dump(),
+                "section": {"coordinate": self.hybrid.state_names[sec.index],
+                            "value": sec.value, "shift_per_period": sec.shift},
+                "unknowns": list(self.variables)}
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Per branch: parameter range, period range, sticking, and, for a growing period,
+        the fit ``T = -ln|p - p*| / mu + c`` of the homoclinic approach."""
+        out = []
+        for br in branches:
+            pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
+            if not pts:
+                continue
+            ps = np.array([p.y[self.parameter_index] for p in pts])
+            if not len(ps):
+                continue
+            Ts = np.array([p.derived["period"] for p in pts])
+            rec: dict[str, Any] = {"label": br.label,
+                                   "parameter_range": [float(ps.min()), float(ps.max())],
+                                   "period_range": [float(Ts.min()), float(Ts.max())]}
+            fit = homoclinic_fit(ps, Ts)
+            if fit is not None:
+                rec["homoclinic_fit"] = fit
+            out.append(rec)
+        return {"branches": out}
+
+
+def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int = 12) -> dict[str, float] | None:
+    """Fit ``T = c - ln|p - p*| / mu`` on the points of largest period (the logarithmic law of
+    the period near a homoclinic orbit to a saddle with unstable eigenvalue ``mu``); None unless
+    the period at least doubles along the branch."""
+    if len(Ts) < 6 or Ts.max() < 2 * Ts.min():
+        return None
+    order = np.argsort(Ts)[-n_last:]
+    p, T = ps[order], Ts[order]
+    side = np.sign(p[np.argmax(T)] - p[np.argmin(T)])
+    best = None
+    span = max(np.ptp(p), 1e-12)
+    pend = p[np.argmax(T)]
+    for k in np.geomspace(1e-9, 10.0, 400):
+        pstar = pend + side * k * span
+        A = np.column_stack([np.ones_like(p), -np.log(np.abs(p - pstar))])
+        coef, *_ = np.linalg.lstsq(A, T, rcond=None)
+        r = float(np.linalg.norm(A @ coef - T))
+        if coef[1] > 0 and (best is None or r < best[0]):
+            best = (r, pstar, coef)
+    if best is None:
+        return None
+    r, pstar, coef = best
+    return {"p_star": float(pstar), "mu_unstable": float(1.0 / coef[1]),
+            "c": float(coef[0]), "rms_residual": float(r / np.sqrt(len(T)))}

@@ -1,0 +1,652 @@
+"""Event-driven simulation of an impacting system with complete chattering (sec. 5).
+
+Discrete states (Table 1, Fig. 5(b)); ``s5``, ``s6`` integrate the scaled extended state
+``(x, h, u)`` of sec. 4.3 (``h = H/u``, ``u`` the latest outgoing velocity), so that the impacts
+in the tail of a chattering sequence are located on ``h = 0``, an O(u) quantity, instead of on
+``H(x)``, an O(u^2) quantity swamped by round-off:
+
+====  =====================================  ===============================================
+s1    free flight, ``v > 0``                 watch ``v`` falling through 0 (I -> s2)
+s2    free flight, ``v < 0``                 watch ``H`` falling through 0 (impact: III, IV, V)
+                                             and ``v`` rising through 0 (II -> s1)
+s3    free flight after release, ``a > 0``   watch ``a`` falling through 0 (XII -> s1)
+s4    sticking on ``F'`` (eq. 10)            watch ``a`` rising through 0 (release, XI -> s3)
+s5    chattering flight, ``v > 0``           watch ``v`` falling (VI -> s6), ``a`` rising
+                                             (VIII: chattering broken, -> s1)
+s6    chattering flight, ``v < 0``           watch ``h`` falling (VII: impact, or IX: chatter
+                                             map -> s4), ``v`` rising (X -> s1)
+====  =====================================  ===============================================
+
+**No missed double crossing.** Inside a state the impact function is monotone (``H`` decreases
+in s2 because ``v < 0`` there; the state changes when ``v`` changes sign), so ``H`` is crossed
+at most once per state. Sign changes of the watched functions are looked for on each accepted
+step with the cubic Hermite interpolant built from the function and its exact time derivative at
+both ends (``H' = v``, ``v' = a``, ``a' = jerk``, ``h' = v/u``: all CasADi Lie derivatives), so
+two roots inside one step (``v`` dipping below zero and back: a near-grazing local minimum of
+``H``) are both found, not only an odd number of them; the root is then refined on the true flow
+by a safeguarded Newton iteration. The interpolant's error is ``O(dt^4)`` and the step is under
+error control, so a dip is missed only if it is shallower than the integration tolerance.
+
+**Sensitivities.** Along the way the simulator carries ``J = dX/dX0`` and ``J_t = dt/dX0``
+of the event-defined trajectory: each accepted step multiplies ``J`` by the exact Jacobian of the
+Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
+``d tau = -(g_x J) / (g_x F)``; each event map ``E`` (impact ``R``, chatter map ``Q``, time jump
+``q``) contributes ``J <- E_x J``, ``J_t <- J_t + e_x J``. This is the chain (40) of flows and
+saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
+equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
+
+**Chatter map** (secs. 3.3, 3.4, 5.2): at each impact ``k`` of a chattering sequence (the
+pre-impact state ``x_k``) the first-order map gives ``E_k = (Q(x_k), t_k + q(x_k))``. Order ``m``
+combines ``m`` consecutive values by the extrapolation of eq. (35), repeated
+(``L_j(k) = (L_{j-1}(k) - r^{j+1} L_{j-1}(k-1)) / (1 - r^{j+1})``), and its error is estimated
+from one more impact, ``|L(k) - L(k-1)| r^{m+1} / (1 - r^{m+1})``. The map is applied when the
+estimate is below ``chatter_tol`` and ``a < 0`` at the image (sec. 5.2); the image is projected
+onto ``{H = 0, v = 0}`` (an ``O(v^2)`` move, below the map's own error) so that sticking starts
+exactly on the sticking set.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .system import CompiledHybrid
+
+S1, S2, S3, S4, S5, S6 = "s1", "s2", "s3", "s4", "s5", "s6"
+EXTENDED = (S5, S6)
+#: watched functions per state: (probe index, direction, name); probe = (H, v, a, jerk[, h, h'])
+WATCH: dict[str, list[tuple[int, int, str]]] = {
+    S1: [(1, -1, "v")],
+    S2: [(0, -1, "H"), (1, +1, "v")],
+    S3: [(2, -1, "a")],
+    S4: [(2, +1, "a")],
+    S5: [(1, -1, "v"), (2, +1, "a")],
+    S6: [(4, -1, "h"), (1, +1, "v")],
+}
+
+
+class SimulationError(RuntimeError):
+    """A simulation that cannot go on; ``reason`` is recorded by callers (never a hang)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+@dataclass
+class SimOptions:
+    """Tolerances and guards of one simulation."""
+
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    h_init: float = 1e-3
+    h_max: float = np.inf
+    #: tolerance on the chatter map's estimated error (scaled by 1 + |x|, sec. 3.4)
+    chatter_tol: float = 1e-10
+    #: 1: eqs. (30)-(31); 2: the improved estimate of eq. (35); 3: one more extrapolation level
+    chatter_order: int = 2
+    #: "map": the chatter map; "cut": the naive baseline that stops the sequence after
+    #: ``cut_after`` impacts by a perfectly plastic impact (no map)
+    chatter: str = "map"
+    cut_after: int = 20
+    #: a chattering sequence longer than this without meeting the tolerance is a failure
+    max_chatter_impacts: int = 2000
+    max_events: int = 200_000
+    #: wall-clock guard (seconds) on every simulation
+    wall_time: float = 30.0
+    sensitivities: bool = True
+    record: bool = False
+    #: validate r and W at every impact (sec. 2.3-2.4)
+    validate: bool = True
+
+
+@dataclass
+class SimEvent:
+    kind: str
+    t: float
+    x: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class SimResult:
+    X: np.ndarray
+    t: float
+    J: np.ndarray | None
+    Jt: np.ndarray | None
+    events: list[SimEvent]
+    state: str
+    sticking_intervals: list[tuple[float, float]]
+    chatter_counts: list[int]
+    n_impacts: int
+    min_impact_velocity: float
+    grazing_margin: float
+    chatter_errors: list[float]
+    trajectory: list[tuple[float, np.ndarray]] | None
+    n_steps: int
+    ended_by: str
+
+    @property
+    def sticking_time(self) -> float:
+        return float(sum(b - a for a, b in self.sticking_intervals))
+
+    @property
+    def n_impacts_before_chatter(self) -> int:
+        return int(sum(self.chatter_counts))
+
+    @property
+    def signature(self) -> str:
+        """Sequence of events: ``I`` impact outside chattering, ``C<k>`` chattering completed by
+        the map after ``k`` impacts, ``B<k>`` chattering broken off after ``k`` impacts, ``S``
+        release from sticking."""
+        out: list[str] = []
+        for ev in self.events:
+            if ev.kind == "impact":
+                out.append("I")
+            elif ev.kind == "chatter":
+                out.append(f"C{ev.info['impacts']}")
+            elif ev.kind == "chatter_broken":
+                out.append(f"B{ev.info['impacts']}")
+            elif ev.kind == "release":
+                out.append("S")
+        return "".join(out)
+
+
+def initial_state(c: CompiledHybrid, X: np.ndarray) -> str:
+    """Discrete state of a point (free flight up/down, or sticking)."""
+    H, v, a, _ = np.asarray(c.probe(X), dtype=float).ravel()
+    scale = 1e-12 * (1.0 + np.linalg.norm(X))
+    if H < -scale:
+        raise SimulationError(
+            f"initial state on the inadmissible side of the impact surface (H = {H:.3g} < 0)")
+    if abs(H) <= scale and abs(v) <= scale:
+        return S4 if a < 0 else S3
+    if v > 0 or (v == 0 and a > 0):
+        return S1
+    return S2
+
+
+def _hermite_first_root(g0: float, d0: float, g1: float, d1: float, dt: float,
+                        direction: int, floor: float = 0.0,
+                        verify: Any = None) -> float | None:
+    """First ``s`` in ``(0, 1]`` where the cubic Hermite interpolant of ``g`` crosses zero in
+    ``direction`` (``-1`` falling, ``+1`` rising); both roots of a dip inside the step count.
+
+    ``floor`` is a hysteresis for functions known only to round-off near zero (``v`` hovering
+    at 1e-14 on a degenerate tangency): a crossing counts only from a value beyond it. A crossing
+    inside the step with both step ends on the same side (a dip) is confirmed on the true flow by
+    ``verify(s, direction)`` at the interpolant's extremum before it counts."""
+    m0, m1 = d0 * dt, d1 * dt
+    # p(s) = c0 + c1 s + c2 s^2 + c3 s^3
+    c0, c1 = g0, m0
+    c2 = -3 * g0 - 2 * m0 + 3 * g1 - m1
+    c3 = 2 * g0 + m0 - 2 * g1 + m1
+    knots = [0.0]
+    if c3 != 0.0:
+        disc = c2 * c2 - 3 * c3 * c1
+        if disc >= 0:
+            sq = np.sqrt(disc)
+            knots += sorted(s for s in ((-c2 - sq) / (3 * c3), (-c2 + sq) / (3 * c3))
+                            if 0.0 < s < 1.0)
+    elif c2 != 0.0:
+        s = -c1 / (2 * c2)
+        if 0.0 < s < 1.0:
+            knots.append(s)
+    knots.append(1.0)
+
+    def p(s: float) -> float:
+        return c0 + s * (c1 + s * (c2 + s * c3))
+
+    vals = [p(s) for s in knots]
+    vals[0] = g0 if g0 != 0.0 else (0.0 if m0 == 0 else np.sign(m0) * 1e-300)
+    pairs = list(zip(knots, vals, strict=True))
+    for (sa, va), (sb, vb) in zip(pairs[:-1], pairs[1:], strict=True):
+        if direction < 0 and va > floor and vb <= -floor * (sb < 1.0) \
+                or direction > 0 and va < -floor and vb >= floor * (sb < 1.0):
+            if sb < 1.0 and verify is not None and not verify(sb, direction):
+                # a dip of the interpolant that the true flow does not make
+                continue
+            lo, hi = sa, sb
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                if (p(mid) > 0) == (direction < 0):
+                    lo = mid
+                else:
+                    hi = mid
+            return hi
+    return None
+
+
+class Simulator:
+    """Event-driven simulator for one compiled system (see the module docstring)."""
+
+    def __init__(self, c: CompiledHybrid, opts: SimOptions | None = None) -> None:
+        self.c = c
+        self.o = opts or SimOptions()
+
+    # ------------------------------------------------------------------ helpers
+    def _step(self, mode: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
+        key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
+        f = self.c.steps[key][1 if jac else 0]
+        out = f(Y, dt)
+        return tuple(np.asarray(o, dtype=float) for o in out)
+
+    def _field(self, mode: str, Y: np.ndarray) -> np.ndarray:
+        if mode in EXTENDED:
+            return np.asarray(self.c.fe(Y), dtype=float).ravel()
+        if mode == S4:
+            return np.asarray(self.c.fs(Y), dtype=float).ravel()
+        return np.asarray(self.c.f(Y), dtype=float).ravel()
+
+    def _probe(self, mode: str, Y: np.ndarray) -> np.ndarray:
+        if mode in EXTENDED:
+            return np.asarray(self.c.probe_e(Y), dtype=float).ravel()
+        return np.asarray(self.c.probe(Y), dtype=float).ravel()
+
+    def _err_norm(self, Y: np.ndarray, Yn: np.ndarray, err: np.ndarray, err3: np.ndarray,
+                  dt: float) -> float:
+        o = self.o
+        scale = o.atol + o.rtol * np.maximum(np.abs(Y), np.abs(Yn))
+        e5 = err.ravel() / scale
+        if self.c.method == "dop853":
+            e3 = err3.ravel() / scale
+            n5, n3 = float(e5 @ e5), float(e3 @ e3)
+            if n5 == 0.0 and n3 == 0.0:
+                return 0.0
+            return n5 / np.sqrt((n5 + 0.01 * n3) * len(scale))
+        return float(np.sqrt(e5 @ e5 / len(scale)))
+
+    # ------------------------------------------------------------------ main loop
+    def run(self, X0: np.ndarray, t_end: float | None = None,
+            section: tuple[int, float, int] | None = None, t_min_section: float = 0.0,
+            max_time: float | None = None) -> SimResult:
+        """Simulate from ``X0`` (state followed by freed parameters) until ``t_end`` or until
+        component ``section[0]`` crosses ``section[1]`` in direction ``section[2]`` (after time
+        ``t_min_section``). Raises :class:`SimulationError` with a reason on failure."""
+        c, o = self.c, self.o
+        N = c.N
+        X0 = np.asarray(X0, dtype=float).ravel()
+        if X0.size != N:
+            raise ValueError(f"initial state has {X0.size} components, expected {N}")
+        if not np.all(np.isfinite(X0)):
+            raise SimulationError("initial state is not finite")
+        mode = initial_state(c, X0)
+        Y = X0.copy()
+        sens = o.sensitivities
+        J = np.eye(N) if sens else None
+        Jt = np.zeros(N) if sens else None
+        t = 0.0
+        h = o.h_init
+        events: list[SimEvent] = []
+        stick_iv: list[tuple[float, float]] = []
+        chatter_counts: list[int] = []
+        chatter_errors: list[float] = []
+        traj: list[tuple[float, np.ndarray]] | None = [] if o.record else None
+        n_imp = 0
+        vmin = np.inf
+        graze = np.inf
+        seq: list[tuple[np.ndarray, np.ndarray | None, float, np.ndarray | None]] = []
+        stick_start = 0.0 if mode == S4 else None
+        clock0 = time.perf_counter()
+        n_steps = 0
+        pr = self._probe(mode, Y)
+        F0 = self._field(mode, Y)
+        t_stop = t_end if t_end is not None else max_time
+        just: str | None = None
+        if traj is not None:
+            traj.append((t, Y[: c.n].copy()))
+        while True:
+            n_steps += 1
+            if n_steps % 256 == 0 and time.perf_counter() - clock0 > o.wall_time:
+                raise SimulationError(f"wall-clock guard: {o.wall_time:g} s exceeded at t = "
+                                      f"{t:.6g} after {len(events)} events")
+            if len(events) > o.max_events:
+                raise SimulationError(f"more than {o.max_events} events (t = {t:.6g})")
+            dt = min(h, o.h_max)
+            last = False
+            if t_stop is not None and t + dt >= t_stop:
+                dt = t_stop - t
+                last = True
+            if dt <= 0.0:
+                last = True
+                dt = 0.0
+            if dt > 0.0:
+                outs = self._step(mode, Y, dt, sens)
+                Yn = outs[0].ravel()
+                en = self._err_norm(Y, Yn, outs[1], outs[2], dt)
+                if not np.isfinite(en) or not np.all(np.isfinite(Yn)):
+                    h = dt * 0.2
+                    if h < 1e-15 * (1 + abs(t)):
+                        raise SimulationError(f"non-finite state at t = {t:.6g}")
+                    continue
+                if en > 1.0:
+                    h = dt * max(0.2, 0.9 * en ** (-1.0 / (c.order + 1)))
+                    if h < 1e-14 * (1 + abs(t)):
+                        raise SimulationError(f"step size underflow at t = {t:.6g}")
+                    continue
+                prn = outs[3].ravel()
+                Fn = outs[4].ravel()
+                # watched functions: first crossing in the step (Hermite, both roots of a dip)
+                best: tuple[float, str, int, int] | None = None
+                for idx, direction, name in WATCH[mode]:
+                    # the function that just fired is exactly zero at the step start (its
+                    # round-off sign must not fire it again): its derivative decides
+                    g0 = 0.0 if name == just else pr[idx]
+                    floor = 0.0 if name in ("H", "h") else 1e-13 * (
+                        1.0 + abs(pr[idx]) + abs(prn[idx])
+                        + dt * (abs(pr[idx + 1]) + abs(prn[idx + 1])))
+                    def verify(sx: float, d: int, idx: int = idx, mode: str = mode,
+                               Y: np.ndarray = Y, dt: float = dt) -> bool:
+                        gv = self._step(mode, Y, sx * dt, False)[3].ravel()[idx]
+                        return gv < 0 if d < 0 else gv > 0
+
+                    s = _hermite_first_root(g0, pr[idx + 1], prn[idx], prn[idx + 1], dt,
+                                            direction, floor, verify)
+                    if s is not None and (best is None or s < best[0]):
+                        best = (s, name, idx, direction)
+                if section is not None and t + dt > t_min_section:
+                    k, val, sd = section
+                    s = _hermite_first_root(Y[k] - val, F0[k], Yn[k] - val, Fn[k], dt, sd)
+                    if s is not None and (best is None or s < best[0]):
+                        best = (s, "section", k, sd)
+                if best is None:
+                    just = None
+                    if sens:
+                        J = outs[5] @ J
+                    Y, pr, F0 = Yn, prn, Fn
+                    t += dt
+                    if traj is not None:
+                        traj.append((t, Y[: c.n].copy()))
+                    fac = 5.0 if en == 0 else min(5.0, max(0.2, 0.9 * en ** (-1.0 / (c.order + 1))))
+                    if not last:
+                        h = dt * fac
+                    if last:
+                        break
+                    continue
+                s, name, idx, direction = best
+                tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, dt, s * dt, name, idx, section)
+                if sens:
+                    Je = Jstep @ J
+                    gx = self._gx(mode, name, idx, Ye)
+                    dtau = -(gx @ Je) / (gx @ Fe)
+                    Je = Je + np.outer(Fe, dtau)
+                    Jt = Jt + dtau
+                    J = Je
+                Y, t = Ye, t + tau
+                if traj is not None:
+                    traj.append((t, Y[: c.n].copy()))
+                if name == "section":
+                    events.append(SimEvent("section", t, Y[: c.n].copy()))
+                    return self._result(Y, t, J, Jt, events, mode, stick_iv, chatter_counts,
+                                        n_imp, vmin, graze, chatter_errors, traj, n_steps,
+                                        "section")
+                # ---------------------------------------------------------- transitions
+                newmode, Y, J, Jt, t, info = self._transition(
+                    mode, name, Y, J, Jt, t, pre, seq, events, chatter_errors)
+                if info.get("impact_velocity") is not None:
+                    n_imp += 1
+                    vmin = min(vmin, info["impact_velocity"])
+                if info.get("near_approach") is not None:
+                    graze = min(graze, info["near_approach"])
+                if info.get("chatter_count") is not None:
+                    chatter_counts.append(info["chatter_count"])
+                if mode == S4 and newmode != S4 and stick_start is not None:
+                    stick_iv.append((stick_start, t))
+                    stick_start = None
+                if newmode == S4 and mode != S4:
+                    stick_start = t
+                if traj is not None:
+                    traj.append((t, Y[: c.n].copy()))
+                mode = newmode
+                just = name
+                pr = self._probe(mode, Y)
+                F0 = self._field(mode, Y)
+                if mode in EXTENDED and name in ("H", "h"):
+                    # next flight lasts about 2u/|a| (constant acceleration)
+                    u, a = Y[N + 1], pr[2]
+                    h = min(max(2.0 * u / max(abs(a), 1e-300), 1e-300), max(h, 1e-300)) * 1.05
+                continue
+            break
+        if mode == S4 and stick_start is not None:
+            stick_iv.append((stick_start, t))
+        if sens and t_end is not None:
+            # fixed end time: t_end - t_k(X0) is the last flow time
+            F = self._field(mode, Y)
+            J = J - np.outer(F, Jt)
+        return self._result(Y, t, J, Jt, events, mode, stick_iv, chatter_counts, n_imp, vmin,
+                            graze, chatter_errors, traj, n_steps,
+                            "time" if t_end is not None else "max_time")
+
+    def _result(self, Y: np.ndarray, t: float, J: np.ndarray | None, Jt: np.ndarray | None,
+                events: list[SimEvent], mode: str, stick_iv: list[tuple[float, float]],
+                chatter_counts: list[int], n_imp: int, vmin: float, graze: float,
+                chatter_errors: list[float], traj: Any, n_steps: int,
+                ended_by: str) -> SimResult:
+        N = self.c.N
+        return SimResult(
+            X=Y[:N].copy(), t=t, J=None if J is None else J[:N].copy(),
+            Jt=None if Jt is None else Jt.copy(), events=events, state=mode,
+            sticking_intervals=stick_iv, chatter_counts=chatter_counts, n_impacts=n_imp,
+            min_impact_velocity=float(vmin), grazing_margin=float(graze),
+            chatter_errors=chatter_errors, trajectory=traj, n_steps=n_steps, ended_by=ended_by)
+
+    def _gx(self, mode: str, name: str, idx: int, Y: np.ndarray) -> np.ndarray:
+        """Gradient of the event function ``name`` with respect to the (extended) state."""
+        N = self.c.N
+        g = np.zeros(Y.size)
+        if name == "section":
+            g[idx] = 1.0
+        elif name == "h":
+            g[N] = 1.0
+        else:
+            row = {"H": 0, "v": 1, "a": 2}[name]
+            g[:N] = np.asarray(self.c.grads(Y[:N]), dtype=float)[row]
+        return g
+
+    def _refine(self, mode: str, Y: np.ndarray, dt: float, tau0: float, name: str, idx: int,
+                section: tuple[int, float, int] | None) -> tuple[Any, ...]:
+        """Event time on the true flow: safeguarded Newton from the Hermite root ``tau0``.
+
+        ``g(tau)`` is the watched function after one RK step of length ``tau`` from ``Y`` (under
+        error control, since ``tau <= dt``); ``g'(tau)`` its exact time derivative there."""
+        sens = self.o.sensitivities
+
+        def gval(tau: float) -> tuple[float, float, Any]:
+            out = self._step(mode, Y, tau, False)
+            Yt, prt, Ft = out[0].ravel(), out[3].ravel(), out[4].ravel()
+            if name == "section":
+                return Yt[idx] - section[1], Ft[idx], (Yt, prt, Ft)
+            return prt[idx], prt[idx + 1], (Yt, prt, Ft)
+
+        lo, hi = 0.0, dt
+        tau = tau0
+        for _ in range(30):
+            g, dg, _ = gval(tau)
+            if g == 0.0:
+                break
+            step = -g / dg if dg != 0.0 else 0.0
+            new = tau + step
+            # keep inside the step; bisect towards the Hermite root otherwise
+            if not (0.0 < new <= dt) or not np.isfinite(new):
+                new = 0.5 * (tau + (lo if step < 0 else hi))
+            if abs(new - tau) <= 4e-16 * max(1.0, tau) + 1e-300:
+                tau = new
+                break
+            tau = new
+        out = self._step(mode, Y, tau, sens)
+        Ye, pre, Fe = out[0].ravel(), out[3].ravel(), out[4].ravel()
+        return tau, Ye, pre, Fe, (out[5] if sens else None)
+
+    # ------------------------------------------------------------------ transitions
+    def _transition(self, mode: str, name: str, Y: np.ndarray, J: np.ndarray | None,
+                    Jt: np.ndarray | None, t: float, pr: np.ndarray, seq: list[Any],
+                    events: list[SimEvent], chatter_errors: list[float]) -> tuple[Any, ...]:
+        c, o = self.c, self.o
+        N = c.N
+        info: dict[str, Any] = {}
+        if mode == S1 and name == "v":                                  # I
+            return S2, Y, J, Jt, t, info
+        if mode == S2 and name == "v":                                  # II: local minimum of H
+            info["near_approach"] = float(pr[0])
+            events.append(SimEvent("near_approach", t, Y[: c.n].copy(), {"H": float(pr[0])}))
+            return S1, Y, J, Jt, t, info
+        if mode == S3 and name == "a":                                  # XII
+            return S1, Y, J, Jt, t, info
+        if mode == S4 and name == "a":                                  # XI: release
+            events.append(SimEvent("release", t, Y[: c.n].copy()))
+            return S3, Y, J, Jt, t, info
+        if mode == S5 and name == "v":                                  # VI
+            return S6, Y, J, Jt, t, info
+        if mode == S5 and name == "a":                                  # VIII: chattering broken
+            count = len(seq)
+            seq.clear()
+            events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(), {"impacts": count}))
+            return S1, Y[:N].copy(), None if J is None else J[:N].copy(), Jt, t, info
+        if mode == S6 and name == "v":                                  # X: turned before impact
+            count = len(seq)
+            seq.clear()
+            info["near_approach"] = float(pr[0])
+            events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(), {"impacts": count}))
+            return S1, Y[:N].copy(), None if J is None else J[:N].copy(), Jt, t, info
+        # ---------------------------------------------------------------- impacts
+        X = Y[:N].copy()
+        JX = None if J is None else J[:N].copy()
+        q = c.q(X)
+        if o.validate:
+            c.validate_at(X, f"at the impact at t = {t:.6g}")
+        info["impact_velocity"] = abs(q["v"])
+        a = q["a"]
+        if a > 0:
+            # a decelerating approach: the free flight continued through the wall would turn
+            # at H = -v^2 / (2a); with the near approaches' H_min > 0 this is the signed
+            # grazing margin, continuous through a grazing bifurcation
+            info["near_approach"] = -q["v"] ** 2 / (2.0 * a)
+        if mode == S2:
+            seq.clear()
+        if a < 0 and o.chatter in ("map", "cut"):
+            # a chattering sequence: impacts accumulate where a < 0 (sec. 2.5)
+            done = self._chatter_step(X, JX, Jt, t, seq, events, chatter_errors)
+            if done is not None:
+                Xs, Js, Jts, ts, count = done
+                info["chatter_count"] = count
+                return S4, Xs, Js, Jts, ts, info
+        R, Rx, _v, _r = (np.asarray(z, dtype=float) for z in c.impact(X))
+        Xp = R.ravel()
+        Jp = None if JX is None else Rx @ JX
+        vplus = np.asarray(c.vgrad(Xp)[0], dtype=float).item()
+        if mode == S2:
+            events.append(SimEvent("impact", t, X[: c.n].copy(), {"v": q["v"], "a": a}))
+        if vplus <= 1e-14 * (1.0 + abs(q["v"])):                          # r = 0 (IV, V)
+            seq.clear()
+            if a < 0:
+                Xs, Js = self._project(Xp, Jp)
+                events.append(SimEvent("plastic_stick", t, Xs[: c.n].copy()))
+                return S4, Xs, Js, Jt, t, info
+            return S3, Xp, Jp, Jt, t, info
+        if a < 0:                                                         # III, VII
+            v_row = np.asarray(c.vgrad(Xp)[1], dtype=float).ravel()
+            Ye = np.concatenate([Xp, [0.0, vplus]])
+            Je = None
+            if Jp is not None:
+                Je = np.vstack([Jp, np.zeros((1, N)), (v_row @ Jp)[None, :]])
+            return S5, Ye, Je, Jt, t, info
+        seq.clear()
+        return S1, Xp, Jp, Jt, t, info
+
+    def _project(self, X: np.ndarray, J: np.ndarray | None) -> tuple[np.ndarray, Any]:
+        P, Px = (np.asarray(z, dtype=float) for z in self.c.project(X))
+        return P.ravel(), (None if J is None else Px @ J)
+
+    def _chatter_step(self, X: np.ndarray, JX: np.ndarray | None, Jt: np.ndarray | None,
+                      t: float, seq: list[Any], events: list[SimEvent],
+                      chatter_errors: list[float]) -> tuple[Any, ...] | None:
+        """Record the first-order chatter estimate at this impact; apply the map when its
+        estimated error meets the tolerance (returns the sticking state), else None."""
+        c, o = self.c, self.o
+        N = c.N
+        sens = JX is not None
+        Q1, q1, Q1x, q1x, r, rx = (np.asarray(z, dtype=float) for z in c.chatter(X))
+        val = np.concatenate([Q1.ravel(), [t + q1.item()]])
+        jac = None
+        rj = None
+        if sens:
+            jac = np.vstack([Q1x @ JX, (Jt + q1x.ravel() @ JX)[None, :]])
+            rj = rx.ravel() @ JX
+        seq.append((val, jac, r.item(), rj))
+        count = len(seq)
+        if o.chatter == "cut":
+            if count < o.cut_after:
+                return None
+            # naive baseline: a perfectly plastic K-th impact, no map, no time jump
+            Xs, Js = self._project(X, JX)
+            seq.clear()
+            events.append(SimEvent("chatter", t, Xs[: c.n].copy(), {"impacts": count,
+                                                                   "cut": True}))
+            return Xs, Js, Jt, t, count
+        m = o.chatter_order
+        if count < m + 1:
+            if count > o.max_chatter_impacts:
+                raise SimulationError("chatter map never met its tolerance")
+            return None
+        value, vjac, prev, _ = _extrapolate(seq[-(m + 1):], m)
+        rr = seq[-2][2]
+        w = rr ** (m + 1)
+        scale = 1.0 + float(np.linalg.norm(value[:N], np.inf))
+        err = float(np.linalg.norm(value - prev, np.inf)) * w / (1.0 - w) / scale
+        if err > o.chatter_tol:
+            if count > o.max_chatter_impacts:
+                raise SimulationError(
+                    f"chattering sequence of {count} impacts without meeting the chatter map's "
+                    f"tolerance (r = {rr:.6g}; convergence slows as r -> 1)")
+            return None
+        Xs = value[:N]
+        a_star = c.q(Xs)["a"]
+        if not a_star < 0:
+            # sec. 5.2: no sticking after the map; keep impacting (incomplete chattering)
+            if count > o.max_chatter_impacts:
+                raise SimulationError("chattering ends at a >= 0: incomplete chattering with "
+                                      f"more than {o.max_chatter_impacts} impacts")
+            return None
+        Jx = None if vjac is None else vjac[:N]
+        Xs, Js = self._project(Xs, Jx)
+        Jts = None if vjac is None else vjac[N].copy()
+        ts = float(value[N])
+        chatter_errors.append(err)
+        seq.clear()
+        # the impact at x_k is replaced by the map: count - 1 impacts were resolved
+        events.append(SimEvent("chatter", t, Xs[: c.n].copy(),
+                               {"impacts": count - 1, "error_estimate": err,
+                                "t_complete": ts}))
+        return Xs, Js, Jts, ts, count - 1
+
+
+def _extrapolate(entries: list[Any], m: int) -> tuple[np.ndarray, Any, np.ndarray, Any]:
+    """Richardson tableau of eq. (35) over ``m + 1`` consecutive first-order chatter estimates.
+
+    Returns the order-``m`` value at the last impact and at the one before (for the error
+    estimate), with the Jacobian of the former (the weights' dependence on ``r(x)`` included).
+    """
+    vals = [e[0] for e in entries]
+    jacs = [e[1] for e in entries]
+    rs = [e[2] for e in entries]
+    rjs = [e[3] for e in entries]
+    for j in range(1, m):
+        nv, nj = [], []
+        for i in range(1, len(vals)):
+            r = rs[i - 1]
+            w = r ** (j + 1)
+            v = (vals[i] - w * vals[i - 1]) / (1.0 - w)
+            nv.append(v)
+            if jacs[i] is not None:
+                dw = (j + 1) * r ** j * rjs[i - 1]
+                jj = (jacs[i] - w * jacs[i - 1]) / (1.0 - w) + np.outer(
+                    (vals[i] - vals[i - 1]) / (1.0 - w) ** 2, dw)
+                nj.append(jj)
+            else:
+                nj.append(None)
+        vals, jacs = nv, nj
+        rs, rjs = rs[1:], rjs[1:]
+    return vals[-1], jacs[-1], vals[-2], None

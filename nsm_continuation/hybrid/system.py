@@ -1,0 +1,347 @@
+"""Symbolic declaration of an impacting system and every quantity CasADi derives from it.
+
+A system (Nordmark & Piiroinen 2009, sec. 2) is a vector field ``F(x)`` on ``R^n``, an impact
+surface ``H(x) = 0`` with admissible side ``H >= 0``, and an impact law ``R(x) = x + W(x) v(x)``
+(eq. 5). The user writes ``F``, ``H`` and ``W`` (or, for a mechanical system, ``M(q)``, the
+generalized force, ``H(q)`` and a restitution ``e``: eqs. (54)-(59)) as CasADi expressions; the
+rest is derived here, never by hand:
+
+=====================  ==========================================================================
+``v = L_F H``          velocity relative to the surface, eq. (2)
+``a = L_F^2 H``        acceleration, eq. (3); ``jerk = L_F^3 H`` (release detection, Hermite data)
+``r``                  low-velocity restitution ``-(1 + L_W L_F H)``, eq. (8)
+``lambda, F'``         sticking multiplier and field ``F' = F - lambda W``, eqs. (10)-(12)
+``Q, q``               first-order chatter map and chatter time, eqs. (30)-(31)
+``R_x, Q_x, ...``      exact Jacobians for the saltation-chained monodromy (eqs. 40, 43)
+``step``               one explicit Runge-Kutta step of ``F``, ``F'`` or the scaled extended
+                       field (sec. 4.3, eq. 44), its error estimate and its exact Jacobian
+=====================  ==========================================================================
+
+Continuation parameters are *lifted into the state* (``free=`` in :meth:`HybridSystem.compile`):
+they become extra components with zero rate, so the Jacobian of the simulated map with respect to
+them comes out of the same chain of step and saltation Jacobians as the state part (the
+parameter column of the shooting Jacobian is exact, like the rest).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+
+class HybridDeclarationError(ValueError):
+    """A declaration that cannot describe an impacting system (named field, clear message)."""
+
+
+def _dop853() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    from scipy.integrate._ivp import dop853_coefficients as c
+
+    s = c.N_STAGES
+    return c.A[:s, :s], c.B, c.C[:s], c.E5, c.E3, 8
+
+
+def _dopri5() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, None, int]:
+    from scipy.integrate._ivp.rk import RK45
+
+    return RK45.A, RK45.B, RK45.C, RK45.E, None, 5
+
+
+#: explicit embedded Runge-Kutta tableaus (the coefficients are SciPy's)
+TABLEAUS = {"dop853": _dop853, "dopri5": _dopri5}
+
+
+def rk_step(f: ca.Function, X: ca.SX, dt: ca.SX, method: str) -> tuple[ca.SX, ca.SX, ca.SX]:
+    """Symbolic embedded RK step: ``(X_new, err_main, err_aux)`` (FSAL stage included).
+
+    For DOP853 the two error vectors are SciPy's ``err5`` and ``err3`` (the norm combines them as
+    in ``scipy.integrate.DOP853``); for DOPRI5 ``err_aux`` is zero.
+    """
+    A, B, _C, E, E3, _order = TABLEAUS[method]()
+    s = len(B)
+    K = [f(X)]
+    for i in range(1, s):
+        inc = sum((float(A[i, j]) * K[j] for j in range(i) if A[i, j] != 0.0), ca.SX.zeros(X.shape))
+        K.append(f(X + dt * inc))
+    Xn = X + dt * sum((float(B[i]) * K[i] for i in range(s) if B[i] != 0.0),
+                      ca.SX.zeros(X.shape))
+    K.append(f(Xn))
+    err = dt * sum((float(E[i]) * K[i] for i in range(s + 1) if E[i] != 0.0),
+                   ca.SX.zeros(X.shape))
+    if E3 is not None:
+        err3 = dt * sum((float(E3[i]) * K[i] for i in range(s + 1) if E3[i] != 0.0),
+                        ca.SX.zeros(X.shape))
+    else:
+        err3 = ca.SX.zeros(X.shape)
+    return Xn, err, err3
+
+
+def _lie(expr: ca.SX, X: ca.SX, field_: ca.SX) -> ca.SX:
+    """Lie derivative ``L_field expr = expr_X field`` (exact, by CasADi's forward mode)."""
+    return ca.jtimes(expr, X, field_)
+
+
+@dataclass
+class HybridSystem:
+    """Symbolic declaration: state ``x``, parameters, ``F``, ``H`` and ``W`` (eq. 5).
+
+    ``params`` maps parameter names to scalar CasADi symbols used in the expressions.
+    ``periodic`` maps state indices of angle-like coordinates to their period (``2 pi``), used by
+    Poincaré sections and plots; ``clock`` names a phase coordinate of a forced system
+    (``x_3 = omega t`` in eq. (4)).
+    """
+
+    name: str
+    x: ca.SX
+    params: dict[str, ca.SX]
+    F: ca.SX
+    H: ca.SX
+    W: ca.SX
+    state_names: list[str]
+    periodic: dict[int, float] = field(default_factory=dict)
+    #: indices of the position coordinates moved when the chatter map's end point is projected
+    #: onto the sticking set (default: every state component ``H`` depends on)
+    position: list[int] | None = None
+
+    def __post_init__(self) -> None:
+        n = self.x.numel()
+        if self.F.numel() != n:
+            raise HybridDeclarationError(
+                f"system {self.name!r}: F has {self.F.numel()} components, state has {n}")
+        if self.W.numel() != n:
+            raise HybridDeclarationError(
+                f"system {self.name!r}: W has {self.W.numel()} components, state has {n}")
+        if self.H.numel() != 1:
+            raise HybridDeclarationError(f"system {self.name!r}: H must be a scalar")
+        if not ca.depends_on(self.H, self.x):
+            raise HybridDeclarationError(
+                f"system {self.name!r}: H does not depend on the state (no impact surface)")
+        if len(self.state_names) != n:
+            raise HybridDeclarationError(
+                f"system {self.name!r}: {len(self.state_names)} state names for {n} states")
+        if self.position is None:
+            self.position = [i for i in range(n) if ca.depends_on(self.H, self.x[i])]
+
+    @property
+    def n(self) -> int:
+        return int(self.x.numel())
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def mechanical(cls, name: str, q: ca.SX, qd: ca.SX, params: dict[str, ca.SX], M: ca.SX,
+                   force: ca.SX, H: ca.SX, e: ca.SX | float, *,
+                   clock: ca.SX | None = None, clock_rate: ca.SX | None = None,
+                   state_names: Sequence[str] | None = None,
+                   periodic: dict[int, float] | None = None) -> HybridSystem:
+        """A mechanical system ``M(q) qdd = force(q, qd[, clock])`` with a unilateral constraint
+        ``H(q) >= 0`` and Newton's law ``N^T qd+ = -e N^T qd-`` (eqs. 54-59).
+
+        The state is ``x = (q, qd[, clock])``; ``N = H_q^T`` and
+        ``W = (0, -(1 + e) M^{-1} N / (N^T M^{-1} N)[, 0])`` (eq. 58), so ``r = e`` (eq. 8) and
+        ``L_W H = 0`` identically (``W`` is tangent to the surface, as sec. 2.4 requires).
+        """
+        if ca.depends_on(H, qd):
+            raise HybridDeclarationError(
+                f"system {name!r}: H must depend on positions only for a mechanical system")
+        nq = q.numel()
+        Minv_force = ca.solve(M, force)
+        N = ca.jacobian(H, q).T
+        MiN = ca.solve(M, N)
+        Wq = -(1 + e) * MiN / ca.dot(N, MiN)
+        parts_x, parts_F, parts_W = [q, qd], [qd, Minv_force], [ca.SX.zeros(nq), Wq]
+        if clock is not None:
+            parts_x.append(clock)
+            parts_F.append(clock_rate if clock_rate is not None else ca.SX.ones(clock.numel()))
+            parts_W.append(ca.SX.zeros(clock.numel()))
+        x = ca.vertcat(*parts_x)
+        names = list(state_names) if state_names is not None else [
+            *(f"q{i + 1}" for i in range(nq)), *(f"q{i + 1}dot" for i in range(nq)),
+            *(["phase"] if clock is not None else [])]
+        sys = cls(name, x, params, ca.vertcat(*parts_F), H, ca.vertcat(*parts_W), names,
+                  dict(periodic or {}))
+        sys._mass = ca.Function("M", [q, *params.values()], [M])  # type: ignore[attr-defined]
+        sys._nq = nq  # type: ignore[attr-defined]
+        return sys
+
+    # ------------------------------------------------------------------ compilation
+    def compile(self, values: dict[str, float], free: Sequence[str] = (),
+                method: str = "dop853") -> CompiledHybrid:
+        """Substitute numeric ``values`` for every parameter except ``free`` (lifted into the
+        state) and build the CasADi Functions. Raises :class:`HybridDeclarationError` naming the
+        parameter on a missing, unknown or non-finite value."""
+        names = list(self.params)
+        for k in free:
+            if k not in self.params:
+                raise HybridDeclarationError(f"{self.name}: cannot free unknown parameter {k!r}"
+                                             f" (parameters: {names})")
+        fixed = [k for k in names if k not in free]
+        for k in fixed:
+            if k not in values:
+                raise HybridDeclarationError(f"{self.name}: missing value for parameter {k!r}")
+        for k, val in values.items():
+            if k not in self.params:
+                raise HybridDeclarationError(f"{self.name}: unknown parameter {k!r}")
+            if not np.isfinite(float(val)):
+                raise HybridDeclarationError(f"{self.name}: parameter {k!r} is not finite")
+        if method not in TABLEAUS:
+            raise HybridDeclarationError(f"integrator {method!r}: choose one of {list(TABLEAUS)}")
+        sym_fixed = [self.params[k] for k in fixed]
+        num_fixed = [float(values[k]) for k in fixed]
+        free_syms = [self.params[k] for k in free]
+
+        def sub(expr: ca.SX) -> ca.SX:
+            return ca.substitute([expr], sym_fixed, num_fixed)[0] if sym_fixed else expr
+
+        X = ca.vertcat(self.x, *free_syms) if free_syms else self.x
+        nfree = len(free_syms)
+        F = ca.vertcat(sub(self.F), ca.SX.zeros(nfree))
+        W = ca.vertcat(sub(self.W), ca.SX.zeros(nfree))
+        H = sub(self.H)
+        v = _lie(H, X, F)
+        a = _lie(v, X, F)
+        jerk = _lie(a, X, F)
+        LWH = _lie(H, X, W)
+        LWv = _lie(v, X, W)
+        r = -(1 + LWv)
+        lam = a / LWv                                            # eq. (12): -a / (1 + r)
+        Fs = F - lam * W                                          # eq. (10)
+        R = X + W * v                                             # eq. (5)
+        K = 2 * F * r / a + W                                     # eq. (24)
+        Q1 = X + K * v / (1 - r)                                  # eq. (30), first order
+        q1 = 2 * r * v / (a * (1 - r))                            # eq. (31), first order
+        # projection of a chatter end point onto the sticking set {H = 0, v = 0}: Newton steps
+        # along grad H (positions) and along W (velocities); moves the point by O(v^2), the order
+        # of the first-order map's own error, and makes v exactly invariant under F'
+        pos = ca.SX.zeros(X.shape)
+        for i in self.position or []:
+            pos[i] = 1
+        Hx = ca.jacobian(H, X).T * pos
+        Hfun = ca.Function("Hf", [X], [H, Hx, v, W, r])
+        P = X
+        for _ in range(2):
+            h_, hx_, v_, w_, r_ = Hfun(P)
+            P = P - hx_ * h_ / ca.dot(hx_, hx_)
+            h_, hx_, v_, w_, r_ = Hfun(P)
+            P = P + w_ * v_ / (1 + r_)
+        probe = ca.vertcat(H, v, a, jerk)
+        grads = ca.vertcat(ca.jacobian(H, X), ca.jacobian(v, X), ca.jacobian(a, X))
+
+        # extended (scaled) system of sec. 4.3, eq. (44): (X, h, u), h' = v/u, u' = 0
+        hs, us = ca.SX.sym("h"), ca.SX.sym("u")
+        Xe = ca.vertcat(X, hs, us)
+        Fe = ca.vertcat(F, v / us, 0)
+        probe_e = ca.vertcat(probe, hs, v / us)
+
+        fF = ca.Function("F", [X], [F])
+        fFs = ca.Function("Fs", [X], [Fs])
+        fFe = ca.Function("Fe", [Xe], [Fe])
+        dt = ca.SX.sym("dt")
+        steps = {}
+        for key, f, Y, pr in (("free", fF, X, probe), ("stick", fFs, X, probe),
+                              ("ext", fFe, Xe, probe_e)):
+            Yn, err, err3 = rk_step(f, Y, dt, method)
+            fields = f(Yn)
+            prn = ca.substitute([pr], [Y], [Yn])[0]
+            J = ca.jacobian(Yn, Y)
+            steps[key] = (
+                ca.Function(f"step_{key}", [Y, dt], [Yn, err, err3, prn, fields]),
+                ca.Function(f"stepJ_{key}", [Y, dt], [Yn, err, err3, prn, fields, J]),
+            )
+        return CompiledHybrid(
+            system=self, n=self.n, N=int(X.numel()), free=list(free), method=method,
+            order=TABLEAUS[method]()[5],
+            f=fF, fs=fFs, fe=fFe,
+            probe=ca.Function("probe", [X], [probe]),
+            probe_e=ca.Function("probe_e", [Xe], [probe_e]),
+            grads=ca.Function("grads", [X], [grads]),
+            quantities=ca.Function("quantities", [X], [ca.vertcat(H, v, a, r, lam, LWH)]),
+            impact=ca.Function("impact", [X], [R, ca.jacobian(R, X), v, r]),
+            vgrad=ca.Function("vgrad", [X], [v, ca.jacobian(v, X)]),
+            chatter=ca.Function("chatter", [X], [Q1, q1, ca.jacobian(Q1, X),
+                                                 ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
+            project=ca.Function("project", [X], [P, ca.jacobian(P, X)]),
+            steps=steps,
+        )
+
+
+@dataclass
+class CompiledHybrid:
+    """Compiled CasADi Functions of a :class:`HybridSystem` at fixed parameter values.
+
+    ``X`` = state followed by the ``free`` parameters (dimension ``N = n + len(free)``).
+    """
+
+    system: HybridSystem
+    n: int
+    N: int
+    free: list[str]
+    method: str
+    order: int
+    f: ca.Function
+    fs: ca.Function
+    fe: ca.Function
+    probe: ca.Function
+    probe_e: ca.Function
+    grads: ca.Function
+    quantities: ca.Function
+    impact: ca.Function
+    vgrad: ca.Function
+    chatter: ca.Function
+    project: ca.Function
+    steps: dict[str, tuple[ca.Function, ca.Function]]
+
+    def q(self, X: np.ndarray) -> dict[str, float]:
+        """``H, v, a, r, lambda, L_W H`` at ``X`` as floats."""
+        vals = np.asarray(self.quantities(X), dtype=float).ravel()
+        return dict(zip(("H", "v", "a", "r", "lam", "LWH"), vals.tolist(), strict=True))
+
+    def validate_at(self, X: np.ndarray, where: str) -> None:
+        """Check the impact law at a surface point (eqs. 6, 9 and sec. 2.4): ``0 <= r < 1`` and
+        ``W`` tangent to the surface. Raises :class:`HybridDeclarationError`."""
+        qv = self.q(X)
+        if not np.isfinite(list(qv.values())).all():
+            raise HybridDeclarationError(f"{self.system.name}: non-finite H, v, a, r or lambda "
+                                         f"{where}: {qv}")
+        if not (-1e-12 <= qv["r"] < 1.0):
+            raise HybridDeclarationError(
+                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}; the chatter map "
+                "needs 0 <= r < 1 (eq. 9, sec. 3)")
+        # W tangent to {H = 0} where v = 0 (sec. 2.4): L_W H must vanish on the surface
+        scale = 1.0 + float(np.linalg.norm(np.asarray(self.f(X), dtype=float)))
+        if abs(qv["LWH"]) > 1e-9 * scale:
+            raise HybridDeclarationError(
+                f"{self.system.name}: W is not tangent to the impact surface (L_W H = "
+                f"{qv['LWH']:.3g} {where}); the impact law must keep H = 0 (sec. 2.4)")
+
+    def mass_check(self, X: np.ndarray, values: dict[str, float]) -> None:
+        """For mechanical systems: ``M(q)`` symmetric positive definite at ``X``."""
+        sys = self.system
+        if not hasattr(sys, "_mass"):
+            return
+        pars = []
+        for k in sys.params:
+            if k in values:
+                pars.append(values[k])
+            else:
+                pars.append(float(X[self.n + self.free.index(k)]))
+        Mq = np.asarray(sys._mass(X[: sys._nq], *pars), dtype=float)
+        if not np.allclose(Mq, Mq.T, rtol=1e-12, atol=1e-12):
+            raise HybridDeclarationError(f"{sys.name}: mass matrix M(q) is not symmetric")
+        try:
+            np.linalg.cholesky(Mq)
+        except np.linalg.LinAlgError:
+            raise HybridDeclarationError(
+                f"{sys.name}: mass matrix M(q) is not positive definite at q = "
+                f"{X[: sys._nq].tolist()}") from None
+
+
+def field_names(c: CompiledHybrid) -> list[str]:
+    """Names of the components of ``X`` (state names then freed parameters)."""
+    return [*c.system.state_names, *c.free]
+
+
+def as_array(v: Any) -> np.ndarray:
+    return np.asarray(v, dtype=float).ravel()

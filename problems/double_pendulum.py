@@ -1,0 +1,106 @@
+"""Forced double pendulum with a unilateral wall (Nordmark & Piiroinen 2009, sec. 6).
+
+Upper bar (length L1, point mass m1) driven by a constant torque ``T`` with viscous damping
+``D q1dot``; lower bar (L2, m2), free joint; absolute angles ``q1``, ``q2``. The lower mass is at
+``X = L1 sin q1 + L2 sin q2``, ``Y = -(L1 cos q1 + L2 cos q2)``.
+
+Conventions (documented choices where the paper is inconsistent):
+
+* **Wall**: ``H(q) = X(q) + d`` (eq. 52) with ``d > 0`` the wall's horizontal distance from the
+  upper joint: the wall is the plane ``X = -d`` and the admissible side is ``X >= -d``.
+  Sec. 6.3 prints ``d = -0.5``, but its saddle ``q*`` has ``X(q*) = -0.49997``, i.e. the wall
+  at ``X = -0.5``: the same wall as ``d = +0.5`` here (and as secs. 6.1-6.2). We use ``d = 0.5``
+  for all three scenarios.
+* **Equations of motion** derived by Lagrange (``problems/pendulum_lagrange.py`` is the
+  independent symbolic derivation the tests compare with): ``M(q) qdd = f(q, qd)`` with the
+  printed ``M`` and ``V`` of eq. (53) but the Coriolis vector
+  ``m2 L1 L2 sin(q1 - q2) (qd2^2, -qd1^2)``: the printed ``L(q, qd) = L1 L2 s12 (m1 qd2^2,
+  m2 qd1^2)`` has ``m1`` for ``m2`` in its first row and the wrong sign in its second, and
+  fails the energy test (``tests/test_pendulum_model.py``).
+* **Torque** enters as ``+T`` on ``q1`` (``V_1 = (m1 + m2) g L1 sin q1 - T``): ``T < 0`` drives
+  ``q1`` downwards, one period is one revolution ``q1 -> q1 - 2 pi``.
+* **Poincaré section** ``q1 = pi/2`` (mod 2 pi), as in Fig. 9; the shift is ``-2 pi`` per
+  revolution for ``T < 0``.
+* **Impact law** (54)-(58) with restitution ``e``: ``r = e`` (eq. 8).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import casadi as ca
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
+from nsm_continuation.hybrid.system import HybridSystem
+
+PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "e", "d")
+
+
+class DoublePendulumParameters(BaseModel):
+    """``parameters:`` of ``problem: double_pendulum`` (defaults: sec. 6, scenario 6.1)."""
+
+    model_config = ConfigDict(extra="forbid")
+    g: float = Field(9.81, gt=0, allow_inf_nan=False)
+    m1: float = Field(1.0, gt=0, allow_inf_nan=False)
+    m2: float = Field(2.0, gt=0, allow_inf_nan=False)
+    L1: float = Field(1.0, gt=0, allow_inf_nan=False)
+    L2: float = Field(1.0, gt=0, allow_inf_nan=False)
+    D: float = Field(10.0, ge=0, allow_inf_nan=False)
+    torque: float = Field(-31.15, allow_inf_nan=False)
+    e: float = Field(0.89, ge=0, lt=1, allow_inf_nan=False)
+    d: float = Field(0.5, gt=0, allow_inf_nan=False)
+    integrator: IntegratorSpec = IntegratorSpec()
+
+
+def pendulum_terms(q: Any, qd: Any, p: dict[str, Any]) -> tuple[Any, Any, Any]:
+    """``M(q)``, ``f(q, qd)`` with ``M qdd = f`` (Lagrange), and ``H(q) = X + d`` (eq. 52)."""
+    q1, q2 = q[0], q[1]
+    s12, c12 = ca.sin(q1 - q2), ca.cos(q1 - q2)
+    m1, m2, L1, L2, g = p["m1"], p["m2"], p["L1"], p["L2"], p["g"]
+    M = ca.vertcat(ca.horzcat((m1 + m2) * L1**2, m2 * L1 * L2 * c12),
+                   ca.horzcat(m2 * L1 * L2 * c12, m2 * L2**2))
+    coriolis = m2 * L1 * L2 * s12 * ca.vertcat(qd[1] ** 2, -qd[0] ** 2)
+    V = ca.vertcat((m1 + m2) * g * L1 * ca.sin(q1) - p["torque"], m2 * g * L2 * ca.sin(q2))
+    damping = ca.vertcat(-p["D"] * qd[0], 0)
+    H = L1 * ca.sin(q1) + L2 * ca.sin(q2) + p["d"]
+    return M, -coriolis - V + damping, H
+
+
+class DoublePendulumProblem(HybridCaseProblem):
+    """Periodic orbits of the forced double pendulum with chattering (sec. 6)."""
+
+    name: ClassVar[str] = "double_pendulum"
+    Parameters: ClassVar[type[BaseModel]] = DoublePendulumParameters
+    default_parameter: ClassVar[str] = "e"
+
+    def system(self) -> HybridSystem:
+        q = ca.SX.sym("q", 2)
+        qd = ca.SX.sym("qd", 2)
+        p = {k: ca.SX.sym(k) for k in PARAMS}
+        M, f, H = pendulum_terms(q, qd, p)
+        return HybridSystem.mechanical("double_pendulum", q, qd, p, M, f, H, p["e"],
+                                       state_names=["q1", "q2", "q1dot", "q2dot"],
+                                       periodic={0: 2 * np.pi, 1: 2 * np.pi})
+
+    def section(self) -> Section:
+        return Section(0, np.pi / 2, -2 * np.pi if self.values["torque"] < 0 else 2 * np.pi)
+
+    def default_initial(self) -> np.ndarray:
+        """Upper bar horizontal, rotating at the torque-damping speed, lower bar hanging."""
+        w = self.values["torque"] / max(self.values["D"], 1e-9)
+        return np.array([np.pi / 2, 0.0, w, 0.0])
+
+    def check_parameters(self, values: dict[str, float]) -> None:
+        super().check_parameters(values)
+        if values["d"] >= values["L1"] + values["L2"]:
+            raise ValueError(f"parameters.d: the wall at X = -{values['d']} is out of reach "
+                             f"(L1 + L2 = {values['L1'] + values['L2']})")
+
+    def lower_mass(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Horizontal and vertical position of the lower mass along states ``X`` (rows)."""
+        X = np.atleast_2d(X)
+        L1, L2 = self.values["L1"], self.values["L2"]
+        return (L1 * np.sin(X[:, 0]) + L2 * np.sin(X[:, 1]),
+                -(L1 * np.cos(X[:, 0]) + L2 * np.cos(X[:, 1])))
