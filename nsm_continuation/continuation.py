@@ -534,7 +534,20 @@ class ContinuationEngine:
         return found, None
 
     def _locate_signature_change(self, a: Point, b: Point) -> list[Event]:
-        """Bisection on the signature between two points; one event at the first change."""
+        """Bisection on the signature between two points; one event at the first change.
+
+        A problem may declare a change not worth locating (``locate_signature(before, after)``
+        False: e.g. only the number of impacts a simulator resolves before a chatter map, a
+        tolerance-dependent count): the event is then recorded at ``b`` with the step as bracket.
+        """
+        kind = getattr(self.problem, "signature_kind", "pattern_change")
+        locate = getattr(self.problem, "locate_signature", None)
+        if locate is not None and not locate(a.signature, b.signature):
+            return [Event(kind, b, f"event sequence {a.signature} -> {b.signature} (not "
+                          "located: within the step)",
+                          data={"signature_before": a.signature,
+                                "signature_after": b.signature}, bracket=b.s - a.s)]
+
         def f(sig: float) -> tuple[str | None, Point | None]:
             p = self._point_at(a, b, sig, tests=False, floquet=False)
             return (None, None) if p is None else (p.signature, p)
@@ -542,7 +555,6 @@ class ContinuationEngine:
         sig, p, width, vl, vr = bisect_predicate(f, 0.0, a.signature, b.s - a.s, b.signature,
                                                  self.settings.signature_event_tol)
         p = b if p is None else self.full(p)
-        kind = getattr(self.problem, "signature_kind", "pattern_change")
         return [Event(kind, p, f"event sequence {vl} -> {vr}",
                       data={"signature_before": vl, "signature_after": vr}, bracket=width)]
 

@@ -25,7 +25,8 @@ BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProbl
            "double_pendulum":
                "nsm_continuation.problems.double_pendulum:DoublePendulumProblem",
            "impact_oscillator":
-               "nsm_continuation.problems.impact_oscillator:ImpactOscillatorProblem"}
+               "nsm_continuation.problems.impact_oscillator:ImpactOscillatorProblem",
+           "two_mass_chain": "nsm_continuation.problems.two_mass_chain:TwoMassChainProblem"}
 
 
 class UnknownProblemError(LookupError):

@@ -69,9 +69,10 @@ def markdown(rep: dict[str, Any]) -> str:
         rng = f"{_fmt(pr[0])} .. {_fmt(pr[1])}" if pr else "-"
         lines.append(f"| {b['id']} | {b['label']} | {b['n_points']} | {b['admissible_points']}"
                      f" | {rng} | {b['termination']} |")
+    cols = rep.get("event_columns") or ["omega", "T", "energy"]
     lines += ["", "## Events", "",
-              "| branch | kind | omega | T | energy | max abs multiplier | stable before -> after "
-              "| detail |", "|---|---|---|---|---|---|---|---|"]
+              "| branch | kind | " + " | ".join(cols) + " | max abs multiplier | "
+              "stable before -> after | detail |", "|---|---|" + "---|" * len(cols) + "---|---|---|"]
     kinds = set()
     for b in rep["branches"]:
         for e in b["events"]:
@@ -82,8 +83,8 @@ def markdown(rep: dict[str, Any]) -> str:
             mam = max((abs(complex(*m)) for m in mults), default=None)
             sb = e.get("stable_before")
             stab = f"{_fmt(sb)} -> {_fmt(e.get('stable_after'))}" if sb is not None else ""
-            lines.append(f"| {b['id']} | {e['kind']} | {_fmt(e.get('omega'), 10)} | "
-                         f"{_fmt(e.get('T'), 12)} | {_fmt(e.get('energy'))} | {_fmt(mam)} | "
+            vals = " | ".join(_fmt(e.get(c), 12) for c in cols)
+            lines.append(f"| {b['id']} | {e['kind']} | {vals} | {_fmt(mam)} | "
                          f"{stab} | {e['detail']} |")
     lines += ["", "### What the events mean", ""]
     lines += [f"- **{k}**: {MEANING[k]}" for k in sorted(kinds | {"endpoint"})]

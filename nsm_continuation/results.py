@@ -133,6 +133,7 @@ def build_report(res: RunResult) -> dict[str, Any]:
         "timings": {k: ([_f(x) for x in v] if isinstance(v, list) else _f(v))
                     for k, v in res.timings.items()},
         "skipped_starts": res.skipped,
+        "event_columns": list(getattr(pr, "csv_head", None) or ["omega", "T", "energy"]),
         "branches": branches,
         "problem_results": pr.report_extras(res.branches),
     }

@@ -92,6 +92,11 @@ class HybridShooting:
         res = self.simulate(y)
         fi = self.free_idx
         g = res.X[fi] - self.x0(y)[fi]
+        # angles that may turn (the pendulum's lower bar): periodicity modulo their period
+        for j, k in enumerate(fi):
+            per = self.c.system.periodic.get(k)
+            if per:
+                g[j] = (g[j] + 0.5 * per) % per - 0.5 * per
         cols = fi + list(range(c.n, c.N))
         Jm = res.J[np.ix_(fi, cols)].copy()
         Jm[:, : len(fi)] -= np.eye(len(fi))
@@ -126,7 +131,7 @@ class HybridShootingProblem(Problem):
 
     shooting: HybridShooting
     #: admissibility test -> event kind reported when it changes sign
-    test_kinds = {"sticking_time": "sticking_lost", "near_approach": "grazing"}
+    test_kinds = {"sticking_time": "sticking_lost"}
     signature_kind = "impact_sequence_change"
     #: derived-bound name -> event kind (the branch stops there)
     bound_kinds = {"period": "homoclinic_approach", "sticking_time": "sticking_lost"}
@@ -188,6 +193,10 @@ class HybridShootingProblem(Problem):
             "n_impacts": float(res.n_impacts),
             "min_impact_velocity": (float(res.min_impact_velocity)
                                     if np.isfinite(res.min_impact_velocity) else np.nan),
+            # signed grazing margin: min H of the near approaches (> 0) or -v^2/(2a) of a
+            # decelerating impact (< 0); crosses zero at a grazing bifurcation
+            "grazing_margin": (float(res.grazing_margin) if np.isfinite(res.grazing_margin)
+                               else np.nan),
         }
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
@@ -197,9 +206,19 @@ class HybridShootingProblem(Problem):
         tests: dict[str, float] = {}
         if getattr(self, "watch_sticking", True) and res.sticking_intervals:
             tests["sticking_time"] = res.sticking_time
-        if np.isfinite(res.grazing_margin):
-            tests["near_approach"] = res.grazing_margin
         return tests
+
+    @staticmethod
+    def locate_signature(before: str | None, after: str | None) -> bool:
+        """Locate (by bisection) only structural changes: an impact gained or lost, a sticking
+        phase gained or lost. A change of the number of impacts resolved before the chatter
+        map alone depends on the chatter tolerance and is recorded within its step."""
+        import re
+
+        def strip(sig: str | None) -> str:
+            return re.sub(r"\d+", "", sig or "")
+
+        return strip(before) != strip(after)
 
     def signature(self, y: np.ndarray) -> str | None:
         res = self.sim(y)
@@ -224,12 +243,15 @@ class IntegratorSpec(BaseModel):
     rtol: float = Field(1e-10, gt=0, lt=1e-2)
     atol: float = Field(1e-12, gt=0, lt=1e-2)
     chatter_tol: float = Field(1e-10, gt=0, lt=1e-2)
-    chatter_order: int = Field(2, ge=1, le=4)
+    chatter_order: int = Field(3, ge=1, le=4)
     max_chatter_impacts: int = Field(2000, ge=2)
     wall_time: float = Field(30.0, gt=0)
+    #: a return to the Poincare section taking longer than this (simulated time) fails
+    max_return_time: float = Field(1000.0, gt=0)
 
     def options(self, sensitivities: bool = True) -> SimOptions:
         return SimOptions(rtol=self.rtol, atol=self.atol, chatter_tol=self.chatter_tol,
+                          max_time=self.max_return_time,
                           chatter_order=self.chatter_order,
                           max_chatter_impacts=self.max_chatter_impacts,
                           wall_time=self.wall_time, sensitivities=sensitivities)
@@ -317,6 +339,7 @@ class HybridCaseProblem(HybridShootingProblem):
         self.variables = [names[i] for i in self.shooting.free_idx] + [name]
         self._compiled_for = name
         self.fep_axes = (name, "period")
+        self.fep_labels = (name, "period (return time to the section)")
         self.csv_head = [name, "period", "sticking_time", "n_impacts_before_chatter"]
 
     @property
@@ -383,6 +406,10 @@ class HybridCaseProblem(HybridShootingProblem):
                 except (SimulationError, HybridDeclarationError) as exc:
                     raise ValueError(f"start: transient simulation failed ({exc})") from None
                 z = Xs[fi]
+                for j, k in enumerate(fi):
+                    per = self.hybrid.periodic.get(k)
+                    if per:
+                        z[j] = (z[j] + 0.5 * per) % per - 0.5 * per
                 how = f"simulation ({s.transient} periods)"
             y = np.append(z, [p0])
             d = {"both": 0, "increase": 1, "decrease": -1}[s.direction]
@@ -435,7 +462,10 @@ def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int = 12) -> dict[str
     pend = p[np.argmax(T)]
     for k in np.geomspace(1e-9, 10.0, 400):
         pstar = pend + side * k * span
-        A = np.column_stack([np.ones_like(p), -np.log(np.abs(p - pstar))])
+        with np.errstate(divide="ignore"):
+            A = np.column_stack([np.ones_like(p), -np.log(np.abs(p - pstar))])
+        if not np.all(np.isfinite(A)):
+            continue
         coef, *_ = np.linalg.lstsq(A, T, rcond=None)
         r = float(np.linalg.norm(A @ coef - T))
         if coef[1] > 0 and (best is None or r < best[0]):

@@ -246,9 +246,12 @@ class HybridSystem:
             fields = f(Yn)
             prn = ca.substitute([pr], [Y], [Yn])[0]
             J = ca.jacobian(Yn, Y)
+            # one flat output per call (a single DM -> numpy conversion): Yn, err, err3,
+            # probe, field, vec(J) (column-major); split by Simulator._step
             steps[key] = (
-                ca.Function(f"step_{key}", [Y, dt], [Yn, err, err3, prn, fields]),
-                ca.Function(f"stepJ_{key}", [Y, dt], [Yn, err, err3, prn, fields, J]),
+                ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
+                ca.Function(f"stepJ_{key}", [Y, dt],
+                            [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
             )
         return CompiledHybrid(
             system=self, n=self.n, N=int(X.numel()), free=list(free), method=method,
@@ -263,7 +266,7 @@ class HybridSystem:
             chatter=ca.Function("chatter", [X], [Q1, q1, ca.jacobian(Q1, X),
                                                  ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
             project=ca.Function("project", [X], [P, ca.jacobian(P, X)]),
-            steps=steps,
+            steps=steps, values={k: float(v) for k, v in values.items()},
         )
 
 
@@ -292,6 +295,7 @@ class CompiledHybrid:
     chatter: ca.Function
     project: ca.Function
     steps: dict[str, tuple[ca.Function, ca.Function]]
+    values: dict[str, float] = field(default_factory=dict)
 
     def q(self, X: np.ndarray) -> dict[str, float]:
         """``H, v, a, r, lambda, L_W H`` at ``X`` as floats."""
@@ -316,9 +320,10 @@ class CompiledHybrid:
                 f"{self.system.name}: W is not tangent to the impact surface (L_W H = "
                 f"{qv['LWH']:.3g} {where}); the impact law must keep H = 0 (sec. 2.4)")
 
-    def mass_check(self, X: np.ndarray, values: dict[str, float]) -> None:
+    def mass_check(self, X: np.ndarray) -> None:
         """For mechanical systems: ``M(q)`` symmetric positive definite at ``X``."""
         sys = self.system
+        values = self.values
         if not hasattr(sys, "_mass"):
             return
         pars = []
