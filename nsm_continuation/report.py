@@ -72,7 +72,8 @@ def markdown(rep: dict[str, Any]) -> str:
     cols = rep.get("event_columns") or ["omega", "T", "energy"]
     lines += ["", "## Events", "",
               "| branch | kind | " + " | ".join(cols) + " | max abs multiplier | "
-              "stable before -> after | detail |", "|---|---|" + "---|" * len(cols) + "---|---|---|"]
+              "stable before -> after | detail |",
+              "|---|---|" + "---|" * len(cols) + "---|---|---|"]
     kinds = set()
     for b in rep["branches"]:
         for e in b["events"]:

@@ -104,3 +104,57 @@ class DoublePendulumProblem(HybridCaseProblem):
         L1, L2 = self.values["L1"], self.values["L2"]
         return (L1 * np.sin(X[:, 0]) + L2 * np.sin(X[:, 1]),
                 -(L1 * np.cos(X[:, 0]) + L2 * np.cos(X[:, 1])))
+
+    # ------------------------------------------------------------------ report
+    def sticking_equilibria(self, y: np.ndarray) -> dict[str, Any] | None:
+        """The equilibrium on the sticking surface nearest the orbit at ``y`` (eqs. 60-61),
+        from the point where its chattering completes; ``None`` if the orbit has no sticking."""
+        from nsm_continuation.hybrid.equilibria import sticking_equilibrium
+
+        res = self.sim(y)
+        if res is None:
+            return None
+        starts = [ev.x for ev in res.events if ev.kind == "chatter"]
+        if not starts:
+            return None
+        c = self.shooting.c
+        guess = np.append(starts[0], y[len(y) - 1:])
+        eq = sticking_equilibrium(c, guess)
+        x = np.asarray(eq["x"])
+        Mq = np.asarray(c.system._mass(x[:2], *[
+            self.values[k] if k != self.parameter else float(y[-1])
+            for k in c.system.params]), dtype=float)
+        L1, L2 = self.values["L1"], self.values["L2"]
+        N = np.array([L1 * np.cos(x[0]), L2 * np.cos(x[1])])
+        e = self.values["e"] if self.parameter != "e" else float(y[-1])
+        # eq. (60) multiplies N by lambda; eq. (10) multiplies W: lambda_60 = lambda_10 (1 + e)
+        # / (N^T M^-1 N)
+        lam60 = eq["lambda"] * (1 + e) / float(N @ np.linalg.solve(Mq, N))
+        X, Y = self.lower_mass(x)
+        return {self.parameter: float(y[-1]), "q1": float(x[0]), "q2": float(x[1]),
+                "lambda_eq60": lam60, "X": float(X[0]), "Y": float(Y[0]),
+                "eigenvalues": [float(v.real) for v in eq["eigenvalues"]],
+                "saddle": eq["saddle"], "converged": eq["converged"],
+                "residual": eq["residual"]}
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Generic hybrid extras plus the equilibria on the sticking surface (sec. 6.3) next to
+        the orbit of largest period of each branch (the one closest to a homoclinic orbit)."""
+        out = super().report_extras(branches)
+        eqs = []
+        for br in branches:
+            pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
+            if not pts:
+                continue
+            p = max(pts, key=lambda q: q.derived["period"])
+            eq = self.sticking_equilibria(p.y)
+            if eq is not None:
+                eqs.append({"branch": br.label, "period": p.derived["period"], **eq})
+        if eqs:
+            out["sticking_equilibria"] = eqs
+            out["sticking_equilibria_paper_sec6_3"] = {
+                "torque": -31.00166609425, "q1": 4.91990567552337, "q2": 0.49899755317827,
+                "lambda_eq60": 10.69293096743960, "eigenvalues": [0.3366, -3.2953],
+                "note": "paper's eigenvalues; ours (two independent linearisations, "
+                        "tests/test_pendulum_model.py) are 0.28879, -3.24752 at that torque"}
+        return out
