@@ -26,7 +26,8 @@ BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProbl
                "nsm_continuation.problems.double_pendulum:DoublePendulumProblem",
            "impact_oscillator":
                "nsm_continuation.problems.impact_oscillator:ImpactOscillatorProblem",
-           "two_mass_chain": "nsm_continuation.problems.two_mass_chain:TwoMassChainProblem"}
+           "two_mass_chain": "nsm_continuation.problems.two_mass_chain:TwoMassChainProblem",
+           "bouncing_ball": "nsm_continuation.problems.bouncing_ball:BouncingBallProblem"}
 
 
 class UnknownProblemError(LookupError):

@@ -24,9 +24,9 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
 
 from nsm_continuation.hybrid.simulate import SimOptions, SimulationError, Simulator
-from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
 
 TWO_PI = 2.0 * np.pi
 
@@ -56,6 +56,8 @@ class SweepPoint:
     signatures: list[str] = field(default_factory=list)
     #: reasons of the SimulationErrors met at this value (each one triggered a restart)
     failures: list[str] = field(default_factory=list)
+    #: started from the default initial state (after a failure here or at the previous value),
+    #: not from the previous value's attractor
     restarted: bool = False
     wall: float = 0.0
 
@@ -132,45 +134,77 @@ class PendulumSweeper:
         self.pb.values[self.param] = value
         return np.append(self.pb.default_initial(), [value])
 
-    def one_return(self, X: np.ndarray) -> tuple[np.ndarray, Any]:
+    def one_return(self, X: np.ndarray, max_time: float | None = None) -> tuple[np.ndarray, Any]:
         """From ``X`` on the section (``q1 = pi/2``) to the next crossing; q1 is reset to the
-        section value and q2 wrapped, so the state stays bounded."""
-        res = self.sim.run(X, section=(self.index, self.value + self.shift, self.direction))
+        section value and q2 wrapped, so the state stays bounded. No crossing within
+        ``max_time`` (the pendulum came to rest) is a :class:`SimulationError`."""
+        res = self.sim.run(X, section=(self.index, self.value + self.shift, self.direction),
+                           max_time=max_time)
+        if res.ended_by != "section":
+            raise SimulationError(f"no return to the section within t = {res.t:.6g} (the "
+                                  f"pendulum came to rest: q1 = {res.X[0]:.6g}, "
+                                  f"q1dot = {res.X[2]:.3g})")
         Xn = res.X.copy()
         Xn[self.index] = self.value
         Xn[1] = wrap(Xn[1])
         return Xn, res
 
 
+def _repeats(history: list[np.ndarray], tol: float, max_period: int) -> int | None:
+    """Smallest ``p <= max_period`` with the last state equal to the one ``p`` returns
+    earlier (angles compared modulo 2 pi), or None."""
+    x = history[-1]
+    for p in range(1, min(max_period, len(history) - 1) + 1):
+        d = history[-1 - p] - x
+        d[:2] = wrap(d[:2])
+        if np.max(np.abs(d)) <= tol * (1.0 + np.max(np.abs(x))):
+            return p
+    return None
+
+
 def sweep(param_name: str, values: Any, fixed: dict[str, float], transient_returns: int = 30,
           recorded_returns: int = 30, options: SimOptions | None = None,
-          initial: np.ndarray | None = None, progress: bool = False) -> list[SweepPoint]:
+          initial: np.ndarray | None = None, converge_tol: float | None = None,
+          max_period: int = 8, max_time: float | None = 1000.0,
+          progress: bool = False) -> list[SweepPoint]:
     """Brute-force sweep with the per-return details (see :class:`SweepPoint`).
 
     ``initial``: state ``(q1, q2, q1dot, q2dot)`` on the section to start the first value from
-    (default: the problem's :meth:`default_initial`)."""
+    (default: the problem's :meth:`default_initial`). ``converge_tol``: if given, the transient
+    ends early once the state on the section repeats (period ``p <= max_period``) to this
+    relative tolerance, and then only ``max(4 p, 8)`` returns (at most ``recorded_returns``)
+    are recorded; otherwise exactly ``transient_returns`` and ``recorded_returns`` are
+    simulated. ``max_time``: a return that takes longer is a failure (the pendulum at rest)."""
     values = [float(v) for v in np.atleast_1d(values)]
     sw = PendulumSweeper(param_name, fixed, values[0], options)
     X: np.ndarray | None = None
     if initial is not None:
         X = np.append(np.asarray(initial, dtype=float)[:4], [values[0]])
     out: list[SweepPoint] = []
-    for val in values:
+    for i, val in enumerate(values):
         t0 = time.perf_counter()
         pt = SweepPoint(val, np.zeros(0))
         attempts = [X, None] if X is not None else [None]
         for start in attempts:
             if start is None:
                 start = sw.default_state(val)
-                pt.restarted = X is not None or bool(pt.failures)
+                pt.restarted = i > 0 or bool(pt.failures)
             Xc = start.copy()
             Xc[-1] = val
             rec: list[tuple[float, float, float, int, int, str]] = []
+            n_rec = recorded_returns
             try:
+                hist = [Xc[:4].copy()]
                 for _ in range(transient_returns):
-                    Xc, _res = sw.one_return(Xc)
-                for _ in range(recorded_returns):
-                    Xc, res = sw.one_return(Xc)
+                    Xc, _res = sw.one_return(Xc, max_time)
+                    if converge_tol is not None:
+                        hist.append(Xc[:4].copy())
+                        p = _repeats(hist, converge_tol, max_period)
+                        if p is not None:
+                            n_rec = min(recorded_returns, max(4 * p, 8))
+                            break
+                for _ in range(n_rec):
+                    Xc, res = sw.one_return(Xc, max_time)
                     rec.append((Xc[1], res.t, res.sticking_time, len(res.sticking_intervals),
                                 res.n_impacts, res.signature))
             except SimulationError as exc:
@@ -189,7 +223,7 @@ def sweep(param_name: str, values: Any, fixed: dict[str, float], transient_retur
         pt.wall = time.perf_counter() - t0
         if progress:
             per = pt.period()
-            print(f"  {param_name} = {val:.6g}: {pt.q2.size} returns, period "
+            print(f"  {param_name} = {val:.7g}: {pt.q2.size} returns, period "
                   f"{per if per is not None else '-'}, sticking "
                   f"{'all' if pt.all_sticking else ('some' if pt.any_sticking else 'none')}, "
                   f"T_return {np.mean(pt.return_times) if pt.ok else np.nan:.4f}, "
@@ -201,9 +235,11 @@ def sweep(param_name: str, values: Any, fixed: dict[str, float], transient_retur
 
 def brute_force(param_name: str, values: Any, fixed: dict[str, float],
                 transient_returns: int = 30, recorded_returns: int = 30,
-                options: SimOptions | None = None) -> list[tuple[float, np.ndarray]]:
+                options: SimOptions | None = None, **kwargs: Any
+                ) -> list[tuple[float, np.ndarray]]:
     """``[(value, q2 at the section q1 = pi/2 mod 2 pi, wrapped to (-pi, pi]), ...]``: the
     recorded returns after ``transient_returns`` returns, each value started from the previous
-    one's final state (an empty array where the simulation failed twice)."""
+    one's final state (an empty array where the simulation failed twice). ``kwargs``: the
+    further options of :func:`sweep`."""
     return [(p.value, p.q2) for p in sweep(param_name, values, fixed, transient_returns,
-                                           recorded_returns, options)]
+                                           recorded_returns, options, **kwargs)]

@@ -23,12 +23,12 @@ event", and at an event::
 and, at a fixed end time, returns the time-fixed Jacobian ``J - F(x_end) J_t``. The quantity
 ``K = J - F(x(t)) J_t`` is exactly the time-fixed Jacobian: along a flow both ``J`` and
 ``F(x(t)) J_t`` are transported by the flow Jacobian ``Phi`` (``Phi F(x_start) = F(x_end)`` for
-an autonomous field), and across an event, writing ``J = P_k K_prev`` (``J_t = 0`` w.l.o.g. by
-linearity, the earlier ``F J_t`` terms being transported likewise),
-``K_new = E_x (I - B1 C/d) J - B2 (-(C J)/d + e_x (I - B1 C/d) J)
-= (A (I - B1 C / d) + B2 C / d) J = D J``: the saltation matrix (43). So the simulated
-``J`` (time-fixed) is the chain (40), and for a Poincaré section the section crossing is one more
-event-time correction of the same kind.
+an autonomous field), and across an event (``K = J - B1 J_t`` just before it) the four lines
+above give ``K_new = E_x J' - B2 (J_t + dtau + e_x J') = A J' - B2 (J_t + dtau)`` with
+``J' = J - B1 (C J)/d``, which expands to ``A K + (B2 - A B1) (C K)/d = D K`` (using
+``C B1 = d``): the saltation matrix (43). So the simulated ``J`` (time-fixed) is the chain (40),
+and for a Poincaré section the section crossing is one more event-time correction of the same
+kind (``tests/test_hybrid_ball.py`` checks the simulator against (47) for the ball).
 
 **Bouncing ball** (sec. 3.5, 4.4): ``x = (x1, x2) = (q, qd)``, ``F = (x2, -g)``, ``H = x1``,
 ``W = (0, -(1 + e))``; extended state ``(x1, x2, h, u)`` of sec. 4.3 (``h = H/u``, ``u`` the

@@ -316,6 +316,16 @@ class Simulator:
         just: str | None = None
         if traj is not None:
             traj.append((t, Y[: c.n].copy()))
+        if mode == S2 and abs(pr[0]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
+            # a start on the surface moving inwards: the impact happens at t = 0
+            mode, Y, J, Jt, t, info = self._transition(
+                S2, "H", Y, J, Jt, t, pr, seq, events, chatter_errors)
+            n_imp += 1
+            if mode == S4:
+                stick_start = t
+            pr = self._probe(mode, Y)
+            F0 = self._field(mode, Y)
+            just = "H"
         while True:
             n_steps += 1
             if n_steps % 256 == 0 and time.perf_counter() - clock0 > o.wall_time:

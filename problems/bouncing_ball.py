@@ -1,0 +1,292 @@
+"""The bouncing ball (Nordmark & Piiroinen 2009, secs. 3.5 and 4.4; Figs. 1, 3, 4).
+
+``qdd = -g``, ``q >= 0``, ``qd+ = -e qd-`` at ``q = 0``: ``x = (x1, x2) = (q, qd)``, ``H = x1``,
+``W = (0, -(1 + e))``, ``a = -g``, ``r = e``, ``F' = (x2, 0)``. Released from rest at height
+``s``, the ball hits the floor at ``sqrt(2 s / g)`` with velocity ``v0' = -sqrt(2 g s)``; the
+``k``-th impact velocity is ``e^k v0'`` and the complete chattering sequence ends at
+
+    ``t* = sqrt(2 s / g) + 2 e |v0'| / (g (1 - e))``        (eq. 37)
+
+in the sticking state ``(0, 0)``, which does not depend on the initial condition (eq. 50).
+
+This is a **simulation case**, not a continuation: :meth:`BouncingBallProblem.start_points`
+returns no start, and the results (the resolved impact times, the chatter completion time
+against its closed form, the Jacobian after the chatter map (50), the number of impacts
+resolved before the map, the check of eqs. (47)-(48)) are written by :meth:`report_extras`
+into ``report.json`` (``problem_results``) and drawn by :meth:`extra_plots` (Fig. 1: position
+and velocity; Fig. 3(b)-(c): ``H`` and ``h = H/u`` in the tail of the sequence; Fig. 4: the two
+Jacobian components ``dx1(t)/dx1(0)``, ``dx2(t)/dx1(0)``). With ``chatter_order: 1`` and
+``chatter_tol: 0.02`` the map is applied after ``N = 15`` impacts as in Fig. 4 (for the ball the
+first-order map's time and velocity are exact and its ``O(v^2)`` position error is removed by the
+projection onto the sticking set, so the result is still exact).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+import casadi as ca
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from nsm_continuation.hybrid.saltation import (
+    ball_chatter_jacobian,
+    ball_pn_chain,
+    ball_pn_closed_form,
+)
+from nsm_continuation.hybrid.simulate import SimOptions, SimResult, Simulator
+from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
+from nsm_continuation.problem import Problem, StartPoint
+
+
+class BouncingBallParameters(BaseModel):
+    """``parameters:`` of ``problem: bouncing_ball`` (defaults: Fig. 4, g = 9.8, s = 1)."""
+
+    model_config = ConfigDict(extra="forbid")
+    g: float = Field(9.8, gt=0, allow_inf_nan=False)
+    e: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False,
+                     description="restitution; complete chattering needs 0 <= e < 1")
+    s: float = Field(1.0, gt=0, allow_inf_nan=False, description="initial height (at rest)")
+    chatter_order: int = Field(2, ge=1, le=4)
+    chatter_tol: float = Field(1e-10, gt=0, lt=1)
+    t_end: float = Field(5.0, gt=0, allow_inf_nan=False)
+
+
+def ball_system(clock: bool = False) -> HybridSystem:
+    """The ball declared as a mechanical system (``M = 1``, force ``-g``, ``H = q``)."""
+    q, qd = ca.SX.sym("q"), ca.SX.sym("qd")
+    g, e = ca.SX.sym("g"), ca.SX.sym("e")
+    kw: dict[str, Any] = {"state_names": ["x1", "x2"]}
+    if clock:
+        kw = {"clock": ca.SX.sym("x3"), "state_names": ["x1", "x2", "x3"]}
+    return HybridSystem.mechanical("ball", q, qd, {"g": g, "e": e}, ca.SX(1), -g, q, e, **kw)
+
+
+def closed_form(g: float, e: float, s: float, n: int = 0) -> dict[str, Any]:
+    """First impact velocity and time, the first ``n`` impact times, the completion time."""
+    v0 = -np.sqrt(2 * g * s)
+    t0 = np.sqrt(2 * s / g)
+    times = [t0]
+    for k in range(1, n):
+        times.append(times[-1] + 2 * e**k * abs(v0) / g)
+    return {"v0": float(v0), "t0": float(t0), "impact_times": [float(t) for t in times[:n]],
+            "t_star": float(t0 + 2 * e * abs(v0) / (g * (1 - e))),
+            # d t* / d(s, w) at w = 0 (s = initial height, w = initial velocity)
+            "dt_star": [float((1 + e) / (abs(v0) * (1 - e))), float(1 / g)]}
+
+
+def impact_times(res: SimResult) -> list[float]:
+    """Times of the resolved impacts from a recorded trajectory (a jump of ``x2`` at equal
+    times; the chatter map's own jump is the last one and is excluded)."""
+    tr = res.trajectory or []
+    out = []
+    t_map = [ev.t for ev in res.events if ev.kind == "chatter"]
+    for (ta, xa), (tb, xb) in zip(tr[:-1], tr[1:], strict=True):
+        if ta == tb and xa[1] < 0 < xb[1]:
+            out.append(float(ta))
+    return [t for t in out if not t_map or t < t_map[0]]
+
+
+class BouncingBallProblem(Problem):
+    """The bouncing ball as a simulation case (no continuation; see the module docstring)."""
+
+    name: ClassVar[str] = "bouncing_ball"
+    Parameters: ClassVar[type[BaseModel]] = BouncingBallParameters
+    fep_axes = ("e", "t_star")
+
+    def __init__(self, params: BaseModel | dict[str, Any]) -> None:
+        if isinstance(params, dict):
+            params = self.Parameters.model_validate(params)
+        super().__init__(params)
+        self.p: BouncingBallParameters = params  # type: ignore[assignment]
+        self.variables = ["x1", "e"]
+        self.parameter = "e"
+        self.c: CompiledHybrid = ball_system().compile({"g": self.p.g, "e": self.p.e})
+        self._cache: dict[str, Any] = {}
+
+    # -- the Problem contract: a simulation case has no residual and no start ---------------
+    def residual(self, y: Any) -> Any:
+        raise NotImplementedError("bouncing_ball is a simulation case: it has no residual "
+                                  "(results are in report_extras / extra_plots)")
+
+    @property
+    def compiled(self) -> Any:  # the run touches ``problem.compiled`` once: nothing to build
+        return None
+
+    def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
+                     ) -> list[StartPoint]:
+        return []
+
+    def summary(self) -> dict[str, Any]:
+        return {"parameters": self.p.model_dump(), "kind": "simulation case (no continuation)"}
+
+    # -- simulation ---------------------------------------------------------------------------
+    def options(self, **kw: Any) -> SimOptions:
+        return SimOptions(chatter_order=self.p.chatter_order, chatter_tol=self.p.chatter_tol,
+                          **kw)
+
+    def x0(self) -> np.ndarray:
+        return np.array([self.p.s, 0.0])
+
+    def simulate(self, t_end: float | None = None, record: bool = False) -> SimResult:
+        return Simulator(self.c, self.options(record=record)).run(
+            self.x0(), t_end=self.p.t_end if t_end is None else t_end)
+
+    def jacobian_history(self, times: np.ndarray) -> np.ndarray:
+        """``J(t) = dx(t)/dx(0)`` (time-fixed, 2 x 2) at each time: one simulation each."""
+        return np.array([self.simulate(t_end=float(t)).J[:2, :2] for t in times])
+
+    def results(self) -> dict[str, Any]:
+        if "results" in self._cache:
+            return self._cache["results"]
+        p = self.p
+        res = self.simulate(record=True)
+        imp = impact_times(res)
+        cf = closed_form(p.g, p.e, p.s, len(imp))
+        chatter = [ev for ev in res.events if ev.kind == "chatter"]
+        out: dict[str, Any] = {
+            "closed_form": {"first_impact_velocity": cf["v0"], "first_impact_time": cf["t0"],
+                            "chatter_completion_time": cf["t_star"],
+                            "d_t_star_d_initial": cf["dt_star"]},
+            "n_impacts_resolved": len(imp),
+            "impact_times": imp,
+            "impact_times_max_error": (float(np.max(np.abs(np.array(imp) -
+                                                          np.array(cf["impact_times"]))))
+                                       if imp else None),
+            "end_state": res.X.tolist(), "end_time": float(res.t),
+            "sticking_intervals": [list(map(float, iv)) for iv in res.sticking_intervals],
+        }
+        if chatter:
+            ev = chatter[0]
+            N = int(ev.info["impacts"])
+            t_c = float(ev.info["t_complete"])
+            out["chatter_map"] = {
+                "impacts_before_map": N,
+                "completion_time": t_c,
+                "completion_time_error": t_c - cf["t_star"],
+                "error_estimate": float(ev.info["error_estimate"]),
+            }
+            if res.t >= t_c:
+                # eq. (50): the state after the map does not depend on the initial state
+                out["chatter_map"]["jacobian_after_map"] = res.J[:2, :2].tolist()
+                out["chatter_map"]["d_t_complete_d_initial"] = res.Jt[:2].tolist()
+            v0 = cf["v0"]
+            pN = ball_pn_chain(p.e, p.g, v0, N)
+            out["paper_eqs_47_50"] = {
+                "N": N,
+                "chain_vs_closed_form_48_max_diff": float(np.abs(
+                    pN - ball_pn_closed_form(p.e, p.g, v0, N)).max()),
+                "printed_48_entry_4_1": float(ball_pn_closed_form(p.e, p.g, v0, N, True)[3, 0]),
+                "corrected_48_entry_4_1": float(pN[3, 0]),
+                "D_N_times_p_N_eq_50": (ball_chatter_jacobian(p.e, N, v0) @ pN).tolist(),
+            }
+        else:
+            out["chatter_map"] = None
+        self._cache["results"] = out
+        self._cache["res"] = res
+        return out
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        return {"bouncing_ball": self.results()}
+
+    # -- figures ------------------------------------------------------------------------------
+    def _dense(self, res: SimResult, n: int = 40) -> tuple[np.ndarray, np.ndarray]:
+        """Dense (t, x1, x2) from the recorded points by the exact flow of F (or F')."""
+        g = self.p.g
+        tr = res.trajectory or []
+        jumps = {(ev.t, ev.info["t_complete"]) for ev in res.events if ev.kind == "chatter"}
+        ts, xs = [], []
+        for (ta, xa), (tb, _xb) in zip(tr[:-1], tr[1:], strict=True):
+            if tb <= ta:
+                ts.append(ta)
+                xs.append(xa[:2])
+                continue
+            if (ta, tb) in jumps:                      # the chatter map's time jump: no flow
+                ts += [ta, 0.5 * (ta + tb)]
+                xs += [xa[:2], np.full(2, np.nan)]
+                continue
+            sticking = abs(xa[0]) < 1e-14 and abs(xa[1]) < 1e-14
+            tt = np.linspace(0.0, tb - ta, n)
+            gg = 0.0 if sticking else g
+            ts += list(ta + tt)
+            xs += list(np.column_stack([xa[0] + xa[1] * tt - gg * tt**2 / 2,
+                                        xa[1] - gg * tt]))
+        return np.array(ts), np.array(xs)
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        out = Path(out_dir)
+        info = self.results()
+        res: SimResult = self._cache["res"]
+        files = []
+        ts, xs = self._dense(res)
+        t_c = (info["chatter_map"] or {}).get("completion_time")
+        # Fig. 1: position and velocity
+        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+        ax[0].plot(ts, xs[:, 0], lw=1)
+        ax[1].plot(ts, xs[:, 1], lw=1)
+        ax[0].set_ylabel("position $x_1 = q$")
+        ax[1].set_ylabel(r"velocity $x_2 = \dot q$")
+        ax[1].set_xlabel("t")
+        if t_c is not None:
+            for a in ax:
+                a.axvline(t_c, color="C3", ls=":", lw=1, label="chatter map: t*")
+            ax[0].legend()
+        ax[0].set_title(f"Bouncing ball, e = {self.p.e}, s = {self.p.s} (Fig. 1)")
+        fig.tight_layout()
+        fig.savefig(out / "ball_fig1_position_velocity.png", dpi=120)
+        plt.close(fig)
+        files.append("ball_fig1_position_velocity.png")
+        # Fig. 3(b)-(c): H and h = H/u in the tail of the sequence
+        imp = info["impact_times"]
+        if len(imp) >= 3:
+            t_from = imp[max(0, len(imp) - 8)]
+            sel = ts >= t_from
+            u = np.full(ts.shape, np.nan)
+            for k in range(len(imp)):
+                t_next = imp[k + 1] if k + 1 < len(imp) else np.inf
+                m = (ts >= imp[k]) & (ts <= t_next)
+                u[m] = self.p.e ** (k + 1) * abs(info["closed_form"]["first_impact_velocity"])
+            t_map = [ev.t for ev in res.events if ev.kind == "chatter"]
+            if t_map:
+                sel &= ts <= t_map[0]
+            fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+            ax[0].plot(ts[sel], xs[sel, 0], lw=1)
+            ax[0].set_title("(b) H(x) in the tail")
+            ax[1].plot(ts[sel], xs[sel, 0] / u[sel], lw=1, color="C1")
+            ax[1].set_title("(c) h = H/u in the tail")
+            for a in ax:
+                a.set_xlabel("t")
+            fig.tight_layout()
+            fig.savefig(out / "ball_fig3bc_H_h_tail.png", dpi=120)
+            plt.close(fig)
+            files.append("ball_fig3bc_H_h_tail.png")
+        # Fig. 4: Jacobian components vs time (one simulation per time)
+        grid = np.linspace(1e-3, self.p.t_end, 240)
+        extra = [t for t0 in imp for t in (t0 - 1e-9, t0 + 1e-9)]
+        if t_c is not None:
+            extra += [t_c - 1e-9, t_c + 1e-9]
+        times = np.unique(np.concatenate([grid, [t for t in extra if 0 < t < self.p.t_end]]))
+        Js = self.jacobian_history(times)
+        fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+        ax[0].plot(times, Js[:, 0, 0], lw=1)
+        ax[0].set_title(r"$\partial x_1(t) / \partial x_1(0)$")
+        ax[1].plot(times, Js[:, 1, 0], lw=1)
+        ax[1].set_title(r"$\partial x_2(t) / \partial x_1(0)$")
+        for a in ax:
+            a.set_xlabel("t")
+            if t_c is not None:
+                a.axvline(t_c, color="C3", ls=":", lw=1)
+        n_map = (info["chatter_map"] or {}).get("impacts_before_map")
+        fig.suptitle(f"Fig. 4: g = {self.p.g}, s = {self.p.s}; chatter map after N = {n_map}")
+        fig.tight_layout()
+        fig.savefig(out / "ball_fig4_jacobian.png", dpi=120)
+        plt.close(fig)
+        files.append("ball_fig4_jacobian.png")
+        return files
