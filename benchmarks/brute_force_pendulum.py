@@ -10,7 +10,8 @@ the previous value's final state. Three scenarios:
   whose recorded ``q2`` is a single point and the first where it is not, the last ``e`` whose
   returns all stick and the first where none does, ``e*`` from a linear fit of ``tau^2`` (the
   sticking time ``tau`` vanishes like ``sqrt(e* - e)``), and ``q2`` against a Newton solve of
-  the shooting residual started from the simulated orbit.
+  the shooting residual started from the simulated orbit; beyond ``e*`` the spread of the
+  recorded ``q2`` against ``e - e*`` (log-log slope ``kappa``, paper: slightly above 1.2).
 * **Fig. 9(b)-(c)**: ``d`` from 0.5000 to 0.5020 (``e = 0.19``, ``T = -40``), two sweeps
   from the period-2 orbit at ``d = 0.5009`` (up and down), plus a zoom on the period-doubling
   cascade. Reported: where the number of distinct ``q2`` values goes 2 -> 4, ``d_PD`` from a
@@ -27,7 +28,8 @@ Charts (``benchmarks/results/``, git-ignored): ``brute_force_fig8b.png``,
 ``brute_force_summary.json`` and stdout.
 
 ``--quick``: coarse grids, short transients (< 1 min on 2 cores); the default is the full run
-(measured times in ``benchmarks/README.md``). ``--jobs`` (default 2): scenarios run in parallel
+(~4.5-5.5 min on 2 shared cores; measured numbers in ``benchmarks/README.md``). ``--jobs``
+(default 2): the four tasks (Fig. 8(b), Fig. 9 overview, Fig. 9 zoom, Fig. 10) run in parallel
 processes. ``--only fig8b fig9 fig10``: a subset.
 """
 
@@ -70,7 +72,8 @@ PAPER = {"e_star_fig8c": 0.896, "d_pd": 0.5010, "period_T_m31_09": 7.25,
 
 
 def grid(a: float, b: float, step: float) -> np.ndarray:
-    n = int(round((b - a) / step))
+    """``a, a + step, ...`` up to ``b`` (included when on the grid, never exceeded)."""
+    n = int(np.floor((b - a) / step + 1e-9))
     return np.round(a + step * np.arange(n + 1), 10)
 
 
@@ -90,19 +93,23 @@ def summary_point(p: SweepPoint) -> dict[str, Any]:
 # ---------------------------------------------------------------------------------- Fig. 8(b)
 def run_fig8(quick: bool) -> dict[str, Any]:
     t0 = time.perf_counter()
+    # segments: (values, transient, recorded); each continues from the previous one's end
     if quick:
-        values = merge(grid(0.85, 0.89, 0.02), grid(0.892, 0.896, 0.001), grid(0.90, 0.92, 0.01))
-        tr, rec = 10, 10
+        segs = [(merge(grid(0.85, 0.89, 0.02), grid(0.892, 0.896, 0.001),
+                       grid(0.90, 0.92, 0.01)), 10, 10)]
     else:
-        values = merge(grid(0.85, 0.89, 0.0025), grid(0.89, 0.8944, 0.0005),
-                       grid(0.8944, 0.8946, 0.00001), grid(0.895, 0.92, 0.001))
-        tr, rec = 20, 40
-    pts = sweep("e", values, FIG8, tr, rec, converge_tol=1e-10, max_period=8,
-                progress=not quick)
-    # the first value starts from the default state: give it a longer transient
+        segs = [(merge(grid(0.85, 0.89, 0.0025), grid(0.89, 0.8944, 0.0005)), 20, 16),
+                (grid(0.89441, 0.8945, 0.00001), 20, 12),      # bracket of e*
+                (grid(0.895, 0.92, 0.001), 10, 30)]
+    pts: list[SweepPoint] = []
+    for values, tr, rec in segs:
+        pts += sweep("e", values, FIG8, tr, rec, initial=pts[-1].state if pts else None,
+                     converge_tol=1e-10, max_period=8, progress=not quick)
     res: dict[str, Any] = {"points": pts, "sweep_s": time.perf_counter() - t0}
-    single = [p.value for p in pts if p.ok and p.n_distinct(1e-6) == 1]
-    multi = [p.value for p in pts if p.ok and p.n_distinct(1e-6) > 1]
+    # a single point: spread of the recorded q2 below 1e-8 rad (n_distinct would merge a
+    # densely filled small attractor into one cluster)
+    single = [p.value for p in pts if p.ok and np.ptp(p.q2) < 1e-8]
+    multi = [p.value for p in pts if p.ok and np.ptp(p.q2) >= 1e-8]
     stick = [p.value for p in pts if p.all_sticking]
     nostick = [p.value for p in pts if p.ok and not p.any_sticking]
     res["last_single_point"] = max(single) if single else None
@@ -119,6 +126,14 @@ def run_fig8(quick: bool) -> dict[str, Any]:
         tau2 = np.array([np.mean(p.sticking_times) ** 2 for p in sp])
         k, c0 = np.polyfit(e, tau2, 1)
         res["e_star_fit_tau2"] = float(-c0 / k)
+        # size of the attractor beyond e*: ~ (e - e*)^kappa (paper: kappa slightly above 1.2)
+        es = res["e_star_fit_tau2"]
+        big = [(p.value - es, float(np.ptp(p.q2))) for p in pts
+               if p.ok and es < p.value <= es + 2e-3 and np.ptp(p.q2) > 0]
+        res["attractor_size"] = big
+        if len(big) >= 3:
+            de, size = np.array(big).T
+            res["kappa_fit"] = float(np.polyfit(np.log(de), np.log(size), 1)[0])
     # Newton on the shooting residual from the simulated orbit (the continuation's equations)
     pb = DoublePendulumProblem({**FIG8, "e": 0.89})
     pb.set_parameter("e")
@@ -182,32 +197,67 @@ def _split(p: SweepPoint) -> float:
     return float(np.ptp(lo)) if lo.size else np.nan
 
 
-def run_fig9(quick: bool) -> dict[str, Any]:
+def _fig9_start(tr0: int) -> np.ndarray:
+    """The period-2 orbit at d = 0.5009 from the default initial state."""
+    return sweep("d", [0.5009], FIG9, tr0, 4, converge_tol=1e-11)[0].state
+
+
+def run_fig9_overview(quick: bool) -> dict[str, Any]:
+    """Fig. 9(b): two sweeps from the period-2 orbit at d = 0.5009, up and down."""
     t0 = time.perf_counter()
     d0 = 0.5009
     if quick:
-        up, down, zoom = grid(d0, 0.5020, 2e-4), grid(0.5000, d0, 3e-4)[::-1], \
-            grid(0.50098, 0.50108, 2e-5)
-        tr0, tr, rec, trz, recz = 60, 20, 12, 50, 16
+        up, down, tr0, tr, rec = grid(d0, 0.5020, 2e-4), grid(0.5000, d0, 3e-4)[::-1], 60, 20, 12
     else:
-        up, down, zoom = grid(d0, 0.5020, 2e-5), grid(0.5000, d0, 4e-5)[::-1], \
-            grid(0.50094, 0.50116, 2e-6)
-        tr0, tr, rec, trz, recz = 150, 40, 32, 100, 32
-    verbose = not quick
-    start = sweep("d", [d0], FIG9, tr0, 4, converge_tol=1e-11)
-    X0 = start[0].state
-    pts_up = sweep("d", up, FIG9, tr, rec, initial=X0, converge_tol=1e-10, progress=verbose)
-    pts_dn = sweep("d", down, FIG9, tr, rec, initial=X0, converge_tol=1e-10, progress=verbose)
-    # zoom: continue from the converged period-2 orbit below the zoom window
+        up, down, tr0, tr, rec = grid(d0, 0.5020, 2.5e-5), grid(0.5000, d0, 4e-5)[::-1], 150, 40, 24
+    X0 = _fig9_start(tr0)
+    pts_up = sweep("d", up, FIG9, tr, rec, initial=X0, converge_tol=1e-10, progress=not quick)
+    pts_dn = sweep("d", down, FIG9, tr, rec, initial=X0, converge_tol=1e-10, progress=not quick)
+    return {"up": pts_up, "down": pts_dn, "total_s": time.perf_counter() - t0}
+
+
+def classify_pd(p: SweepPoint) -> str:
+    """``period-2``, ``-> period-2`` (4 distinct values, but the alternation
+    ``|q2[k+2] - q2[k]|`` decays: a slow transient near the flip, multiplier near -1),
+    ``period-4`` (4 distinct values, not decaying) or ``other``."""
+    if not p.ok:
+        return "failed"
+    n = p.n_distinct(1e-6)
+    if n == 2:
+        return "period-2"
+    a = np.abs(wrap(p.q2[2:] - p.q2[:-2]))
+    q = max(len(a) // 4, 2)
+    decaying = a[-q:].mean() < 0.9 * a[:q].mean()
+    if n == 4 or (decaying and p.period(1e-4) in (2, 4)):
+        return "-> period-2" if decaying else "period-4"
+    return "other"
+
+
+def run_fig9_zoom(quick: bool) -> dict[str, Any]:
+    """Fig. 9(c): the first period doubling and the cascade, finely."""
+    t0 = time.perf_counter()
+    d0 = 0.5009
+    if quick:
+        zoom, tr0, tr, trz, recz = grid(0.50098, 0.50108, 2e-5), 60, 20, 50, 16
+    else:
+        zoom, tr0, tr, trz, recz = grid(0.50094, 0.50116, 4e-6), 150, 40, 100, 32
+    X0 = _fig9_start(tr0)
+    # continue the period-2 orbit to the zoom window
     below = sweep("d", grid(d0, zoom[0], 2e-5), FIG9, tr, 8, initial=X0, converge_tol=1e-11)
     pts_z = sweep("d", zoom, FIG9, trz, recz, initial=below[-1].state, converge_tol=1e-10,
-                  progress=verbose)
-    res: dict[str, Any] = {"up": pts_up, "down": pts_dn, "zoom": pts_z, "d0_q2": start[0].q2}
-    nd = [(p.value, p.n_distinct(1e-6), p.period(1e-7)) for p in pts_z if p.ok]
-    two = [v for v, n, _ in nd if n == 2]
-    res["last_two"] = max(two) if two else None
-    four = [v for v, n, _ in nd if n == 4 and (not two or v > max(two))]
-    res["first_four"] = min(four) if four else None
+                  progress=not quick)
+    res: dict[str, Any] = {"zoom": pts_z}
+    nd = [(p.value, p.n_distinct(1e-6)) for p in pts_z if p.ok]
+    two = [v for v, n in nd if n == 2]
+    res["last_two_distinct"] = max(two) if two else None
+    four = [v for v, n in nd if n == 4 and (not two or v > max(two))]
+    res["first_four_distinct"] = min(four) if four else None
+    cls = [(p.value, classify_pd(p)) for p in pts_z]
+    res["classes"] = cls
+    p2 = [v for v, c in cls if c in ("period-2", "-> period-2")]
+    res["last_period2"] = max(p2) if p2 else None
+    p4 = [v for v, c in cls if c == "period-4" and (not p2 or v > max(p2))]
+    res["first_period4"] = min(p4) if p4 else None
     # squared splitting of clean period-4 orbits: linear in d - d_PD
     clean = [p for p in pts_z if p.ok and p.period(1e-8) == 4 and _split(p) > 1e-4]
     if len(clean) >= 3:
@@ -255,10 +305,15 @@ def plot_fig9(res: dict[str, Any], path: Path) -> None:
     ax.set_ylabel("q2 at the section q1 = pi/2 [rad]")
     ax.set_title("Fig. 9(b), brute force: e = 0.19, T = -40")
     ax.legend(fontsize=8, markerscale=6)
-    lower = [p for p in z if p.ok]
-    for p in lower:
-        sel = p.q2 < -1.6
-        ax2.scatter(np.full(sel.sum(), p.value), p.q2[sel], s=3, c="k", lw=0)
+    colours = {"period-2": "tab:blue", "-> period-2": "tab:cyan", "period-4": "k",
+               "other": "0.45"}
+    seen: set[str] = set()
+    for p, (_, c) in zip(z, res["classes"], strict=True):
+        if p.ok:
+            sel = p.q2 < -1.6
+            ax2.scatter(np.full(sel.sum(), p.value), p.q2[sel], s=3, c=colours[c], lw=0,
+                        label=None if c in seen else c)
+            seen.add(c)
     for key, col, lab in (("d_pd_fit_split2", "tab:red", "d_PD (split^2 fit)"),
                           ("d_pd_multiplier", "tab:green", "d_PD (shooting multiplier = -1)")):
         if res.get(key):
@@ -267,7 +322,7 @@ def plot_fig9(res: dict[str, Any], path: Path) -> None:
     ax2.set_xlabel("wall distance d")
     ax2.set_ylabel("q2 at the section (branch near -1.70) [rad]")
     ax2.set_title("Fig. 9(c), zoom: period-doubling cascade of the period-2 orbit")
-    ax2.legend(fontsize=8)
+    ax2.legend(fontsize=8, markerscale=3)
     ax2.ticklabel_format(axis="x", useOffset=False)
     fig.tight_layout()
     fig.savefig(path, dpi=150)
@@ -383,7 +438,9 @@ def plot_fig10(res: dict[str, Any], path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------------- driver
-RUNNERS = {"fig8b": run_fig8, "fig9": run_fig9, "fig10": run_fig10}
+RUNNERS = {"fig8b": run_fig8, "fig9": run_fig9_overview, "fig9zoom": run_fig9_zoom,
+           "fig10": run_fig10}
+SCENARIOS = {"fig8b": ["fig8b"], "fig9": ["fig9", "fig9zoom"], "fig10": ["fig10"]}
 
 
 def _run(name: str, quick: bool) -> tuple[str, dict[str, Any]]:
@@ -394,13 +451,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="coarse grids (< 1 min)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel processes (scenarios)")
-    ap.add_argument("--only", nargs="*", choices=sorted(RUNNERS), default=None)
+    ap.add_argument("--only", nargs="*", choices=sorted(SCENARIOS), default=None)
     ap.add_argument("--out", type=Path, default=OUT, help="output directory")
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     names = a.only or ["fig8b", "fig9", "fig10"]
     # longest first, so that two workers balance
-    order = [n for n in ("fig8b", "fig9", "fig10") if n in names]
+    tasks = [t for n in names for t in SCENARIOS[n]]
+    order = [t for t in ("fig9zoom", "fig8b", "fig9", "fig10") if t in tasks]
     t0 = time.perf_counter()
     results: dict[str, dict[str, Any]] = {}
     if a.jobs > 1 and len(order) > 1:
@@ -410,6 +468,12 @@ def main() -> None:
     else:
         for name in order:
             results[name] = _run(name, a.quick)[1]
+    if "fig9zoom" in results:
+        zres = results.pop("fig9zoom")
+        ov = results.pop("fig9") if "fig9" in results else {"up": [], "down": []}
+        results["fig9"] = {**zres, "up": ov["up"], "down": ov["down"],
+                           "total_s": zres["total_s"] + ov.get("total_s", 0.0),
+                           "zoom_s": zres["total_s"], "overview_s": ov.get("total_s", 0.0)}
     wall = time.perf_counter() - t0
     summary: dict[str, Any] = {"mode": "quick" if a.quick else "full", "wall_s": wall,
                                "paper": PAPER}
@@ -424,10 +488,10 @@ def main() -> None:
     if "fig9" in results:
         r = results["fig9"]
         plot_fig9(r, a.out / "brute_force_fig9bc.png")
-        summary["fig9"] = {k: v for k, v in r.items() if k not in ("up", "down", "zoom", "d0_q2")}
-        summary["fig9"]["d0_q2"] = [float(v) for v in np.unique(np.round(r["d0_q2"], 8))]
+        summary["fig9"] = {k: v for k, v in r.items() if k not in ("up", "down", "zoom", "classes")}
         summary["fig9"]["n_values"] = sum(len(r[k]) for k in ("up", "down", "zoom"))
-        summary["fig9"]["zoom"] = [summary_point(p) for p in r["zoom"]]
+        summary["fig9"]["zoom"] = [{**summary_point(p), "class": c}
+                                   for p, (_, c) in zip(r["zoom"], r["classes"], strict=True)]
         summary["fig9"]["failures"] = [(p.value, p.failures) for k in ("up", "down", "zoom")
                                        for p in r[k] if p.failures]
     if "fig10" in results:
