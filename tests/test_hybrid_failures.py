@@ -261,3 +261,23 @@ def test_H_independent_of_state_rejected():
     with pytest.raises(HybridDeclarationError, match="does not depend on the state"):
         HybridSystem("no_surface", x, {"p": p}, ca.vertcat(x[1], -G), p + 1.0,
                      ca.vertcat(0, -2.0), ["x1", "x2"])
+
+
+def test_chatter_estimate_round_off_floor_near_loss_of_sticking():
+    """Near e* the chatter map's error estimate stalls above a tight chatter_tol (round-off,
+    a -> 0). The map must still be applied (floor recorded), never skipped until round-off
+    breaks the sequence into a wrong, unflagged orbit. Oracle: every order gives the same
+    sticking time and a converged orbit."""
+    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+
+    y = np.array([-1.1403809635651985, -3.665330511373152, 0.23345989973542672, 0.894463])
+    taus = []
+    for order in (2, 4):
+        pb = DoublePendulumProblem({"e": 0.894463, "integrator": {
+            "rtol": 1e-12, "atol": 1e-14, "chatter_tol": 1e-12, "chatter_order": order,
+            "wall_time": 20.0}})
+        res = pb.shooting.simulate(y)
+        assert res.sticking_time > 1e-3
+        assert np.abs(pb.evaluate(y)).max() < 1e-8
+        taus.append(res.sticking_time)
+    assert abs(taus[0] - taus[1]) < 1e-8

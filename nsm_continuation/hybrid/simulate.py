@@ -237,6 +237,8 @@ class Simulator:
     def __init__(self, c: CompiledHybrid, opts: SimOptions | None = None) -> None:
         self.c = c
         self.o = opts or SimOptions()
+        #: chatter error estimates of the current sequence (stall detection)
+        self._errs: list[float] = []
 
     # ------------------------------------------------------------------ helpers
     def _step(self, mode: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
@@ -637,7 +639,18 @@ class Simulator:
         w = rr ** (m + 1)
         scale = 1.0 + float(np.linalg.norm(value[:N], np.inf))
         err = float(np.linalg.norm(value - prev, np.inf)) * w / (1.0 - w) / scale
-        if err > o.chatter_tol:
+        if count == m + 1:
+            self._errs = []
+        self._errs.append(err)
+        floor_hit = False
+        if o.chatter_tol < err <= 1e4 * o.chatter_tol and len(self._errs) >= 4 \
+                and err >= min(self._errs[-4:-1]):
+            # close to the tolerance the estimate stopped decreasing (it should shrink by
+            # r^(m+1) per impact): a round-off floor (near the loss of sticking, a -> 0).
+            # Continuing would resolve impacts until round-off breaks the sequence and report
+            # a wrong orbit; the map is applied and the floor recorded in the event.
+            floor_hit = True
+        if err > o.chatter_tol and not floor_hit:
             if count > o.max_chatter_impacts:
                 raise SimulationError(
                     f"chattering sequence of {count} impacts without meeting the chatter map's "
@@ -660,7 +673,7 @@ class Simulator:
         # the impact at x_k is replaced by the map: count - 1 impacts were resolved
         events.append(SimEvent("chatter", t, Xs[: c.n].copy(),
                                {"impacts": count - 1, "error_estimate": err,
-                                "t_complete": ts}))
+                                "t_complete": ts, "error_floor": floor_hit}))
         return Xs, Js, Jts, ts, count - 1
 
 
