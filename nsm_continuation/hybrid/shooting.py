@@ -226,6 +226,7 @@ class HybridShootingProblem(Problem):
 
 
 # ---------------------------------------------------------------------- YAML-facing base class
+from abc import abstractmethod  # noqa: E402
 from typing import ClassVar, Literal  # noqa: E402
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter  # noqa: E402
@@ -303,14 +304,17 @@ class HybridCaseProblem(HybridShootingProblem):
     # -- to implement -----------------------------------------------------------------------
     default_parameter: ClassVar[str] = ""
 
+    @abstractmethod
     def system(self) -> HybridSystem:
-        raise NotImplementedError
+        """The CasADi declaration of the impacting system."""
 
+    @abstractmethod
     def section(self) -> Section:
-        raise NotImplementedError
+        """The Poincaré section and the shift of its coordinate per period."""
 
+    @abstractmethod
     def default_initial(self) -> np.ndarray:
-        raise NotImplementedError
+        """A state to simulate from when ``start`` gives no guess."""
 
     def check_parameters(self, values: dict[str, float]) -> None:
         """Physical checks with messages naming the field (override; call super)."""
