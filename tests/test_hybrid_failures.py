@@ -281,3 +281,19 @@ def test_chatter_estimate_round_off_floor_near_loss_of_sticking():
         assert np.abs(pb.evaluate(y)).max() < 1e-8
         taus.append(res.sticking_time)
     assert abs(taus[0] - taus[1]) < 1e-8
+
+
+def test_turning_lower_bar_periodic_modulo_two_pi():
+    """Sec. 6.2: over two revolutions of the upper bar the lower bar turns too, so q2 returns
+    modulo 2 pi. The shooting residual wraps it: at the period-2 orbit (d = 0.5009, found by
+    simulation and Newton in this session) the residual vanishes although q2 itself has moved
+    by a multiple of 2 pi."""
+    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+
+    pb = DoublePendulumProblem({"e": 0.19, "torque": -40.0, "d": 0.5009})
+    pb.set_parameter("d", returns=2)
+    y = np.array([-1.70463256, -5.01976446, -3.28324432, 0.5009])
+    res = pb.shooting.simulate(y)
+    turned = (res.X[1] - y[0]) / (2 * np.pi)
+    assert abs(turned) > 0.5 and abs(turned - round(turned)) < 1e-6
+    assert np.abs(pb.evaluate(y)).max() < 1e-6

@@ -47,6 +47,18 @@ class ShootingFailure(Exception):
     pass
 
 
+def wrap_periodic(values: np.ndarray, indices: list[int], periodic: dict[int, float]
+                  ) -> np.ndarray:
+    """``values[j]`` (state component ``indices[j]``) wrapped to ``[-per/2, per/2)`` for the
+    periodic components (angles that may turn); others unchanged."""
+    out = np.array(values, dtype=float)
+    for j, k in enumerate(indices):
+        per = periodic.get(k)
+        if per:
+            out[j] = (out[j] + 0.5 * per) % per - 0.5 * per
+    return out
+
+
 class HybridShooting:
     """Return map, residual and Jacobian of a compiled hybrid system on a section (cached)."""
 
@@ -93,10 +105,7 @@ class HybridShooting:
         fi = self.free_idx
         g = res.X[fi] - self.x0(y)[fi]
         # angles that may turn (the pendulum's lower bar): periodicity modulo their period
-        for j, k in enumerate(fi):
-            per = self.c.system.periodic.get(k)
-            if per:
-                g[j] = (g[j] + 0.5 * per) % per - 0.5 * per
+        g = wrap_periodic(g, fi, self.c.system.periodic)
         cols = fi + list(range(c.n, c.N))
         Jm = res.J[np.ix_(fi, cols)].copy()
         Jm[:, : len(fi)] -= np.eye(len(fi))
@@ -409,11 +418,7 @@ class HybridCaseProblem(HybridShootingProblem):
                     Xs = self.transient(X, s.transient * s.returns)
                 except (SimulationError, HybridDeclarationError) as exc:
                     raise ValueError(f"start: transient simulation failed ({exc})") from None
-                z = Xs[fi]
-                for j, k in enumerate(fi):
-                    per = self.hybrid.periodic.get(k)
-                    if per:
-                        z[j] = (z[j] + 0.5 * per) % per - 0.5 * per
+                z = wrap_periodic(Xs[fi], fi, self.hybrid.periodic)
                 how = f"simulation ({s.transient} periods)"
             y = np.append(z, [p0])
             d = {"both": 0, "increase": 1, "decrease": -1}[s.direction]

@@ -559,7 +559,7 @@ class Simulator:
         JX = None if J is None else J[:N].copy()
         q = c.q(X)
         if o.validate:
-            c.validate_at(X, f"at the impact at t = {t:.6g}")
+            c.validate_at(X, f"at the impact at t = {t:.6g}", q)
         info["impact_velocity"] = abs(q["v"])
         a = q["a"]
         if a > 0:

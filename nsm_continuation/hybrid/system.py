@@ -302,10 +302,12 @@ class CompiledHybrid:
         vals = np.asarray(self.quantities(X), dtype=float).ravel()
         return dict(zip(("H", "v", "a", "r", "lam", "LWH"), vals.tolist(), strict=True))
 
-    def validate_at(self, X: np.ndarray, where: str) -> None:
+    def validate_at(self, X: np.ndarray, where: str,
+                    qv: dict[str, float] | None = None) -> None:
         """Check the impact law at a surface point (eqs. 6, 9 and sec. 2.4): ``0 <= r < 1`` and
-        ``W`` tangent to the surface. Raises :class:`HybridDeclarationError`."""
-        qv = self.q(X)
+        ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already evaluated). Raises
+        :class:`HybridDeclarationError`."""
+        qv = self.q(X) if qv is None else qv
         if not np.isfinite(list(qv.values())).all():
             raise HybridDeclarationError(f"{self.system.name}: non-finite H, v, a, r or lambda "
                                          f"{where}: {qv}")
