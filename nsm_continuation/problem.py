@@ -165,6 +165,25 @@ class Problem(ABC):
         """Initial guesses from the YAML ``start:`` block; ``window`` = parameter bounds."""
         raise ValueError(f"problem {self.name!r} does not generate starting points")
 
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """Check everything about ``start`` (the YAML ``start:`` block) and the sizes of this
+        instance that can be checked **without computing**: keys, sizes, ranges, and an estimate
+        of the memory and time a run of ``max_points`` points per direction would take.
+
+        Raise :class:`ValueError` with one line naming the key (``start.mode: 7 exceeds the 5
+        modes of the chain``) or the limit (``parameters.chain.n: 10000 dofs need ~4.8 GB ...;
+        limit 2 GB``). ``nsm-continuation validate`` runs exactly this check and ``run`` runs it
+        before anything is computed or written, so the two agree on every input. Must be cheap
+        (no simulation, no continuation); the default accepts everything.
+        """
+        return None
+
+    def monitor_names(self) -> list[str]:
+        """Names of the derived quantities (:meth:`derived`) a ``continuation.bounds`` entry may
+        name; a bound on any other name is refused before computing."""
+        return []
+
     def parameter_bounds(self, name: str, lo: float | None, hi: float | None
                          ) -> tuple[float | None, float | None]:
         """Convert user bounds on ``name`` (e.g. ``omega``) to bounds on ``self.parameter``."""
