@@ -41,6 +41,14 @@ import numpy as np
 from pydantic import BaseModel
 
 
+class EvaluationError(RuntimeError):
+    """A problem cannot evaluate its residual (or Jacobian, multipliers, ...) at a point, for a
+    reason it can name: e.g. the simulator of a hybrid orbit reached its time limit, or an
+    impact law left its domain. The engine never lets it escape: the step is retried smaller
+    and, if the branch has to end, its termination reason is this message (the real cause),
+    not a generic "non-finite residual"."""
+
+
 @dataclass
 class FloquetData:
     """Non-trivial Floquet multipliers at a point, and the accuracy check they came with.
