@@ -9,22 +9,51 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
 
 from . import registry
 from .problem import Problem
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-Finite = Annotated[float, Field(allow_inf_nan=False)]
-PosInt = Annotated[int, Field(ge=1)]
+# strict: ``true`` is not a number and ``"3"`` is not an integer (an int is a valid float)
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
+Finite = Annotated[float, Field(allow_inf_nan=False, strict=True)]
+PosInt = Annotated[int, Field(ge=1, strict=True)]
+Bool = Annotated[bool, Field(strict=True)]
+#: smallest step a case may ask for: below it a step does not move a point of size 1 (|y| eps)
+STEP_FLOOR = 1e-14
+#: largest number of points per direction (each point keeps y, tangent and multipliers)
+MAX_POINTS = 1_000_000
+#: a case file larger than this is refused unread (cases are a few hundred bytes)
+MAX_CASE_BYTES = 1_000_000
+#: a case that expands (YAML aliases included) to more values than this is refused
+MAX_CASE_NODES = 200_000
+#: a case name is a folder name, never a path
+NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9._+-]{0,99}$"
 
 
 class CaseError(ValueError):
     """Bad input: the message names the key and what is wrong."""
+
+
+def _plain_name(name: str) -> str:
+    """A case name names the output folder ``runs/<name>``: a plain folder name, not a path."""
+    if not re.match(NAME_PATTERN, name) or name in {".", ".."}:
+        raise ValueError(f"{name!r} is not a plain folder name (letters, digits, '_', '-', '.', "
+                         "'+', at most 100 characters, no '/'); use --out or output.dir for a "
+                         "path")
+    return name
 
 
 class StepSpec(BaseModel):
@@ -35,6 +64,9 @@ class StepSpec(BaseModel):
 
     @model_validator(mode="after")
     def _order(self) -> StepSpec:
+        if self.min < STEP_FLOOR:
+            raise ValueError(f"min: {self.min:g} is below {STEP_FLOOR:g}, where a step no "
+                             "longer moves a point in floating point")
         if not self.min <= self.initial <= self.max:
             raise ValueError(f"need min <= initial <= max (got {self.min}, {self.initial}, "
                              f"{self.max})")
@@ -47,7 +79,7 @@ class ContinuationSpec(BaseModel):
     min: Finite | None = None
     max: Finite | None = None
     step: StepSpec = StepSpec()
-    max_points: PosInt = 400
+    max_points: Annotated[int, Field(ge=2, le=MAX_POINTS, strict=True)] = 400
     max_energy: PosFloat | None = None
     direction: Literal["both", "increase", "decrease"] = "both"
     newton_tol: PosFloat = 1e-11
@@ -66,10 +98,10 @@ class ContinuationSpec(BaseModel):
 
 class AnalysisSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    stability: bool = True
-    bifurcations: bool = True
-    stop_on_inadmissible: bool = False
-    stability_on_phantom: bool = False
+    stability: Bool = True
+    bifurcations: Bool = True
+    stop_on_inadmissible: Bool = False
+    stability_on_phantom: Bool = False
     unit_circle_tol: PosFloat = 1e-7
     event_tol: PosFloat = 1e-12
     multiplier_event_tol: PosFloat = 1e-9
@@ -78,16 +110,19 @@ class AnalysisSpec(BaseModel):
 
 class OutputSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    dir: str | None = None
-    plots: bool = True
-    progress: bool = True
+    dir: Annotated[str, Field(min_length=1, strict=True)] | None = None
+    plots: Bool = True
+    progress: Bool = True
+    #: an existing output folder holding a previous run: refuse (error), replace the files that
+    #: run wrote (overwrite, as ``--overwrite``), or write to a numbered sibling (new)
+    if_exists: Literal["error", "overwrite", "new"] = "error"
 
 
 class Case(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    name: str = "case"
-    description: str = ""
-    problem: str
+    name: Annotated[str, Field(strict=True), AfterValidator(_plain_name)] = "case"
+    description: Annotated[str, Field(max_length=10_000, strict=True)] = ""
+    problem: Annotated[str, Field(strict=True)]
     parameters: dict[str, Any]
     start: Any
     continuation: ContinuationSpec = ContinuationSpec()
@@ -95,16 +130,40 @@ class Case(BaseModel):
     output: OutputSpec = OutputSpec()
 
 
-def _format(err: ValidationError, prefix: str = "") -> str:
+def _keyed(prefix: str, msg: str) -> str:
+    """``prefix: msg`` unless ``msg`` already starts with the prefix (``parameters.e: ...``)."""
+    if re.match(rf"^({re.escape(prefix)}|{'|'.join(Case.model_fields)})[.:\[]", msg):
+        return msg
+    return f"{prefix}: {msg}"
+
+
+def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
+    """One line from the first pydantic error: the dotted key as the user wrote it (pydantic's
+    union tags such as ``constrained-float`` or ``ModeStart`` are dropped by walking ``raw``)."""
     e = err.errors()[0]
-    loc = ".".join(str(p) for p in e["loc"] if not str(p).startswith("function-after"))
-    # drop pydantic's union-member tags (e.g. 'ModeStart') from the location
-    parts = [p for p in loc.split(".")
-             if p and not (p[0].isupper() and any(ch.islower() for ch in p))]
+    parts: list[str] = []
+    node = raw
+    loc = list(e["loc"])
+    for i, part in enumerate(loc):
+        if isinstance(node, dict) and part in node:
+            parts.append(str(part))
+            node = node[part]
+        elif isinstance(node, list | tuple) and isinstance(part, int) and part < len(node):
+            parts[-1:] = [f"{parts[-1]}[{part}]" if parts else f"[{part}]"]
+            node = node[part]
+        elif e["type"] == "missing" and i == len(loc) - 1:
+            parts.append(str(part))
     where = ".".join(([prefix] if prefix else []) + parts)
     msg = e["msg"].removeprefix("Value error, ")
-    extra = " (unknown key)" if e["type"] == "extra_forbidden" else ""
-    return f"{where or prefix or 'case'}: {msg}{extra}"
+    if e["type"] == "extra_forbidden":
+        msg = "unknown key"
+    elif e["type"] == "missing":
+        msg = "required key is missing"
+    elif e["type"] in ("float_type", "int_type", "bool_type", "string_type") \
+            and not isinstance(node, dict | list):
+        msg = f"{msg} (got {node!r})"
+    msg = msg.splitlines()[0] if msg else "invalid value"
+    return _keyed(where, msg) if where else f"case: {msg}"
 
 
 def _reject_nan(obj: Any, where: str) -> None:
@@ -116,6 +175,75 @@ def _reject_nan(obj: Any, where: str) -> None:
     if isinstance(obj, list):
         for i, v in enumerate(obj):
             _reject_nan(v, f"{where}[{i}]")
+
+
+class _CaseLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses duplicate keys (YAML says they are an error; PyYAML
+    keeps the last one silently)."""
+
+
+def _mapping_without_duplicates(loader: _CaseLoader, node: yaml.MappingNode,
+                                deep: bool = False) -> dict[Any, Any]:
+    loader.flatten_mapping(node)
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        try:
+            duplicate = key in seen
+        except TypeError:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"unhashable key {key!r}", key_node.start_mark) from None
+        if duplicate:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark)
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_CaseLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
+                            _mapping_without_duplicates)
+# YAML 1.2 floats: PyYAML (YAML 1.1) reads ``1e-9`` and ``1.0e3`` as strings
+_CaseLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                |[-+]?\.(?:inf|Inf|INF)
+                |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
+
+
+def _check_size(obj: Any, where: str) -> None:
+    """Refuse a document that expands to more than :data:`MAX_CASE_NODES` values (a YAML
+    alias bomb is a few hundred bytes and billions of values once expanded)."""
+    stack, count = [obj], 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > MAX_CASE_NODES:
+            raise CaseError(f"{where}: expands to more than {MAX_CASE_NODES} values (YAML "
+                            "aliases?); a case is a few dozen keys")
+        if isinstance(node, dict):
+            stack.extend(node.keys())
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+
+
+def parse_yaml(text: str, where: str) -> Any:
+    """YAML text -> Python objects, with duplicate keys and oversized documents refused."""
+    try:
+        data = yaml.load(text, Loader=_CaseLoader)  # noqa: S506 (a SafeLoader subclass)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" (line {mark.line + 1})" if mark is not None else ""
+        problem = getattr(exc, "problem", None)
+        why = f": {problem}" if problem else ""
+        raise CaseError(f"{where}: not valid YAML{at}{why}") from None
+    except RecursionError:
+        raise CaseError(f"{where}: nested too deeply") from None
+    _check_size(data, where)
+    return data
 
 
 def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
@@ -133,61 +261,95 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
             if not isinstance(node.get(p, {}), dict):
                 raise CaseError(f"--set {key}: {p} is not a mapping")
             node = node.setdefault(p, {})
-        try:
-            node[parts[-1]] = yaml.safe_load(value)
-        except yaml.YAMLError as exc:
-            raise CaseError(f"--set {key}: value is not valid YAML ({exc})") from None
+        node[parts[-1]] = parse_yaml(value, f"--set {key}")
     return out
 
 
 def load_raw(path: str | Path) -> dict[str, Any]:
+    """The case file as a mapping; every problem with the file is one :class:`CaseError`."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise CaseError(f"case file: {path} does not exist")
+    if p.is_dir():
+        raise CaseError(f"case file: {path} is a directory, not a YAML file")
     try:
-        raw = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        line = getattr(getattr(exc, "problem_mark", None), "line", None)
-        at = f" (line {line + 1})" if line is not None else ""
-        raise CaseError(f"case file: {path} is not valid YAML{at}") from None
+        with open(p, "rb") as fh:
+            data = fh.read(MAX_CASE_BYTES + 1)
+    except OSError as exc:
+        raise CaseError(f"case file: cannot read {path} ({exc.strerror})") from None
+    if len(data) > MAX_CASE_BYTES:
+        raise CaseError(f"case file: {path} is larger than {MAX_CASE_BYTES // 1000} kB; a case "
+                        "is a short YAML file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise CaseError(f"case file: {path} is not UTF-8 text (byte {exc.start})") from None
+    if not text.strip():
+        raise CaseError(f"case file: {path} is empty")
+    raw = parse_yaml(text, f"case file {path}")
     if not isinstance(raw, dict):
         raise CaseError(f"case file: {path} must contain a mapping of keys")
+    bad = [k for k in raw if not isinstance(k, str)]
+    if bad:
+        raise CaseError(f"case file: key {bad[0]!r} is not a name")
     return raw
 
 
 def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
-    """Validate a raw case and build its problem; raises :class:`CaseError`."""
+    """Validate a raw case, build its problem and run its preflight (:meth:`Problem.preflight`):
+    everything that can be checked without computing. Raises :class:`CaseError` (one line
+    naming the key). ``nsm-continuation validate`` is exactly this, and ``run`` starts with it,
+    so the two agree on every input."""
+    if not isinstance(raw, dict):
+        raise CaseError("case: must be a mapping of keys")
+    _check_size(raw, "case")
     _reject_nan(raw, "")
     try:
         case = Case.model_validate(raw)
     except ValidationError as err:
-        raise CaseError(_format(err)) from None
+        raise CaseError(_format(err, raw)) from None
     try:
         cls = registry.get(case.problem)
     except registry.UnknownProblemError as exc:
         raise CaseError(f"problem: {exc}") from None
+    if not isinstance(case.parameters, dict):
+        raise CaseError("parameters: must be a mapping of keys")
     try:
         params = cls.Parameters.model_validate(case.parameters)
     except ValidationError as err:
-        raise CaseError(_format(err, "parameters")) from None
+        raise CaseError(_format(err, case.parameters, "parameters")) from None
     try:
         problem = cls(params)
-    except ValueError as exc:
-        raise CaseError(f"parameters: {exc}") from None
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("parameters", str(exc))) from None
     adapter = getattr(cls, "start_adapter", None)
     if adapter is not None:
         try:
             adapter.validate_python(case.start)
         except ValidationError as err:
-            raise CaseError(_format(err, "start")) from None
+            raise CaseError(_format(err, case.start, "start")) from None
+    c = case.continuation
     try:
-        problem.parameter_bounds(case.continuation.parameter, case.continuation.min,
-                                 case.continuation.max)
+        window = problem.parameter_bounds(c.parameter, c.min, c.max)
     except ValueError as exc:
-        raise CaseError(str(exc)) from None
+        raise CaseError(_keyed("continuation.parameter", str(exc))) from None
+    monitors = problem.monitor_names()
+    for name in c.bounds:
+        if name not in monitors:
+            known = ", ".join(monitors) if monitors else "none declared"
+            raise CaseError(f"continuation.bounds.{name}: not a quantity of problem "
+                            f"{case.problem!r} (one of: {known})")
+    if c.max_energy is not None and problem.energy_quantity is None:
+        raise CaseError(f"continuation.max_energy: problem {case.problem!r} has no energy; "
+                        "bound one of its quantities with continuation.bounds instead")
+    try:
+        problem.preflight(case.start, window, c.max_points)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("start", str(exc))) from None
     return case, problem
 
 
 def load(path: str | Path, overrides: list[str] | None = None) -> tuple[Case, Problem]:
+    """Read, override and validate a case file (see :func:`validate`)."""
     raw = apply_overrides(load_raw(path), overrides or [])
     return validate(raw)

@@ -1,12 +1,23 @@
 """Command line: ``nsm-continuation run | validate | list``.
 
-Exit status: 0 success, 2 bad input (one line on stderr naming the key), 1 unexpected error.
+Exit status (README, "Exit status"):
+
+* 0: every start gave a branch (``validate``: the case is valid);
+* 2: bad input: one line on stderr naming the key (or the output path), nothing written, found
+  before any computation (``validate`` runs exactly the same checks);
+* 3: the report was written but some start failed (said in the summary and the report);
+* 130 / 143: interrupted by SIGINT / SIGTERM: no partial output, the previous result intact;
+* 1: a bug (an exception that should not happen): one line, the traceback saved to a file.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
+import tempfile
+import traceback
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -31,6 +42,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="output directory (default: output.dir or runs/<name>)")
     r.add_argument("--set", dest="overrides", action="append", default=[],
                    metavar="KEY=VALUE", help="override a case key, e.g. continuation.max=2.0")
+    r.add_argument("--overwrite", action="store_true",
+                   help="replace a previous run in the output directory (only the files it "
+                        "wrote; never files this tool did not write)")
     r.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     v = sub.add_parser("validate", help="check a YAML case without running it")
     v.add_argument("case")
@@ -52,36 +66,90 @@ def _summary(rep: dict, out: Path) -> str:
     return "\n".join(lines)
 
 
+class Interrupted(BaseException):
+    """SIGTERM received: unwinds like KeyboardInterrupt (not caught by ``except Exception``)."""
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Interrupted()
+
+
+def _bug(exc: BaseException) -> int:
+    fd, path = tempfile.mkstemp(prefix="nsm-continuation-crash-", suffix=".txt")
+    with os.fdopen(fd, "w") as fh:
+        traceback.print_exception(exc, file=fh)
+    print(f"error: internal error, this is a bug ({type(exc).__name__}: {exc}); "
+          f"traceback in {path}", file=sys.stderr)
+    return 1
+
+
+def _run(args: argparse.Namespace, path: str) -> int:
+    from .output import OutputTarget
+    from .results import build_report, termination_text, write_files
+    from .run import run_case
+
+    case, problem = cases.load(path, args.overrides)
+    out = Path(args.out or case.output.dir or Path("runs") / case.name)
+    policy = "overwrite" if args.overwrite else case.output.if_exists
+    target = OutputTarget(out, policy)
+    target.prepare()  # exit 2 here: nothing computed, nothing written
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            res = run_case(case, problem, progress=case.output.progress and not args.quiet)
+            assert target.tmp is not None
+            write_files(res, target.tmp, plots=case.output.plots)
+        out = target.commit()
+    except BaseException:
+        target.abort()
+        raise
+    failed = [b for b in res.branches if not b.points]
+    if not args.quiet:
+        print(_summary(build_report(res), out))
+        for w in problem.warnings():
+            print(f"warning: {w}")
+    if failed:
+        print(f"{len(failed)} of {len(res.branches)} starts failed: "
+              + "; ".join(f"branch {b.id} ({b.label}): {termination_text(b)}" for b in failed),
+              file=sys.stderr)
+        return 3
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread (e.g. called from a worker): keep the default
+        previous = None
     try:
         if args.command == "list":
             for name, target in registry.available().items():
                 print(f"{name}\t{target}")
             return 0
         path = getattr(args, "case", None) or str(_default_case_path())
-        case, problem = cases.load(path, args.overrides)
         if args.command == "validate":
+            case, problem = cases.load(path, args.overrides)
             print(f"{path}: valid ({case.problem}, {len(problem.variables)} unknowns)")
             for w in problem.warnings():
                 print(f"warning: {w}")
             return 0
-        from .results import build_report, write_outputs
-        from .run import run_case
-
-        out = Path(args.out or case.output.dir or Path("runs") / case.name)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            res = run_case(case, problem, progress=case.output.progress and not args.quiet)
-            write_outputs(res, out, plots=case.output.plots)
-        if not args.quiet:
-            print(_summary(build_report(res), out))
-            for w in problem.warnings():
-                print(f"warning: {w}")
-        return 0
+        return _run(args, path)
     except cases.CaseError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted: nothing written (any previous result is intact)", file=sys.stderr)
+        return 130
+    except Interrupted:
+        print("terminated: nothing written (any previous result is intact)", file=sys.stderr)
+        return 143
+    except Exception as exc:
+        return _bug(exc)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

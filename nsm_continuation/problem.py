@@ -219,6 +219,9 @@ class Problem(ABC):
 
     #: derived quantities used as axes of the frequency-energy plot
     fep_axes: tuple[str, str] = ("omega", "energy")
+    #: the derived quantity that ``continuation.max_energy`` bounds (None: the problem has no
+    #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
+    energy_quantity: ClassVar[str | None] = None
 
     def warnings(self) -> list[str]:
         """Warnings about the instance (e.g. a violated assumption) to put in the report."""

@@ -1,16 +1,13 @@
 """Run outputs (a stable contract): ``report.json``, ``branch_<id>.csv``, ``report.md``, plots.
 
-Everything is written into a temporary sibling directory which is renamed onto the output
-directory only when complete: a failed run leaves no half-written folder.
+Where and how they are written (never over a user's files, atomically) is
+:mod:`nsm_continuation.output`.
 """
 
 from __future__ import annotations
 
 import csv
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +15,7 @@ import numpy as np
 
 from .continuation import Branch, Point
 from .events import Event
+from .output import IfExists, OutputTarget
 from .run import RunResult
 
 
@@ -139,38 +137,41 @@ def build_report(res: RunResult) -> dict[str, Any]:
     }
 
 
-def write_outputs(res: RunResult, out_dir: Path, plots: bool = True) -> Path:
-    """Write every output of a run atomically into ``out_dir``; returns ``out_dir``."""
+def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
+    """Write every output of a run (CSV per branch, report.json, report.md, figures) into
+    ``directory``, which exists and is the run's own (see :mod:`nsm_continuation.output`)."""
     from . import report as report_md
 
-    out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
-    try:
-        rep = build_report(res)
-        for br in res.branches:
-            cols, rows = branch_rows(br, res.problem.variables,
-                                     getattr(res.problem, "csv_head", None))
-            with open(tmp / f"branch_{br.id}.csv", "w", newline="") as fh:
-                w = csv.writer(fh)
-                w.writerow(cols)
-                w.writerows(rows)
-        figures: list[str] = []
-        if plots:
-            from . import plots as plotting
+    directory = Path(directory)
+    rep = build_report(res)
+    for br in res.branches:
+        cols, rows = branch_rows(br, res.problem.variables,
+                                 getattr(res.problem, "csv_head", None))
+        with open(directory / f"branch_{br.id}.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(cols)
+            w.writerows(rows)
+    figures: list[str] = []
+    if plots:
+        from . import plots as plotting
 
-            figures = plotting.make_all(res, tmp)
-        rep["figures"] = figures
-        (tmp / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
-        (tmp / "report.md").write_text(report_md.markdown(rep))
-        if out_dir.exists():
-            old = out_dir.with_name(f".{out_dir.name}.old-{os.getpid()}")
-            os.replace(out_dir, old)
-            os.replace(tmp, out_dir)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out_dir)
+        figures = plotting.make_all(res, directory)
+    rep["figures"] = figures
+    (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
+    (directory / "report.md").write_text(report_md.markdown(rep))
+
+
+def write_outputs(res: RunResult, out_dir: Path | str, plots: bool = True,
+                  if_exists: IfExists = "error") -> Path:
+    """Write every output of a run into ``out_dir`` under the output policy of
+    :mod:`nsm_continuation.output` (never deletes what this tool did not write); returns the
+    directory written (a numbered sibling with ``if_exists="new"``)."""
+    target = OutputTarget(Path(out_dir), if_exists)
+    target.prepare()
+    try:
+        assert target.tmp is not None
+        write_files(res, target.tmp, plots)
+        return target.commit()
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        target.abort()
         raise
-    return out_dir

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .cases import Case, CaseError
+from .cases import Case
 from .continuation import Branch, ContinuationEngine, ContinuationSettings
 from .problem import Problem, StartPoint
 
@@ -28,8 +28,8 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
                                                               tuple[float | None, float | None]]:
     c, a = case.continuation, case.analysis
     lo, hi = problem.parameter_bounds(c.parameter, c.min, c.max)
-    derived_bounds = ({problem.fep_axes[1]: (None, c.max_energy)}
-                      if c.max_energy is not None else {})
+    derived_bounds = ({problem.energy_quantity: (None, c.max_energy)}
+                      if c.max_energy is not None and problem.energy_quantity else {})
     derived_bounds.update({k: (v[0], v[1]) for k, v in c.bounds.items()})
     settings = ContinuationSettings(
         step_initial=c.step.initial, step_min=c.step.min, step_max=c.step.max,
@@ -71,17 +71,28 @@ def _progress_bar(case: Case, total: int, progress: bool) -> Any:
     return tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
 
 
+def _failed_start(case: Case, problem: Problem, settings: ContinuationSettings,
+                  window: tuple[float | None, float | None], exc: Exception,
+                  t0: float) -> RunResult:
+    """The start block passed the preflight but its starts could not be built (e.g. the
+    transient simulation that finds a hybrid orbit failed): one failed branch records why."""
+    msg = str(exc).removeprefix("start: ")
+    failed = Branch(0, "start", [], [], {"start": f"no start point: {msg}"})
+    return RunResult(case, problem, [failed], settings, window,
+                     {"total_s": time.perf_counter() - t0, "n_points": 0, "per_branch_s": []})
+
+
 def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
     settings, window = settings_from_case(case, problem)
     if getattr(problem, "lattice", False):
         return run_lattice_case(case, problem, settings, window, progress)
     if case.analysis.stability is False:
         problem.floquet = lambda y, t: None  # type: ignore[method-assign]
+    t0 = time.perf_counter()
     try:
         starts = problem.start_points(case.start, window)
     except ValueError as exc:
-        raise CaseError(f"start: {exc}") from None
-    t0 = time.perf_counter()
+        return _failed_start(case, problem, settings, window, exc, t0)
     _ = problem.compiled  # build CasADi functions once
     t_build = time.perf_counter() - t0
     bar = _progress_bar(case, len(starts) * settings.max_points, progress)
@@ -120,7 +131,7 @@ def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSetting
     try:
         seeds = problem.lattice_seeds(case.start, window)
     except ValueError as exc:
-        raise CaseError(f"start: {exc}") from None
+        return _failed_start(case, problem, settings, window, exc, t0)
     t_seed = time.perf_counter() - t0
     bar = _progress_bar(case, len(seeds) * settings.max_points, progress)
     engine = LatticeContinuation(problem, settings, progress=bar.update if bar else None)

@@ -394,6 +394,7 @@ class BarContinuumProblem(Problem):
     Parameters: ClassVar[type[BaseModel]] = BarContinuumParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
     fep_axes: tuple[str, str] = ("omega_ratio", "energy_ratio")
+    energy_quantity = "energy_ratio"
     fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
 
     def __init__(self, params: BarContinuumParameters | dict[str, Any]) -> None:

@@ -172,6 +172,7 @@ class NDofImpactProblem(Problem):
     name: ClassVar[str] = "ndof_impact"
     Parameters: ClassVar[type[BaseModel]] = NDofParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
+    energy_quantity = "energy"
 
     def __init__(self, params: NDofParameters | dict[str, Any]) -> None:
         if isinstance(params, dict):

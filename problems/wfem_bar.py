@@ -124,6 +124,7 @@ class WfemBarProblem(LatticeProblem):
     Parameters = WfemBarParameters
     start_adapter = TypeAdapter(StartSpec)
     fep_axes = ("omega_ratio", "energy_ratio")
+    energy_quantity = "energy_ratio"
 
     def __init__(self, params: WfemBarParameters) -> None:
         super().__init__(params)

@@ -144,7 +144,7 @@ def test_missing_file_and_invalid_yaml(tmp_path, capsys):
     assert cli.main(["validate", str(_write(tmp_path, BASE, "c2.yaml")), "--set", "noequals"]) == 2
 
 
-def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch):
+def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys):
     from nsm_continuation import plots
 
     def boom(*a, **k):
@@ -153,8 +153,13 @@ def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch):
     monkeypatch.setattr(plots, "make_all", boom)
     case = _write(tmp_path, BASE)
     out = tmp_path / "out"
-    with pytest.raises(RuntimeError):
-        cli.main(["run", str(case), "--out", str(out), "--quiet"])
+    # an exception that should not happen is a bug: exit 1, one line, traceback in a file
+    assert cli.main(["run", str(case), "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "plotting failed" in err and "bug" in err
+    crash = Path(err.rsplit("traceback in ", 1)[1])
+    assert "RuntimeError: plotting failed" in crash.read_text()
+    crash.unlink()
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml"]
 

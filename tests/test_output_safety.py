@@ -1,0 +1,230 @@
+"""The output policy (nsm_continuation.output): a run never deletes or overwrites a file it did
+not write, refuses an unusable location before computing, and leaves nothing partial behind
+when it fails or is interrupted."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from nsm_continuation import cli
+from nsm_continuation import run as run_module
+from nsm_continuation.output import MARKER
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# the default chain, cut short: a run takes well under a second
+CASE = {
+    "name": "safety",
+    "problem": "ndof_impact",
+    "parameters": {"chain": {"n": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+    "start": {"mode": 1},
+    "continuation": {"parameter": "omega", "min": 0.3, "max": 0.9, "max_points": 15},
+    "output": {"plots": False, "progress": False},
+}
+
+
+def _case(tmp_path: Path, **changes: object) -> Path:
+    data = json.loads(json.dumps(CASE))
+    data.update(changes)
+    p = tmp_path / "case.yaml"
+    p.write_text(yaml.safe_dump(data))
+    return p
+
+
+def _snapshot(d: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(d)): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def no_compute(monkeypatch):
+    """Fail the test if the computation starts (refusals must come before it)."""
+    def boom(*a, **k):
+        raise AssertionError("the computation started")
+
+    monkeypatch.setattr(run_module, "run_case", boom)
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str]:
+    code = cli.main(["run", *argv, "--quiet"])
+    return code, capsys.readouterr().err
+
+
+def test_existing_folder_with_user_files_is_refused_untouched(tmp_path, capsys, no_compute):
+    user = tmp_path / "thesis"
+    (user / "chapter").mkdir(parents=True)
+    (user / "notes.txt").write_text("years of work")
+    (user / "chapter" / "fig.png").write_bytes(b"\x89PNG")
+    case = _case(tmp_path)
+    before = _snapshot(tmp_path)
+    code, err = _run([str(case), "--out", str(user)], capsys)
+    assert code == 2
+    assert err.startswith("error: output:") and len(err.strip().splitlines()) == 1
+    assert "did not write" in err
+    # nothing changed, nothing added (no temp folder, no lock) ...
+    assert _snapshot(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "thesis"]
+    # ... even when the user asks to overwrite: these are not files of a previous run
+    code, err = _run([str(case), "--out", str(user), "--overwrite"], capsys)
+    assert code == 2 and _snapshot(tmp_path) == before
+
+
+def test_out_naming_an_existing_file_is_refused(tmp_path, capsys, no_compute):
+    f = tmp_path / "results.dat"
+    f.write_text("data")
+    code, err = _run([str(_case(tmp_path)), "--out", str(f)], capsys)
+    assert code == 2 and "not a directory" in err
+    assert f.read_text() == "data"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "results.dat"]
+
+
+@pytest.mark.parametrize("name", ["/abs/path", ".", "..", "", "../../x", "a/b", "x" * 300,
+                                  ".hidden/../y"])
+def test_name_is_a_folder_name_never_a_path(tmp_path, capsys, monkeypatch, name, no_compute):
+    monkeypatch.chdir(tmp_path)
+    code, err = _run([str(_case(tmp_path, name=name))], capsys)
+    assert code == 2
+    assert err.startswith("error: name:") and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml"]
+
+
+def test_rerun_needs_overwrite_which_replaces_only_our_files(tmp_path, capsys):
+    case = _case(tmp_path)
+    out = tmp_path / "out"
+    assert _run([str(case), "--out", str(out)], capsys)[0] == 0
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["tool"] == "nsm-continuation"
+    assert set(marker["files"]) == {"branch_0.csv", "report.json", "report.md"}
+    first = _snapshot(out)
+    # a second run refuses to replace the first one silently
+    code, err = _run([str(case), "--out", str(out)], capsys)
+    assert code == 2 and "--overwrite" in err
+    assert _snapshot(out) == first
+    # the user adds a file of their own into the run folder; --overwrite keeps it
+    (out / "my_analysis.py").write_text("print(1)")
+    old_csv = (out / "branch_0.csv").read_text()
+    case2 = _case(tmp_path, continuation={**CASE["continuation"], "max_points": 8})
+    assert _run([str(case2), "--out", str(out), "--overwrite"], capsys)[0] == 0
+    assert (out / "my_analysis.py").read_text() == "print(1)"
+    assert (out / "branch_0.csv").read_text() != old_csv  # the new result
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out"]
+
+
+def test_overwrite_never_replaces_a_user_file_with_an_output_name(tmp_path, capsys):
+    out = tmp_path / "out"
+    no_plots = _case(tmp_path)
+    assert _run([str(no_plots), "--out", str(out)], capsys)[0] == 0
+    # fep.png was not written by the first run (plots off): this one is the user's
+    (out / "fep.png").write_bytes(b"mine")
+    before = _snapshot(out)
+    plots = _case(tmp_path, output={"plots": True, "progress": False})
+    code, err = _run([str(plots), "--out", str(out), "--overwrite"], capsys)
+    assert code == 2 and "fep.png" in err
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out"]
+
+
+def test_if_exists_new_writes_a_numbered_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    case = _case(tmp_path, output={"plots": False, "progress": False, "if_exists": "new"})
+    for _ in range(3):
+        assert _run([str(case)], capsys)[0] == 0
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == [
+        "safety", "safety-2", "safety-3"]
+
+
+def test_ordinary_permissions(tmp_path, capsys):
+    old = os.umask(0o022)
+    try:
+        out = tmp_path / "out"
+        assert _run([str(_case(tmp_path)), "--out", str(out)], capsys)[0] == 0
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o755
+    for f in out.iterdir():
+        assert stat.S_IMODE(f.stat().st_mode) == 0o644, f.name
+
+
+@pytest.mark.parametrize("where", ["parent_is_file", "proc", "long_name", "disk_full"])
+def test_unusable_location_refused_before_computing(tmp_path, capsys, monkeypatch, where,
+                                                    no_compute):
+    case = _case(tmp_path)
+    if where == "parent_is_file":
+        (tmp_path / "afile").write_text("x")
+        out = tmp_path / "afile" / "out"
+    elif where == "proc":
+        out = Path("/proc/nsm_out")
+    elif where == "long_name":
+        out = tmp_path / ("x" * 300)
+    else:
+        import shutil
+        from collections import namedtuple
+
+        usage = namedtuple("usage", "total used free")
+        monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9, 1000))
+        out = tmp_path / "out"
+    before = _snapshot(tmp_path)
+    code, err = _run([str(case), "--out", str(out)], capsys)
+    assert code == 2, err
+    assert err.startswith("error: output:") and len(err.strip().splitlines()) == 1
+    assert _snapshot(tmp_path) == before
+    assert not any(p.name.startswith(".") for p in tmp_path.iterdir())
+
+
+def test_concurrent_run_is_refused_and_stale_lock_taken_over(tmp_path, capsys, no_compute):
+    out = tmp_path / "out"
+    lock = tmp_path / ".out.lock"
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        lock.write_text(str(sleeper.pid))
+        code, err = _run([str(_case(tmp_path)), "--out", str(out)], capsys)
+        assert code == 2 and f"pid {sleeper.pid}" in err
+        assert lock.read_text() == str(sleeper.pid) and not out.exists()
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    # the process holding the lock is gone: the lock is stale and taken over (the computation
+    # then starts, which the no_compute fixture turns into a bug report, exit 1)
+    code, err = _run([str(_case(tmp_path)), "--out", str(out)], capsys)
+    assert code == 1 and "the computation started" in err
+    assert not lock.exists() and not out.exists()
+    for f in Path(err.rsplit("traceback in ", 1)[1].strip()).parent.glob(
+            "nsm-continuation-crash-*.txt"):
+        f.unlink()
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_signal_mid_run_leaves_previous_result_intact(tmp_path, sig, code):
+    out = tmp_path / "out"
+    quick = _case(tmp_path)
+    assert cli.main(["run", str(quick), "--out", str(out), "--quiet"]) == 0
+    before = _snapshot(out)
+    # a long run (the full frequency-energy plot), interrupted while it computes
+    slow = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "nsm_continuation.cli", "run", str(slow), "--out", str(out),
+         "--overwrite", "--quiet", "--set", "output.progress=false"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        # a shell's background job inherits SIGINT ignored: restore what a terminal gives
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    t0 = time.time()
+    while not any(p.name.startswith(".out.tmp-") for p in tmp_path.iterdir()):
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() - t0 < 60
+        time.sleep(0.05)
+    time.sleep(0.5)  # inside the computation
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == code, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out"]
