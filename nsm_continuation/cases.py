@@ -163,6 +163,9 @@ def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
             and not isinstance(node, dict | list):
         msg = f"{msg} (got {node!r})"
     msg = msg.splitlines()[0] if msg else "invalid value"
+    sub = re.match(r"^([a-z_][a-z0-9_]*): ", msg)
+    if where and sub:  # a model validator naming one of its own fields
+        return f"{where}.{msg}"
     return _keyed(where, msg) if where else f"case: {msg}"
 
 

@@ -59,9 +59,12 @@ def markdown(rep: dict[str, Any]) -> str:
     if rep.get("warnings"):
         lines += ["## Warnings", ""] + [f"- {w}" for w in rep["warnings"]] + [""]
     t = rep["timings"]
+    n_failed = sum(1 for b in rep["branches"] if b["n_points"] == 0)
     lines += ["## Branches", "",
               f"{len(rep['branches'])} branches, {t.get('n_points')} points, "
-              f"{_fmt(t.get('total_s'), 3)} s.", "",
+              f"{_fmt(t.get('total_s'), 3)} s."
+              + (f" **{n_failed} start(s) failed**: their rows give the reason."
+                 if n_failed else ""), "",
               "| id | label | points | admissible points | parameter range | termination |",
               "|---|---|---|---|---|---|"]
     for b in rep["branches"]:
