@@ -21,6 +21,7 @@ import traceback
 import warnings
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from . import __version__, cases, registry
 
@@ -70,8 +71,25 @@ class Interrupted(BaseException):
     """SIGTERM received: unwinds like KeyboardInterrupt (not caught by ``except Exception``)."""
 
 
-def _on_sigterm(signum: int, frame: object) -> None:
+#: signals received during this run (an exception raised by a handler inside a CasADi call is
+#: swallowed by its wrapper: :func:`_poll` raises it again at the next point)
+_received: list[int] = []
+
+
+def _on_signal(signum: int, frame: object) -> None:
+    _received.append(signum)
+    _raise_for(signum)
+
+
+def _raise_for(signum: int) -> None:
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt()
     raise Interrupted()
+
+
+def _poll() -> None:
+    if _received:
+        _raise_for(_received[0])
 
 
 def _bug(exc: BaseException) -> int:
@@ -96,9 +114,11 @@ def _run(args: argparse.Namespace, path: str) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            res = run_case(case, problem, progress=case.output.progress and not args.quiet)
+            res = run_case(case, problem, progress=case.output.progress and not args.quiet,
+                           poll=_poll)
             assert target.tmp is not None
             write_files(res, target.tmp, plots=case.output.plots)
+        _poll()
         out = target.commit()
     except BaseException:
         target.abort()
@@ -118,11 +138,17 @@ def _run(args: argparse.Namespace, path: str) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    previous = signal.getsignal(signal.SIGTERM)
-    try:
-        signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:  # not the main thread (e.g. called from a worker): keep the default
-        previous = None
+    _received.clear()
+    previous: dict[int, Any] = {}
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        handler = signal.getsignal(sig)
+        if handler is signal.SIG_IGN:  # e.g. SIGINT of a background job: respect it
+            continue
+        try:
+            signal.signal(sig, _on_signal)
+            previous[sig] = handler
+        except ValueError:  # not the main thread (e.g. called from a worker): keep them
+            break
     try:
         if args.command == "list":
             for name, target in registry.available().items():
@@ -148,8 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         return _bug(exc)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

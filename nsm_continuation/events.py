@@ -146,3 +146,58 @@ def interior_extremum(s: np.ndarray, f: np.ndarray) -> float | None:
     if np.sign(fv) != np.sign(f1) and np.sign(fv) != np.sign(f2):
         return float(sv)
     return None
+
+
+def pole_estimate(p: np.ndarray, q: np.ndarray, k_range: tuple[float, float] = (0.25, 4.0),
+                  rtol: float = 0.02) -> dict[str, float] | None:
+    """Where a positive quantity growing like ``q ~ C |p - p*|^(-k)`` becomes infinite, from its
+    values at consecutive points of a branch (``p`` the parameter); None unless the values fit
+    such a pole ahead of the last point.
+
+    For such growth ``1 / (d ln q / dp) = (p* - p) / k`` is linear in ``p`` with slope
+    ``-1 / k``: its secants over consecutive points must decrease in magnitude (an exponential
+    or a power of ``p`` does not), and ``q^(-1/k)`` is linear in ``p``, vanishing at ``p*``: the
+    lattice engine's extrapolation of ``E^(-1/2)`` to zero, with the exponent ``k`` chosen in
+    ``k_range`` (strictly inside) to make ``q^(-1/k)`` most nearly linear instead of assumed.
+    Accepted only if
+    ``q`` increases while ``p`` moves monotonically towards ``p*`` and the linear fit has
+    relative residual (to the range of ``q^(-1/k)``) below ``rtol``.
+    """
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    if len(p) < 4 or len(p) != len(q) or not (np.all(np.isfinite(p)) and np.all(q > 0)
+                                              and np.all(np.isfinite(q))):
+        return None
+    dp, dl = np.diff(p), np.diff(np.log(q))
+    direction = np.sign(dp[-1])
+    if direction == 0 or not (np.all(np.sign(dp) == direction) and np.all(dl > 0)):
+        return None
+    # secant slope of 1 / (d ln q / dp) against p: -1/k < 0 for a pole
+    g = dp / dl
+    mid = 0.5 * (p[1:] + p[:-1])
+    if not np.polyfit(mid - mid[-1], g, 1)[0] < 0:
+        return None
+    x = p - p[-1]
+    ln_q = np.log(q / q[-1])
+
+    def fit(k: float) -> tuple[float, float]:
+        """Relative residual of the linear fit of (q / q[-1])^(-1/k), and its root - p[-1]."""
+        z = np.exp(-ln_q / k)
+        c1, c0 = np.polyfit(x, z, 1)
+        err = float(np.max(np.abs(c0 + c1 * x - z)) / max(np.ptp(z), 1e-300))
+        return err, (-c0 / c1 if c1 != 0 else np.nan)
+
+    ks = np.geomspace(k_range[0], k_range[1], 161)
+    i = int(np.argmin([fit(k)[0] for k in ks]))
+    k = float(ks[i])
+    if 0 < i < len(ks) - 1:  # refine between the grid neighbours (golden section)
+        from scipy.optimize import minimize_scalar
+
+        k = float(minimize_scalar(lambda v: fit(v)[0], bounds=(ks[i - 1], ks[i + 1]),
+                                  method="bounded", options={"xatol": 1e-10 * k}).x)
+    err, dist = fit(k)  # dist = p* - p[-1]
+    at_edge = k <= k_range[0] * (1 + 1e-9) or k >= k_range[1] * (1 - 1e-9)
+    if at_edge or not (err <= rtol and np.isfinite(dist) and np.sign(dist) == direction):
+        return None
+    return {"parameter_asymptote": float(p[-1] + dist), "exponent": k,
+            "fit_residual": err}

@@ -28,8 +28,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .continuation import Branch, ContinuationSettings, Point
-from .events import Event
+from .continuation import NUMERICAL_ERRORS, Branch, ContinuationSettings, Point, describe_error
+from .events import Event, pole_estimate
 from .problem import Problem
 
 
@@ -72,8 +72,22 @@ class LatticeProblem(Problem):
         return id(sol)
 
     def asymptote(self, points: list[Point]) -> dict[str, float] | None:
-        """Estimate of where the energy grows without bound, from the last points (optional)."""
-        return None
+        """Estimate of where the energy grows without bound, from the last points. Default:
+        :func:`~nsm_continuation.events.pole_estimate` of the energy axis ``fep_axes[1]``
+        against the parameter (the pseudo-arclength engine's asymptote test); a problem with a
+        known law overrides it."""
+        key = self.fep_axes[1]
+        last = points[-6:]
+        try:
+            par = np.array([p.y[self.parameter_index] for p in last], dtype=float)
+            q = np.array([p.derived.get(key, np.nan) for p in last], dtype=float)
+        except (AttributeError, ValueError, IndexError, TypeError):
+            return None
+        est = pole_estimate(par, q)
+        if est is None:
+            return None
+        return {**est, "detail": f"{key} without bound: asymptote at {self.parameter} = "
+                                 f"{est['parameter_asymptote']:.10g}"}
 
 
 class LatticeContinuation:
@@ -108,19 +122,32 @@ class LatticeContinuation:
 
     def _walk(self, seed: LatticeSeed, direction: int, branch_id: int
               ) -> tuple[list[Point], list[Event], str]:
+        """One direction from the seed. Never raises: a problem's hook that fails ends the
+        walk with its message as the reason (``internal error: ...`` for an unexpected
+        exception), keeping the points found so far."""
+        pts: list[Point] = []
+        events: list[Event] = []
+        try:
+            return pts, events, self._walk_in_place(seed, direction, pts, events)
+        except NUMERICAL_ERRORS as exc:
+            return pts, events, describe_error(exc)
+        except Exception as exc:  # noqa: BLE001 - recorded, never raised
+            return pts, events, f"internal error: {type(exc).__name__}: {exc}"
+
+    def _walk_in_place(self, seed: LatticeSeed, direction: int, pts: list[Point],
+                       events: list[Event]) -> str:
         pr = self.problem
         window = (self.settings.param_min, self.settings.param_max)
         history = [seed.solution]
-        pts = [self._point(seed.solution, 0.0)]
-        events: list[Event] = []
+        pts.append(self._point(seed.solution, 0.0))
         s = 0.0
         while True:
             if len(pts) >= self.settings.max_points:
-                return pts, events, f"max_points ({self.settings.max_points}) reached"
+                return f"max_points ({self.settings.max_points}) reached"
             sol, reason = pr.lattice_next(history, direction, window)
             self.n_evaluations += 1
             if sol is None:
-                return pts, events, reason
+                return reason
             pt = self._point(sol, 0.0)
             s += direction * float(np.linalg.norm(pt.y - pts[-1].y))
             pt.s = s
@@ -130,7 +157,7 @@ class LatticeContinuation:
                 if asym is not None:
                     events.append(Event("asymptote", pts[-1], detail=asym.pop("detail", ""),
                                         data=asym))
-                return pts, events, f"{bound} (next lattice solution not kept)"
+                return f"{bound} (next lattice solution not kept)"
             old, new = pr.lattice_character(history[-1]), pr.lattice_character(sol)
             for k in new:
                 if k in old and new[k] != old[k]:
@@ -144,7 +171,11 @@ class LatticeContinuation:
                 self.progress(1)
 
     def run(self, seed: LatticeSeed, branch_id: int = 0) -> Branch:
-        self.visited.add(self.problem.lattice_key(seed.solution))
+        """Both directions from ``seed`` (or the seed's one); never raises (see ``_walk``)."""
+        try:
+            self.visited.add(self.problem.lattice_key(seed.solution))
+        except Exception:  # noqa: BLE001 - only the skip-if-visited bookkeeping is lost
+            pass
         dirs = [seed.direction] if seed.direction else [-1, 1]
         term: dict[str, str] = {}
         all_pts: list[Point] = []
@@ -152,6 +183,8 @@ class LatticeContinuation:
         for d in dirs:
             pts, evs, reason = self._walk(seed, d, branch_id)
             term["increase" if d > 0 else "decrease"] = reason
+            if not pts:  # not even the seed could be recorded
+                continue
             if not all_pts:
                 all_pts = pts
             else:  # the other direction: prepend, reversed, without the shared seed

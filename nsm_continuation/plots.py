@@ -41,8 +41,21 @@ def _segments(br: Branch, xk: str, yk: str):
 
 
 def fep(res: RunResult, path: Path) -> None:
+    """The branch diagram of a run (:func:`diagram`) saved to ``path``."""
+    fig = diagram(res)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
+    """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
+    frequency-energy plot of Fig. 3.2), admissible/stable/phantom styled as in the papers,
+    located events marked; drawn on ``ax`` (a new figure if None). Returns the figure."""
     xk, yk = res.problem.fep_axes
-    fig, ax = plt.subplots(figsize=(11, 5.5))
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(11, 5.5))
+    else:
+        fig = ax.figure
     xs: list[float] = []
     ys: list[float] = []
     for br in res.branches:
@@ -93,8 +106,7 @@ def fep(res: RunResult, path: Path) -> None:
               framealpha=0.9)
     ax.grid(alpha=0.25, which="both")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    return fig
 
 
 def _unstable_spans(br: Branch, xk: str) -> list[tuple[float, float]]:

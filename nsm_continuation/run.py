@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .cases import Case
+from .cases import Case, CaseError
 from .continuation import Branch, ContinuationEngine, ContinuationSettings
 from .problem import Problem, StartPoint
 
@@ -62,13 +63,29 @@ def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
     return False
 
 
-def _progress_bar(case: Case, total: int, progress: bool) -> Any:
-    """A tqdm bar over the expected number of points (None without progress)."""
-    if not progress:
-        return None
-    from tqdm import tqdm
+class _Progress:
+    """Per-point callback of the engines: advances the tqdm bar (if any) and calls ``poll``
+    (e.g. the CLI's check for a pending SIGINT/SIGTERM: a signal whose exception was swallowed
+    inside a CasADi call is honoured at the next point)."""
 
-    return tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
+    def __init__(self, case: Case, total: int, progress: bool,
+                 poll: Callable[[], None] | None) -> None:
+        self.bar = None
+        if progress:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
+        self.poll = poll
+
+    def __call__(self, n: int) -> None:
+        if self.bar is not None:
+            self.bar.update(n)
+        if self.poll is not None:
+            self.poll()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _failed_start(case: Case, problem: Problem, settings: ContinuationSettings,
@@ -82,21 +99,29 @@ def _failed_start(case: Case, problem: Problem, settings: ContinuationSettings,
                      {"total_s": time.perf_counter() - t0, "n_points": 0, "per_branch_s": []})
 
 
-def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
+def run_case(case: Case, problem: Problem, progress: bool = True,
+             starts: list[StartPoint] | None = None,
+             poll: Callable[[], None] | None = None) -> RunResult:
+    """Continue every start of ``case`` (or the given ``starts``: explicit start points of a
+    curve problem, e.g. from the Python API) and collect the branches. ``poll`` is called after
+    every point (it may raise to stop the run)."""
     settings, window = settings_from_case(case, problem)
     if getattr(problem, "lattice", False):
-        return run_lattice_case(case, problem, settings, window, progress)
+        if starts is not None:
+            raise CaseError("start: a lattice problem starts from its start: block only")
+        return run_lattice_case(case, problem, settings, window, progress, poll)
     if case.analysis.stability is False:
         problem.floquet = lambda y, t: None  # type: ignore[method-assign]
     t0 = time.perf_counter()
-    try:
-        starts = problem.start_points(case.start, window)
-    except ValueError as exc:
-        return _failed_start(case, problem, settings, window, exc, t0)
+    if starts is None:
+        try:
+            starts = problem.start_points(case.start, window)
+        except ValueError as exc:
+            return _failed_start(case, problem, settings, window, exc, t0)
     _ = problem.compiled  # build CasADi functions once
     t_build = time.perf_counter() - t0
-    bar = _progress_bar(case, len(starts) * settings.max_points, progress)
-    engine = ContinuationEngine(problem, settings, progress=bar.update if bar else None)
+    bar = _Progress(case, len(starts) * settings.max_points, progress, poll)
+    engine = ContinuationEngine(problem, settings, progress=bar)
     branches: list[Branch] = []
     skipped: list[str] = []
     per_branch = []
@@ -108,8 +133,7 @@ def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
         br = engine.run(start, branch_id=len(branches))
         per_branch.append(time.perf_counter() - tb)
         branches.append(br)
-    if bar is not None:
-        bar.close()
+    bar.close()
     total = time.perf_counter() - t0
     timings = {"total_s": total, "build_casadi_s": t_build, "per_branch_s": per_branch,
                "n_points": int(sum(b.n_points for b in branches)),
@@ -120,7 +144,8 @@ def run_case(case: Case, problem: Problem, progress: bool = True) -> RunResult:
 
 
 def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSettings,
-                     window: tuple[float | None, float | None], progress: bool) -> RunResult:
+                     window: tuple[float | None, float | None], progress: bool,
+                     poll: Callable[[], None] | None = None) -> RunResult:
     """Same contract as :func:`run_case` for a :class:`~nsm_continuation.lattice.LatticeProblem`."""
     from .lattice import LatticeContinuation, LatticeProblem
 
@@ -133,8 +158,8 @@ def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSetting
     except ValueError as exc:
         return _failed_start(case, problem, settings, window, exc, t0)
     t_seed = time.perf_counter() - t0
-    bar = _progress_bar(case, len(seeds) * settings.max_points, progress)
-    engine = LatticeContinuation(problem, settings, progress=bar.update if bar else None)
+    bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
+    engine = LatticeContinuation(problem, settings, progress=bar)
     branches: list[Branch] = []
     skipped: list[str] = []
     per_branch = []
@@ -145,8 +170,7 @@ def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSetting
         tb = time.perf_counter()
         branches.append(engine.run(seed, branch_id=len(branches)))
         per_branch.append(time.perf_counter() - tb)
-    if bar is not None:
-        bar.close()
+    bar.close()
     timings = {"total_s": time.perf_counter() - t0, "seeds_s": t_seed,
                "per_branch_s": per_branch, "n_points": int(sum(b.n_points for b in branches)),
                "lattice_steps": engine.n_evaluations}

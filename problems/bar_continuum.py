@@ -80,7 +80,6 @@ import casadi as ca
 import numpy as np
 from pydantic import (
     BaseModel,
-    ConfigDict,
     Discriminator,
     Field,
     Tag,
@@ -88,6 +87,7 @@ from pydantic import (
     field_validator,
 )
 
+from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, start_key
 from nsm_continuation.problem import Problem, StartPoint
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
@@ -318,7 +318,7 @@ def continuum_orbit(sig: Signature, T: float) -> ContinuumOrbit:
 class BarContinuumParameters(BaseModel):
     """YAML ``parameters`` of ``problem: bar_continuum`` (cross-section S = 1, as the lattice)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     E: PosFloat = 1.0
     rho: PosFloat = 1.0
     L: PosFloat = 1.0
@@ -331,11 +331,11 @@ class BarContinuumParameters(BaseModel):
             raise ValueError("must be nonzero: for g0 = 0 the branch is the vertical line at the "
                              "asymptote (amplitude free), not a curve in (omega, contact "
                              "fraction); use problem: wfem_bar")
-        return v
+        return check_gap(v)
 
 
 class _StartBase(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     #: starting frequency; default: middle of the admissible interval for the sign of g0
     omega_ratio: PosFloat | None = None
     direction: Literal["both", "increase", "decrease"] = "both"
@@ -371,10 +371,12 @@ class SignatureStart(_StartBase):
 def _start_kind(v: Any) -> str:
     """Which start model a YAML mapping is: by its ``signature`` or ``branch`` key."""
     if isinstance(v, dict):
-        kind = "signature" if "signature" in v else str(v.get("branch", "main"))
+        kind = "signature" if "signature" in v else v.get("branch", "main")
     else:
-        kind = "signature" if isinstance(v, SignatureStart) else str(getattr(v, "branch", "main"))
-    return kind.capitalize()  # capitalised tags are left out of error locations (cases._format)
+        kind = "signature" if isinstance(v, SignatureStart) else getattr(v, "branch", "main")
+    # any other branch value is validated (and refused, naming start.branch) as a main start;
+    # capitalised tags are left out of error locations (cases._format)
+    return kind.capitalize() if kind in ("signature", "main", "subharmonic") else "Main"
 
 
 StartSpec = Annotated[Annotated[MainStart, Tag("Main")]
@@ -411,6 +413,109 @@ class BarContinuumProblem(Problem):
         self.variables = ["omega_ratio", "contact_fraction", "sig_a", "sig_b"]
         self.parameter = "omega_ratio"
         self._signatures: list[Signature] = []
+        if not (np.isfinite(self.omega1) and self.omega1 > 0):
+            raise ValueError(f"parameters.E: E, rho and L give omega_1 = pi c / (2L) = "
+                             f"{self.omega1:.3g}, not a positive finite number: rescale them")
+        if not 1e-200 <= self.energy_ref <= 1e200:
+            raise ValueError(
+                f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
+                f"{self.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200], where double "
+                "precision resolves the energies: rescale E, L or the gap")
+
+    # ------------------------------------------------------------------ preflight
+    #: seconds of one orbit evaluation (jump set, end series, margins) ~ A + B |a| (laps + 1)
+    #: + C laps, with laps = floor(T/2) + 1 the turns of the characteristics in one period
+    #: (measured: 1.3 ms for t_f = 8T - 24, 0.7 s for |a| = 20000, 88 ms for T = 3000)
+    ORBIT_SECONDS: ClassVar[tuple[float, float, float]] = (1e-3, 2e-5, 6e-5)
+    #: bytes of one orbit evaluation per (jump x lap) (Python lists of breakpoints)
+    ORBIT_BYTES: ClassVar[float] = 100.0
+    #: orbit evaluations per continuation point (corrector, derived values, events)
+    EVALUATIONS_PER_POINT: ClassVar[int] = 10
+    #: a non-backbone signature's admissible intervals are sampled at this many periods
+    SAMPLES: ClassVar[int] = 2001
+    #: one admissibility sample ~ A + B |a| (laps + 1) + C laps seconds (0.12 ms for
+    #: t_f = 4 - 2T, 0.8 ms for t_f = 2T - 400, 1.4 ms for t_f = 200 T - 4000)
+    SAMPLE_SECONDS: ClassVar[tuple[float, float, float]] = (1e-4, 2e-6, 4e-6)
+    #: the preflight samples a non-backbone's admissible intervals itself (to refuse a start
+    #: without admissible orbit; the run reuses them) when the estimate is at most this
+    PREFLIGHT_SAMPLING_SECONDS: ClassVar[float] = 5.0
+
+    def orbit_cost(self, sig: Signature, T_max: float) -> tuple[float, float]:
+        """(seconds, bytes) of one orbit evaluation of ``sig`` at periods up to ``T_max``."""
+        laps = np.floor(T_max / 2.0) + 1.0
+        work = abs(sig.a) * (laps + 1.0)
+        A, B, C = self.ORBIT_SECONDS
+        return A + B * work + C * laps, self.ORBIT_BYTES * (work + 3 * laps)
+
+    def sampling_seconds(self, sig: Signature) -> float:
+        """Estimated seconds of :meth:`admissible_intervals` for a non-backbone ``sig``."""
+        laps = np.floor(sig.T_range[1] / 2.0) + 1.0
+        A, B, C = self.SAMPLE_SECONDS
+        return self.SAMPLES * (A + B * abs(sig.a) * (laps + 1.0) + C * laps)
+
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """Everything checkable before computing (``window``: omega_ratio):
+
+        * the size of each branch: one orbit evaluation costs ``~|a| (laps + 1)`` (jumps times
+          turns of the characteristics in the longest period the run reaches: the branch's
+          range, the window, the start) in time and memory (:meth:`orbit_cost`); the run needs
+          ``EVALUATIONS_PER_POINT x 2 max_points`` of them per branch (plus ``SAMPLES`` to place
+          the start of a non-backbone), within the memory and time limits;
+        * ``start.omega_ratio`` inside the branch's range (``0 <= t_f <= T``) and the start
+          (given, or the middle of the admissible interval) inside the window;
+        * a non-backbone signature without admissible orbit for the sign of the gap and no
+          ``omega_ratio`` is refused (its intervals are sampled here when that is cheap).
+        """
+        lo, hi = window
+        items = as_list(START_ADAPTER.validate_python(start))
+        seconds, memory = 0.0, 0.0
+        for i, s in items:
+            sig = self.signature_from_spec(s)
+            field = "signature" if isinstance(s, SignatureStart) else "mode"
+            key = start_key(i, field)
+            T_lo, T_hi = sig.T_range
+            T_max = max(T_hi, 4.0 / lo if lo else T_hi, 4.0 / s.omega_ratio if s.omega_ratio
+                        else T_hi)
+            t_orbit, bytes_orbit = self.orbit_cost(sig, T_max)
+            seconds += self.EVALUATIONS_PER_POINT * 2 * max_points * t_orbit + (
+                0.0 if sig.is_backbone else self.sampling_seconds(sig))
+            memory = max(memory, bytes_orbit)
+            what = f"the branch {sig.label()} ({abs(sig.a)} profile jumps, periods up to " \
+                   f"{T_max:.4g} L/c)"
+            check_budget(key, f"{what} with continuation.max_points = {max_points}",
+                         memory_bytes=memory, seconds=seconds)
+            r_lo, r_hi = 4.0 / T_hi, 4.0 / T_lo
+            if s.omega_ratio is not None:
+                if not r_lo * (1 - 1e-12) <= s.omega_ratio <= r_hi * (1 + 1e-12):
+                    raise ValueError(
+                        f"{start_key(i, 'omega_ratio')}: {s.omega_ratio:g} is outside the range "
+                        f"of the branch {sig.label()}: omega/omega_1 in [{r_lo:.6g}, "
+                        f"{r_hi:.6g}] (where 0 <= t_f <= T)")
+                r0 = s.omega_ratio
+            elif sig.is_backbone or \
+                    self.sampling_seconds(sig) <= self.PREFLIGHT_SAMPLING_SECONDS:
+                intervals = self.admissible_intervals(sig)
+                if not intervals:
+                    raise ValueError(f"{key}: the branch {sig.label()} has no admissible orbit "
+                                     f"for gap = {self.g0:g}; give start.omega_ratio to "
+                                     "continue its phantom orbits")
+                a, b = max(intervals, key=lambda iv: iv[1] - iv[0])
+                r0 = 0.5 * (a + b)
+            else:
+                continue
+            if (lo is not None and r0 < lo) or (hi is not None and r0 > hi):
+                raise ValueError(
+                    f"{start_key(i, 'omega_ratio') if s.omega_ratio is not None else key}: the "
+                    f"branch {sig.label()} starts at omega/omega_1 = {r0:.6g}, outside the "
+                    f"window [{lo if lo is not None else 0:g}, "
+                    f"{hi if hi is not None else np.inf:g}] (continuation.min/max): a branch "
+                    "starting there computes nothing")
+
+    def monitor_names(self) -> list[str]:
+        return ["omega", "omega_ratio", "T", "t_free", "t_contact", "contact_fraction",
+                "energy", "energy_ratio", "mu", "stress_amplitude", "grazing_instants",
+                "profile_jumps", "sig_a", "sig_b"]
 
     # ------------------------------------------------------------------ residual
     def residual(self, y: Any) -> Any:
@@ -509,6 +614,13 @@ class BarContinuumProblem(Problem):
             T_lo, T_hi = ((sig.T_asymptote, sig.T_contact_end) if self.g0 > 0
                           else (sig.T_free_end, sig.T_asymptote))
             return [(4.0 / T_hi, 4.0 / T_lo)]
+        memo = self.__dict__.setdefault("_intervals", {})
+        if (sig, samples) in memo:  # sampled once (the preflight's result serves the run)
+            return list(memo[(sig, samples)])
+        memo[(sig, samples)] = out = self._sampled_intervals(sig, samples)
+        return list(out)
+
+    def _sampled_intervals(self, sig: Signature, samples: int) -> list[tuple[float, float]]:
         lo, hi = sig.T_range
         Ts = np.linspace(lo, hi, samples)[1:-1]
         ok = np.array([min(self.admissibility(self.point(sig, 4.0 / T)).values()) > 0

@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from nsm_continuation.hybrid.saltation import (
     ball_chatter_jacobian,
@@ -37,13 +37,14 @@ from nsm_continuation.hybrid.saltation import (
 )
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
+from nsm_continuation.preflight import STRICT
 from nsm_continuation.problem import Problem, StartPoint
 
 
 class BouncingBallParameters(BaseModel):
     """``parameters:`` of ``problem: bouncing_ball`` (defaults: Fig. 4, g = 9.8, s = 1)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     g: float = Field(9.8, gt=0, allow_inf_nan=False)
     e: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False,
                      description="restitution; complete chattering needs 0 <= e < 1")
@@ -117,6 +118,21 @@ class BouncingBallProblem(Problem):
     def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
                      ) -> list[StartPoint]:
         return []
+
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """A simulation case has no start: ``start`` must be empty (``{}``). Its cost is bounded
+        without a check: ~250 simulations to ``t_end``, each with at most ``max_chatter_impacts``
+        (2000) impacts before the chatter map (a few seconds; 25 s at ``chatter_tol: 1e-300``).
+        """
+        if start is None or start == {}:
+            return
+        if isinstance(start, dict):
+            key = next(iter(start))
+            raise ValueError(f"start.{key}: unknown key (bouncing_ball is a simulation case "
+                             "without start points: give start: {})")
+        raise ValueError("start: bouncing_ball is a simulation case without start points: "
+                         "give start: {}")
 
     def summary(self) -> dict[str, Any]:
         return {"parameters": self.p.model_dump(), "kind": "simulation case (no continuation)"}

@@ -30,10 +30,11 @@ from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
+from nsm_continuation.preflight import STRICT
 
 PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "e", "d")
 
@@ -41,7 +42,7 @@ PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "e", "d")
 class DoublePendulumParameters(BaseModel):
     """``parameters:`` of ``problem: double_pendulum`` (defaults: sec. 6, scenario 6.1)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     g: float = Field(9.81, gt=0, allow_inf_nan=False)
     m1: float = Field(1.0, gt=0, allow_inf_nan=False)
     m2: float = Field(2.0, gt=0, allow_inf_nan=False)

@@ -17,16 +17,17 @@ from typing import ClassVar
 
 import casadi as ca
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
+from nsm_continuation.preflight import STRICT
 
 
 class ImpactOscillatorParameters(BaseModel):
     """``parameters:`` of ``problem: impact_oscillator`` (defaults: Fig. 2)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     zeta: float = Field(0.1, ge=0, allow_inf_nan=False)
     omega: float = Field(1.0, gt=0, allow_inf_nan=False)
     sigma: float = Field(0.0, allow_inf_nan=False)

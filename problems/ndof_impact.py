@@ -33,20 +33,42 @@ Conventions (differences from the paper, documented and tested):
   leaves the wall towards ``u_c < 0``); Prop. 7.2 prints ``v >= 0``, which would put the mass on
   the wrong side of the wall at ``t = 0+`` since ``u_c(t) = v t + O(t^2)``;
 * the impact is energy-conserving only if ``M_ck = 0`` for ``k != c`` (Prop. 6.1); other SPD mass
-  matrices are accepted with a warning.
+  matrices are accepted with a warning;
+* the gap only sets the scale: the residual is linear in ``(u(0), v)`` and in ``g``, so for
+  ``g != 0`` every orbit is ``|g|`` times the orbit for ``g = sign(g)`` (same periods,
+  multipliers and events; energy times ``g^2``; tested). Gaps with ``0 < |g| < 1e-100`` or
+  ``|g| > 1e100`` are refused (:func:`nsm_continuation.preflight.check_gap`): there the
+  energies leave the range double precision resolves (with ``g = 1e-300`` the first branch
+  ended after 14 points at a spurious branch point instead of its nonlinear grazing orbit);
+  solve at a gap in range and scale the results.
+
+Sizes: nothing of size ``N^2`` is built at construction (``validate`` constructs the problem);
+the memory (dense ``N x N`` and ``2N x 2N`` matrices) and time (multipliers at every point) of
+a run are estimated and refused above ``NSM_CONTINUATION_MAX_MEMORY_GB`` /
+``NSM_CONTINUATION_MAX_HOURS`` (:meth:`NDofImpactProblem.preflight`).
 """
 
 from __future__ import annotations
 
+from functools import cached_property
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
 import casadi as ca
 import numpy as np
 import scipy.linalg as sla
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    Discriminator,
+    Field,
+    Tag,
+    TypeAdapter,
+    field_validator,
+    model_validator,
+)
 
 from nsm_continuation.floquet import deflate_known_eigenvector, restrict_to_section
+from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, exactly, start_key
 from nsm_continuation.problem import FloquetData, Problem, StartPoint
 
 from .trig_sum import TrigSum
@@ -58,7 +80,7 @@ Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 class ChainSpec(BaseModel):
     """The spring-mass chain of eq. (2.17): wall - k_1 - m_1 - k_2 - ... - k_N - m_N (free end)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     n: Annotated[int, Field(ge=1)]
     mass: Positive | list[Positive]
     stiffness: Positive | list[Positive]
@@ -87,7 +109,7 @@ class ChainSpec(BaseModel):
 class NDofParameters(BaseModel):
     """YAML ``parameters`` of ``problem: ndof_impact``."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     chain: ChainSpec | None = None
     M: list[list[Finite]] | None = None
     K: list[list[Finite]] | None = None
@@ -95,6 +117,11 @@ class NDofParameters(BaseModel):
     impacting_dof: Annotated[int, Field(ge=1)] | None = None
     restitution: Finite = 1.0
     formulation: Literal["half_angle", "shooting"] = "half_angle"
+
+    @field_validator("gap")
+    @classmethod
+    def _gap_range(cls, v: float) -> float:
+        return check_gap(v)
 
     @field_validator("restitution")
     @classmethod
@@ -138,7 +165,7 @@ class NDofParameters(BaseModel):
 class ModeStart(BaseModel):
     """Start at the linear grazing orbit of mode ``mode`` (or its subharmonic ``k T_j``)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     mode: Annotated[int, Field(ge=1)]
     subharmonic: Annotated[int, Field(ge=1)] = 1
     #: 'admissible' continues towards a_j (T - k T_j) < 0 only; 'both' also through the pole
@@ -148,22 +175,34 @@ class ModeStart(BaseModel):
 class PeriodStart(BaseModel):
     """Start from the closed form (4.2) at a given period."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     T: Positive
-    direction: Literal[-1, 0, 1] = 0
+    direction: Annotated[Literal[-1, 0, 1], exactly(-1, 0, 1)] = 0
 
 
 class AllStart(BaseModel):
     """Every branch in the continuation window: one start per pole ``k T_j`` (k <= max), plus
     seeds in the pole-free gaps; a pole already crossed by a computed branch is skipped."""
 
-    model_config = ConfigDict(extra="forbid")
-    all: Literal[True]
+    model_config = STRICT
+    all: Annotated[Literal[True], exactly(True)]
     max_subharmonic: Annotated[int, Field(ge=1)] = 10
 
 
-StartSpec = ModeStart | PeriodStart | AllStart
-START_ADAPTER = TypeAdapter(StartSpec | list[StartSpec])
+def _start_kind(v: Any) -> str:
+    """Which start model a mapping is, by its keys (``all`` / ``T`` / else a mode start), so an
+    error names the key of that model, not of every model of the union."""
+    if isinstance(v, dict):
+        return "All" if "all" in v else "Period" if "T" in v else "Mode"
+    return {AllStart: "All", PeriodStart: "Period"}.get(type(v), "Mode")
+
+
+#: capitalised tags are left out of error locations (cases._format)
+StartSpec = Annotated[Annotated[ModeStart, Tag("Mode")] | Annotated[PeriodStart, Tag("Period")]
+                      | Annotated[AllStart, Tag("All")], Discriminator(_start_kind)]
+START_ADAPTER = TypeAdapter(Annotated[
+    Annotated[StartSpec, Tag("One")] | Annotated[list[StartSpec], Tag("Many")],
+    Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])
 
 
 class NDofImpactProblem(Problem):
@@ -178,20 +217,13 @@ class NDofImpactProblem(Problem):
         if isinstance(params, dict):
             params = NDofParameters.model_validate(params)
         super().__init__(params)
-        self.M, self.K = params.matrices()
-        self.N = self.M.shape[0]
+        # nothing of size N^2 (let alone the O(N^3) modal analysis) is built here: ``validate``
+        # constructs the problem, and the sizes are checked first (``check_size``, preflight)
+        self.N = params.chain.n if params.chain is not None else len(params.M or [])
         self.c = (params.impacting_dof or self.N) - 1
         self.g = float(params.gap)
         self.formulation = params.formulation
-        # modal data (2.9): P^T M P = I, P^T K P = Omega^2
-        w2, P = sla.eigh(self.K, self.M)
-        if np.any(w2 <= 0):
-            raise ValueError("K must be positive definite (rigid-body modes are excluded)")
-        self.omega = np.sqrt(w2)
-        self.P = P
-        self.Pinv = P.T @ self.M
-        self.T_lin = 2 * np.pi / self.omega
-        self.a = self.P[self.c, :] * self.Pinv[:, self.c]  # interaction coefficients (2.11)
+        self.check_size()
         N = self.N
         if self.formulation == "half_angle":
             self.variables = [f"u{i + 1}" for i in range(N)] + ["v", "T"]
@@ -200,6 +232,205 @@ class NDofImpactProblem(Problem):
                               + [f"du{i + 1}" for i in range(N)] + ["T"])
         self.parameter = "T"
         self.symbolic = "SX" if N <= 30 else "MX"
+
+    # ------------------------------------------------------------------ sizes and preflight
+    #: memory of a run in doubles per N^2: M, K, P, P^-1 and the eigensolver's copies; the
+    #: dense 2N x 2N flight/impact matrices of the multipliers (Gamma, Gamma', DF, the
+    #: restricted and deflated maps, the eigenvalue workspace); the Jacobians of the corrector
+    #: and the admissibility test's sinusoid sums (measured: 0.65 GB at N = 1000)
+    MEMORY_DOUBLES_PER_N2: ClassVar[float] = 100.0
+    #: run time per point (s) ~ A N^2 + B N^3: the exact admissibility (critical points of u_c,
+    #: O(N) sinusoids on O(N) sub-intervals) and ~30 eigenvalue problems of size 2N per point
+    #: (multiplier crossings located by bisection), measured on a 2-core machine (1 s per point
+    #: at N = 100, 4 s at N = 200, ~45 s at N = 1000)
+    SECONDS_PER_POINT_N2: ClassVar[float] = 1e-4
+    SECONDS_PER_POINT_N3: ClassVar[float] = 4e-8
+    #: largest relative error of omega_1^2 accepted from the modal analysis, ~ eps (w_N/w_1)^2
+    MODAL_RESOLUTION: ClassVar[float] = 1e-6
+
+    def memory_estimate(self) -> float:
+        """Bytes a run of this chain needs (dense N x N and 2N x 2N matrices)."""
+        return 8.0 * self.MEMORY_DOUBLES_PER_N2 * float(self.N) ** 2
+
+    def seconds_per_point(self) -> float:
+        N = float(self.N)
+        return self.SECONDS_PER_POINT_N2 * N**2 + self.SECONDS_PER_POINT_N3 * N**3
+
+    @property
+    def _size_key(self) -> str:
+        return "parameters.chain.n" if self.params.chain is not None else "parameters.M"
+
+    def check_size(self) -> None:
+        """Refuse a chain whose dense matrices exceed the memory limit (before building them)."""
+        check_budget(self._size_key, f"{self.N} dofs", memory_bytes=self.memory_estimate())
+
+    def _check_time(self, n_branches: int, max_points: int, what: str = "",
+                    setup: float = 0.0) -> None:
+        seconds = 2.0 * n_branches * max_points * self.seconds_per_point() + setup
+        check_budget(self._size_key,
+                     f"{self.N} dofs with continuation.max_points = {max_points} (2 directions"
+                     f" x {n_branches} branch{'es' if n_branches != 1 else ''}{what}, "
+                     "multipliers at every point)", seconds=seconds)
+
+    def _check_modal(self) -> None:
+        """The modal analysis succeeds and resolves omega_1 (relative error ~ eps (w_N/w_1)^2)."""
+        omega = self.omega  # raises ValueError naming the parameters
+        ratio = float(omega[-1] / omega[0])
+        err = np.finfo(float).eps * ratio**2
+        if err > self.MODAL_RESOLUTION:
+            raise ValueError(
+                f"{self._matrix_key}: the linear frequencies span omega_N / omega_1 = "
+                f"{ratio:.3g}, so double precision resolves omega_1^2 only to ~{err:.1g} "
+                f"(relative; at most {self.MODAL_RESOLUTION:g} accepted): make the masses and "
+                "stiffnesses less disparate")
+        for name, v in (("omega_N", omega[-1]), ("omega_1", omega[0])):
+            if not 1e-100 <= v <= 1e100:
+                raise ValueError(f"{self._matrix_key}: the linear frequency {name} = {v:.3g} "
+                                 "is outside [1e-100, 1e100]: rescale masses and stiffnesses")
+
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """Everything checkable before computing (``window``: bounds on ``T``):
+
+        * sizes: the dense matrices within ``NSM_CONTINUATION_MAX_MEMORY_GB``
+          (:meth:`memory_estimate`, ``MEMORY_DOUBLES_PER_N2 N^2`` doubles) and the run time
+          ``2 x branches x max_points x`` :meth:`seconds_per_point` within
+          ``NSM_CONTINUATION_MAX_HOURS``; only then the modal analysis (O(N^3)) is done, here,
+          once (it is reused by the run);
+        * the modal analysis succeeds (finite matrices, ``K`` positive definite) and resolves
+          ``omega_1`` (:data:`MODAL_RESOLUTION`); frequencies in ``[1e-100, 1e100]``;
+        * ``start.mode <= N``, ``gap != 0`` for a mode start, the start period ``k T_j`` (mode,
+          subharmonic) or ``T`` inside the window (a start outside it computes nothing);
+          ``all: true`` needs both window ends, and its number of branches (the poles
+          ``k T_j`` in the window, ``k <= max_subharmonic``) enters the time estimate.
+
+        The gap range (``0`` or ``1e-100 <= |g| <= 1e100``) is checked with the parameters
+        (:func:`nsm_continuation.preflight.check_gap`).
+        """
+        lo, hi = window
+        for T in (lo, hi):
+            if T is not None and not (np.isfinite(T) and T > 0):
+                raise ValueError(f"continuation: continuation.min/max give the period bound "
+                                 f"T = {T:g}, not a positive finite number")
+        items = as_list(START_ADAPTER.validate_python(start))
+        self.check_size()
+        for i, s in items:
+            if isinstance(s, ModeStart):
+                key = start_key(i, "mode")
+                if s.mode > self.N:
+                    raise ValueError(f"{key}: {s.mode} is beyond the {self.N} modes of the "
+                                     f"chain (1..{self.N})")
+                if self.g == 0.0:
+                    raise ValueError(f"{key}: a start at a linear grazing orbit needs "
+                                     "parameters.gap != 0 (for gap = 0 use start: {all: true})")
+            elif isinstance(s, AllStart) and (lo is None or hi is None):
+                raise ValueError(f"{start_key(i, 'all')}: needs continuation.min and "
+                                 "continuation.max (the window whose branches are computed)")
+            elif isinstance(s, PeriodStart):
+                self._check_in_window(start_key(i, "T"), "the start period T", s.T, window)
+        n_explicit = sum(1 for _, s in items if not isinstance(s, AllStart))
+        self._check_time(max(n_explicit, 1), max_points)
+        self._check_modal()
+        n_all, setup = 0, 0.0
+        for i, s in items:
+            if isinstance(s, ModeStart):
+                j, k = s.mode - 1, s.subharmonic
+                self._check_in_window(start_key(i, "subharmonic" if k > 1 else "mode"),
+                                      f"the pole k T_j = {k} T_{s.mode}", k * self.T_lin[j],
+                                      window)
+            elif isinstance(s, AllStart):
+                assert lo is not None and hi is not None
+                n_all += self.count_poles(lo, hi, s.max_subharmonic) + 1
+                # the roots of w_N between the poles (k <= 10 max_subharmonic) seed the gaps:
+                # a 400-point grid of w_N (O(N) each) and a root polish per interval
+                n_int = self.count_poles(1e-12, hi, 10 * s.max_subharmonic) + 1
+                setup += n_int * (4e-6 * self.N + 5e-4)
+        if n_all:
+            self._check_time(n_explicit + n_all, max_points,
+                             ", one per pole k T_j in the window", setup)
+
+    @staticmethod
+    def _check_in_window(key: str, what: str, T: float,
+                         window: tuple[float | None, float | None]) -> None:
+        lo, hi = window
+        if (lo is not None and T < lo) or (hi is not None and T > hi):
+            show = (f"T in [{lo if lo is not None else -np.inf:.6g}, "
+                    f"{hi if hi is not None else np.inf:.6g}]")
+            raise ValueError(f"{key}: {what} = {T:.6g} (omega = {2 * np.pi / T:.6g}) lies "
+                             f"outside the continuation window ({show}, from "
+                             "continuation.min/max): a branch starting there computes nothing")
+
+    def count_poles(self, T_lo: float, T_hi: float, kmax: int) -> int:
+        """Number of poles ``k T_j`` (``k <= kmax``) in ``[T_lo, T_hi]``, in O(N)."""
+        T = self.T_lin
+        k_lo = np.maximum(np.ceil(T_lo / T), 1)
+        k_hi = np.minimum(np.floor(T_hi / T), kmax)
+        return int(np.sum(np.maximum(k_hi - k_lo + 1, 0)))
+
+    def monitor_names(self) -> list[str]:
+        return ["T", "omega", "energy", "v_out", "w_N"]
+
+    # ------------------------------------------------------------------ lazy data
+    @cached_property
+    def _matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        with np.errstate(over="ignore", invalid="ignore"):  # checked in _modal
+            return self.params.matrices()
+
+    @property
+    def M(self) -> np.ndarray:
+        """Mass matrix (built on first use)."""
+        return self._matrices[0]
+
+    @property
+    def K(self) -> np.ndarray:
+        """Stiffness matrix (built on first use)."""
+        return self._matrices[1]
+
+    @property
+    def _matrix_key(self) -> str:
+        return "parameters.chain" if self.params.chain is not None else "parameters.K"
+
+    @cached_property
+    def _modal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Modal data (2.9) ``P^T M P = I, P^T K P = Omega^2``: ``(omega, P, P^-1)``, computed
+        on first use (O(N^3)); raises ``ValueError`` naming the parameters if it fails."""
+        M, K = self.M, self.K
+        if not (np.isfinite(M).all() and np.isfinite(K).all()):
+            raise ValueError(f"{self._matrix_key}: the mass or stiffness matrix overflows "
+                             "(an entry beyond 1.8e308)")
+        try:
+            w2, P = sla.eigh(K, M)
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            raise ValueError(f"{self._matrix_key}: the modal analysis K P = M P Omega^2 "
+                             f"failed ({str(exc).splitlines()[0]})") from None
+        if not np.all(np.isfinite(w2)) or np.any(w2 <= 0):
+            raise ValueError(f"{self._matrix_key}: K must be positive definite (rigid-body "
+                             "modes are excluded)")
+        return np.sqrt(w2), P, P.T @ M
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Linear frequencies ``omega_j`` (ascending)."""
+        return self._modal[0]
+
+    @property
+    def P(self) -> np.ndarray:
+        """Mass-normalised mode shapes (columns)."""
+        return self._modal[1]
+
+    @property
+    def Pinv(self) -> np.ndarray:
+        return self._modal[2]
+
+    @property
+    def T_lin(self) -> np.ndarray:
+        """Linear periods ``T_j = 2 pi / omega_j``."""
+        return 2 * np.pi / self.omega
+
+    @cached_property
+    def a(self) -> np.ndarray:
+        """Interaction coefficients (2.11) ``a_j = P_cj (P^-1)_jc``."""
+        return self.P[self.c, :] * self.Pinv[:, self.c]
 
     # ------------------------------------------------------------------ residual
     def residual(self, y: Any) -> Any:
@@ -379,10 +610,11 @@ class NDofImpactProblem(Problem):
             if isinstance(s, ModeStart):
                 j, k = s.mode - 1, s.subharmonic
                 if j >= self.N:
-                    raise ValueError(f"start.mode = {s.mode} is out of range 1..{self.N}")
+                    raise ValueError(f"start.mode: {s.mode} is beyond the {self.N} modes of "
+                                     f"the chain (1..{self.N})")
                 if self.g == 0.0:
-                    raise ValueError("start.mode needs gap != 0 (for gap = 0 use "
-                                     "start: {all: true})")
+                    raise ValueError("start.mode: a start at a linear grazing orbit needs "
+                                     "parameters.gap != 0 (for gap = 0 use start: {all: true})")
                 direction = 0 if s.side == "both" else -int(np.sign(self.a[j]))
                 out.append(StartPoint(self.grazing_start(j, k), f"mode {s.mode}, k = {k}",
                                       direction, {"mode": s.mode, "subharmonic": k,
@@ -424,10 +656,13 @@ class NDofImpactProblem(Problem):
         return starts
 
     def poles(self, T_lo: float, T_hi: float, kmax: int) -> list[tuple[float, int, int]]:
-        """Poles ``k T_j`` of ``w_N`` in ``[T_lo, T_hi]``: (T, mode j 0-based, k)."""
+        """Poles ``k T_j`` of ``w_N`` in ``[T_lo, T_hi]``: (T, mode j 0-based, k). Only the
+        ``k`` near ``[T_lo, T_hi] / T_j`` are visited (O(number of poles), whatever ``kmax``)."""
         out = []
         for j, Tj in enumerate(self.T_lin):
-            for k in range(1, kmax + 1):
+            k_first = int(max(1.0, min(np.floor(T_lo / Tj), kmax + 1.0)))
+            k_last = int(min(float(kmax), np.ceil(T_hi / Tj)))
+            for k in range(k_first, k_last + 1):
                 if T_lo <= k * Tj <= T_hi:
                     out.append((k * Tj, j, k))
         return sorted(out)

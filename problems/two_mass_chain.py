@@ -16,16 +16,17 @@ from typing import ClassVar
 
 import casadi as ca
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
+from nsm_continuation.preflight import STRICT
 
 
 class TwoMassChainParameters(BaseModel):
     """``parameters:`` of ``problem: two_mass_chain``."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     m1: float = Field(1.0, gt=0, allow_inf_nan=False)
     m2: float = Field(1.0, gt=0, allow_inf_nan=False)
     k1: float = Field(1.0, ge=0, allow_inf_nan=False)

@@ -23,12 +23,14 @@ ratio E / E_ref (E_ref of eq. 14; absolute energy when g0 = 0).
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from math import ceil
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
+from pydantic import BaseModel, Discriminator, Field, Tag, TypeAdapter, field_validator
 
 from nsm_continuation.lattice import LatticeProblem, LatticeSeed
+from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, exactly, start_key
 
 from .wfem_lattice import (
     BarModel,
@@ -44,7 +46,7 @@ PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
 class WfemBarParameters(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     E: PosFloat = 1.0
     rho: PosFloat = 1.0
     L: PosFloat = 1.0
@@ -59,11 +61,16 @@ class WfemBarParameters(BaseModel):
     #: as a fraction of N
     max_gap_fraction: Annotated[float, Field(gt=0, le=1)] = 0.05
 
+    @field_validator("gap")
+    @classmethod
+    def _gap_range(cls, v: float) -> float:
+        return check_gap(v)
+
 
 class MainStart(BaseModel):
     """The main backbone of mode k (section 6.1)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     branch: Literal["main"]
     mode: Annotated[int, Field(ge=1, le=50)] = 1
 
@@ -71,7 +78,7 @@ class MainStart(BaseModel):
 class SubharmonicStart(BaseModel):
     """The n-th subharmonic backbone of mode k (g0 > 0), starting near eq. (15)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     branch: Literal["subharmonic"]
     mode: Annotated[int, Field(ge=1, le=50)] = 1
     n: Annotated[int, Field(ge=1, le=50)] = 1
@@ -80,21 +87,38 @@ class SubharmonicStart(BaseModel):
 class ScanStart(BaseModel):
     """Every physical admissible orbit in the window seeds a branch (Fig. 12, 16)."""
 
-    model_config = ConfigDict(extra="forbid")
-    scan: Literal[True]
+    model_config = STRICT
+    scan: Annotated[Literal[True], exactly(True)]
     max_seeds: Annotated[int, Field(ge=1)] = 200
 
 
 class NodeStart(BaseModel):
     """An explicit lattice node (m, p) or (m, p, k, l) (eq. 18)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
     node: list[Annotated[int, Field(ge=1)]]
     direction: Literal["both", "increase", "decrease"] = "both"
 
 
-OneStart = MainStart | SubharmonicStart | ScanStart | NodeStart
-StartSpec = OneStart | list[OneStart]
+def _start_kind(v: Any) -> str:
+    """Which start model a mapping is (by its ``branch`` / ``scan`` / ``node`` key), so an error
+    names the key of that model only; capitalised tags are left out of error locations."""
+    if isinstance(v, dict):
+        if "node" in v:
+            return "Node"
+        if "scan" in v:
+            return "Scan"
+        return "Subharmonic" if v.get("branch") == "subharmonic" else "Main"
+    return {SubharmonicStart: "Subharmonic", ScanStart: "Scan", NodeStart: "Node"}.get(
+        type(v), "Main")
+
+
+OneStart = Annotated[Annotated[MainStart, Tag("Main")]
+                     | Annotated[SubharmonicStart, Tag("Subharmonic")]
+                     | Annotated[ScanStart, Tag("Scan")] | Annotated[NodeStart, Tag("Node")],
+                     Discriminator(_start_kind)]
+StartSpec = Annotated[Annotated[OneStart, Tag("One")] | Annotated[list[OneStart], Tag("Many")],
+                      Discriminator(lambda v: "Many" if isinstance(v, list) else "One")]
 
 
 def main_asymptote(k: int) -> float:
@@ -136,6 +160,185 @@ class WfemBarProblem(LatticeProblem):
         self.node_evaluations = 0
         #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
         self.energy_cap: float | None = None
+        self._seed_cache: dict[tuple[str, Any], list[LatticeSeed]] = {}
+        self._check_model()
+
+    # -- preflight (issue 9): everything checkable before the lattice is explored -----------------
+    #: peak bytes per period step M of one lattice node: the sign combinations of a kernel with
+    #: h <= 12 cycles (2^11 of them, :func:`problems.wfem_lattice.node_solutions`) times the
+    #: end series (M values each) and their partial sums
+    NODE_BYTES_PER_STEP: ClassVar[float] = 8.0 * (2.5 * 2**11 + 30)
+    #: bytes per (period step x cell) of the scan's kernel-dimension sweep (int64 arrays of
+    #: shape (M, 2N): counts, signs, cycle products)
+    SCAN_BYTES_PER_STEP_CELL: ClassVar[float] = 80.0
+    #: seconds per lattice node tried by the corrector (filter included): 0.7 ms + 3 us per
+    #: cell (measured: 23 ms per point at N = 1000, 80 ms at 4000, 320 ms at 16000; 7 nodes
+    #: per point with corrector_window = 3)
+    NODE_SECONDS: ClassVar[tuple[float, float]] = (7e-4, 3e-6)
+    #: seconds of the seed search of one backbone, per cells^2 (16 s at N = 16000; for g0 = 0
+    #: a linear programme per node tried: 1.4 s at N = 1000, 19 s at N = 4000)
+    SEED_SECONDS_PER_N2: ClassVar[tuple[float, float]] = (6e-8, 1.5e-6)
+    #: seconds per (period step x cell) of the scan's sweep, and per scanned node
+    SCAN_SECONDS: ClassVar[tuple[float, float]] = (1.5e-7, 3e-4)
+    #: the seed search itself runs in the preflight up to this many cells (~0.1 s per start at
+    #: N = 1000, 0.3 s at N = 4000; for g0 = 0, 1.4 s at N = 1000); beyond it only its
+    #: necessary conditions are checked. Its seeds are kept for the run.
+    PREFLIGHT_SEED_CELLS: ClassVar[tuple[int, int]] = (4000, 1000)
+
+    def _check_model(self) -> None:
+        """The bar's scales are representable and the filter can keep an orbit at all."""
+        md, p = self.model, self.params
+        for name, v in (("omega_1 = pi c / (2L)", md.omega1), ("dt = L / (N c)", md.dt)):
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"parameters.E: E, rho and L give {name} = {v:.3g}, not a "
+                                 "positive finite number: rescale them")
+        if md.g0 != 0:
+            if not 1e-200 <= md.energy_ref <= 1e200:
+                raise ValueError(
+                    f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
+                    f"{md.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200], where double "
+                    "precision resolves the energies: rescale E, L or the gap")
+            need = ceil(2 / p.max_jumps_fraction - 1e-12)
+            if md.N < need:
+                raise ValueError(
+                    f"parameters.cells: {md.N} cells are too few: every orbit of the bar with "
+                    "g0 != 0 has at least 2 profile jumps and the filter keeps at most "
+                    f"max_jumps_fraction x cells = {p.max_jumps_fraction * md.N:g} (need cells "
+                    f">= {need})")
+
+    def _start_ratio(self, spec: BaseModel) -> float | None:
+        """omega / omega_1 where a start's seed search begins (None for a scan)."""
+        md = self.model
+        if isinstance(spec, NodeStart):
+            return 4 * md.N / sum(spec.node)
+        if isinstance(spec, SubharmonicStart):
+            return subharmonic_start(spec.mode, spec.n)
+        if isinstance(spec, MainStart):
+            k = spec.mode
+            return (main_asymptote(k) if md.g0 == 0 else 2 * k - 1 if md.g0 > 0 else 2 * k)
+        return None
+
+    @staticmethod
+    def _jumps(spec: BaseModel) -> int:
+        """Profile jumps of a backbone's orbits (bar_continuum: a = 2k(n + 1)); 2 otherwise."""
+        if isinstance(spec, SubharmonicStart):
+            return 2 * spec.mode * (spec.n + 1)
+        if isinstance(spec, MainStart):
+            return 2 * spec.mode
+        return 2
+
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """Everything checkable before the lattice is explored (``window``: omega_ratio):
+
+        * each start: a node has 2 or 4 entries (eq. 12 / 18) and its frequency 4N/M lies in
+          the window; a subharmonic needs gap > 0 (eq. 15); the filter can keep the start's
+          orbits (a backbone of mode k, subharmonic n, has 2k(n + 1) profile jumps: needs
+          ``cells >= 2k(n + 1) / max_jumps_fraction``); a backbone's start frequency (omega_k,
+          Omega_k, eq. 15, the g0 = 0 asymptote) lies in the window;
+        * memory: one lattice node (``NODE_BYTES_PER_STEP`` x the largest period M the run can
+          reach: 4N / continuation.min, else 8N + 2 max_points), the scan's sweep
+          (``SCAN_BYTES_PER_STEP_CELL x M x N``) and the solutions kept along the branches of
+          explicit starts ((2N + M) doubles per point); time: the scan (a sweep O(M N) per
+          period, then the nodes) and ``2 max_points`` (at most one point per period of the
+          window) x ``(2 corrector_window + 1)^phases`` nodes per point per branch;
+        * then, up to ``PREFLIGHT_SEED_CELLS`` cells, the seed search of every non-scan start
+          itself (cached: the run reuses it), so a backbone without a physical orbit near its
+          start is refused here, not after the run started.
+        """
+        md, p = self.model, self.params
+        N = md.N
+        lo, hi = window
+        items = as_list(self.start_adapter.validate_python(start))
+        cap = 1e15  # periods (in steps) beyond any budget: keeps the arithmetic finite
+        M_lo = max(2.0, min(np.ceil(4 * N / hi), cap)) if hi else 2.0
+        M_seed = 8 * N
+        for i, s in items:
+            key = start_key(i)
+            if isinstance(s, NodeStart):
+                if len(s.node) not in (2, 4):
+                    raise ValueError(
+                        f"{start_key(i, 'node')}: {s.node} has {len(s.node)} entries; a lattice "
+                        "node is [m, p] (free and contact steps, eq. 12) or [m, p, k, l] (two "
+                        "contact phases, eq. 18)")
+                M_seed = max(M_seed, sum(s.node))
+                key = start_key(i, "node")
+            if isinstance(s, SubharmonicStart) and md.g0 <= 0:
+                raise ValueError(f"{start_key(i, 'branch')}: subharmonic starts are defined for "
+                                 f"gap > 0 (eq. 15); gap = {md.g0:g}")
+            if isinstance(s, MainStart | SubharmonicStart) and md.g0 != 0:
+                jumps = self._jumps(s)
+                need = ceil(jumps / p.max_jumps_fraction - 1e-12)
+                if N < need:
+                    raise ValueError(
+                        f"parameters.cells: {N} cells are too few for {key} ({s.branch} "
+                        f"backbone of mode {s.mode}): its orbits have {jumps} profile jumps and "
+                        f"the filter keeps at most max_jumps_fraction x cells = "
+                        f"{p.max_jumps_fraction * N:g} (need cells >= {need})")
+            r = self._start_ratio(s)
+            if r is not None and ((lo is not None and r < lo - 1e-12)
+                                  or (hi is not None and r > hi + 1e-12)):
+                what = (f"node {s.node} (M = {sum(s.node)} steps)" if isinstance(s, NodeStart)
+                        else f"the {s.branch} backbone of mode {s.mode}")
+                raise ValueError(
+                    f"{key}: {what} starts at omega/omega_1 = {r:.6g}, outside the window "
+                    f"[{lo if lo is not None else 0:g}, {hi if hi is not None else np.inf:g}] "
+                    "(continuation.min/max): a branch starting there computes nothing")
+        M_hi = min(np.floor(4 * N / lo), cap) if lo else float(M_seed + 2 * max_points)
+        M_hi = max(M_hi, M_lo)
+        periods = int(M_hi - M_lo + 1)
+        scans = [s for _, s in items if isinstance(s, ScanStart)]
+        explicit = [s for _, s in items if not isinstance(s, ScanStart)]
+        per_branch = min(2 * max_points, periods)
+        t_node = self.NODE_SECONDS[0] + self.NODE_SECONDS[1] * N
+
+        def nodes_per_point(s: BaseModel) -> int:
+            phases = 2 if isinstance(s, NodeStart) and len(s.node) == 4 else 1
+            return (2 * p.corrector_window + 1) ** phases
+
+        memory = self.NODE_BYTES_PER_STEP * M_hi
+        memory += 8.0 * len(explicit) * per_branch * (2 * N + M_hi)
+        seconds = sum(per_branch * nodes_per_point(s) * t_node for s in explicit)
+        seconds += len([s for s in explicit if not isinstance(s, NodeStart)]) * \
+            self.SEED_SECONDS_PER_N2[md.g0 == 0] * N**2
+        if scans:
+            memory += self.SCAN_BYTES_PER_STEP_CELL * M_hi * N
+            sweep = 0.5 * (float(M_hi) ** 2 - float(M_lo) ** 2)  # sum of M over the periods
+            seconds += self.SCAN_SECONDS[0] * N * sweep + 0.6 * sweep * (
+                self.SCAN_SECONDS[1] + 1e-7 * N)
+            seconds += sum(min(s.max_seeds, periods) for s in scans) * per_branch * \
+                nodes_per_point(scans[0]) * t_node
+        big_nodes = [i for i, s in items if isinstance(s, NodeStart) and sum(s.node) > 8 * N]
+        check_budget(start_key(big_nodes[0], "node") if big_nodes and not lo else
+                     "parameters.cells",
+                     f"{N} cells with periods up to M = {M_hi:.0f} steps and "
+                     f"continuation.max_points = {max_points} ({len(items)} "
+                     f"start{'s' if len(items) != 1 else ''}"
+                     f"{', a scan of the window' if scans else ''})",
+                     memory_bytes=memory, seconds=seconds)
+        if N > self.PREFLIGHT_SEED_CELLS[md.g0 == 0]:
+            return
+        for i, s in items:
+            if isinstance(s, ScanStart):
+                continue
+            try:
+                seeds = self.lattice_seeds(s, window)
+            except ValueError as exc:
+                key = start_key(i, "node") if isinstance(s, NodeStart) else "parameters.cells"
+                raise ValueError(f"{key}: {exc}") from None
+            for seed in seeds:
+                r = 4 * N / seed.solution.M
+                if (lo is not None and r < lo - 1e-12) or (hi is not None and r > hi + 1e-12):
+                    raise ValueError(
+                        f"{start_key(i)}: the first physical orbit of this start, "
+                        f"{seed.label} at (m, p) = {seed.solution.counts}, has omega/omega_1 = "
+                        f"{r:.6g}, outside the window (continuation.min/max)")
+
+    def monitor_names(self) -> list[str]:
+        """The derived values of a lattice point (:meth:`lattice_point`)."""
+        return ["M", "m", "p", "k", "l", "omega", "omega_ratio", "period", "T", "energy",
+                "energy_ratio", "contact_fraction", "h", "contact_phases", "grazing_instants",
+                "profile_jumps"]
 
     # -- lattice <-> frequency -------------------------------------------------------------
     def M_of(self, omega_ratio: float) -> float:
@@ -201,10 +404,20 @@ class WfemBarProblem(LatticeProblem):
             start, BaseModel) else start
         if isinstance(spec, list):
             return [seed for one in spec for seed in self.lattice_seeds(one, window)]
+        if isinstance(spec, ScanStart):  # depends on energy_cap: never cached
+            return self._lattice_seeds(spec, window)
+        key = (spec.model_dump_json(), window)
+        if key not in self._seed_cache:  # the preflight's seed search is reused by the run
+            self._seed_cache[key] = self._lattice_seeds(spec, window)
+        return list(self._seed_cache[key])
+
+    def _lattice_seeds(self, spec: BaseModel, window: tuple[float | None, float | None]
+                       ) -> list[LatticeSeed]:
         md = self.model
         if isinstance(spec, NodeStart):
             if len(spec.node) not in (2, 4):
-                raise ValueError("node must be [m, p] or [m, p, k, l]")
+                raise ValueError(f"start.node: {spec.node} has {len(spec.node)} entries; a "
+                                 "lattice node is [m, p] (eq. 12) or [m, p, k, l] (eq. 18)")
             sols = self.physical(tuple(spec.node))
             if not sols:
                 raise ValueError(f"node {spec.node}: no physical admissible orbit")

@@ -178,8 +178,12 @@ def test_asymptotes() -> None:
     assert main_signature(2).t_free(1.25) == 1.0
 
 
-def test_engine_stops_at_asymptote() -> None:
-    """Without an energy bound the admissibility margins cross zero exactly at the asymptote."""
+def test_engine_stops_where_the_strain_limit_is_reached_before_the_asymptote() -> None:
+    """Without an energy bound the branch ends just before the asymptote, where the strain
+    margin ``cond3 = mu^2/4 - |g0||mu|/(2L)`` vanishes: ``|mu| = 2|g0|/L``, with ``mu(T)``
+    affine (closed form ``Signature.mu``). (An earlier engine jumped over this short
+    inadmissible interval, ``4.4e-4`` wide in omega/omega_1 for mode 1, and stopped at the
+    asymptote itself; the step cap on the test functions now finds it.)"""
     for k, g0 in ((1, 1e-3), (2, -1e-3)):
         pr = BarContinuumProblem({"gap": g0})
         sig = main_signature(k)
@@ -189,8 +193,14 @@ def test_engine_stops_at_asymptote() -> None:
                                     "direction": "increase" if g0 > 0 else "decrease"})
         br = ContinuationEngine(pr, st).run(start)
         end = br.points[-1]
-        assert "cond" in br.termination["forward"]
-        assert end.y[0] == pytest.approx(sig.omega_ratio_asymptote, abs=1e-9)
+        assert "cond3_strain" in br.termination["forward"]
+        a, b = sig
+        T_star, slope = sig.T_asymptote, -2.0 * a**2 / b
+        T_start = 4.0 / start.y[0]
+        T_end = T_star + np.sign(T_start - T_star) * 2 * abs(g0) / pr.L / abs(slope)
+        assert abs(sig.mu(T_end)) == pytest.approx(2 * abs(g0) / pr.L, rel=1e-12)
+        assert end.y[0] == pytest.approx(4.0 / T_end, abs=1e-9)
+        assert 0 < abs(end.y[0] - sig.omega_ratio_asymptote) < 1e-3
 
 
 def test_admissibility_sign_flips_with_gap() -> None:

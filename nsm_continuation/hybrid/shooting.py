@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..problem import FloquetData, Problem
+from ..problem import EvaluationError, FloquetData, Problem
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
 from .system import CompiledHybrid
 
@@ -91,6 +91,8 @@ class HybridShooting:
                                                           s.direction))
             except SimulationError as exc:
                 hit = exc.reason
+            except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
+                hit = str(exc)
             self.n_simulations += 1
             self._cache[key] = hit
             if len(self._cache) > self.cache_size:
@@ -150,22 +152,20 @@ class HybridShootingProblem(Problem):
         raise NotImplementedError("hybrid shooting problems evaluate numerically")
 
     def evaluate(self, y: np.ndarray) -> np.ndarray:
-        try:
-            return self.shooting.residual_jacobian(np.asarray(y, dtype=float))[0]
-        except ShootingFailure:
-            return np.full(self.dim - 1, np.nan)
+        return self.evaluate_with_jacobian(y)[0]
 
     def jacobian(self, y: np.ndarray) -> np.ndarray:
-        try:
-            return self.shooting.residual_jacobian(np.asarray(y, dtype=float))[1]
-        except ShootingFailure:
-            return np.full((self.dim - 1, self.dim), np.nan)
+        return self.evaluate_with_jacobian(y)[1]
 
     def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residual and Jacobian from one (cached) simulation. A simulation that fails raises
+        :class:`~nsm_continuation.problem.EvaluationError` with the simulator's reason (e.g.
+        ``simulation: time limit: ...``): the engine retries the step smaller and, if the branch
+        has to end, records that reason, not a NaN residual."""
         try:
             return self.shooting.residual_jacobian(np.asarray(y, dtype=float))
-        except ShootingFailure:
-            return np.full(self.dim - 1, np.nan), np.full((self.dim - 1, self.dim), np.nan)
+        except ShootingFailure as exc:
+            raise EvaluationError(f"simulation: {exc}") from None
 
     @property
     def compiled(self) -> Any:  # the engine touches ``problem.compiled`` once: nothing to build
@@ -236,9 +236,9 @@ class HybridShootingProblem(Problem):
 
 # ---------------------------------------------------------------------- YAML-facing base class
 from abc import abstractmethod  # noqa: E402
-from typing import ClassVar, Literal  # noqa: E402
+from typing import Annotated, ClassVar, Literal  # noqa: E402
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter  # noqa: E402
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, TypeAdapter  # noqa: E402
 
 from ..problem import StartPoint  # noqa: E402
 from .system import HybridDeclarationError, HybridSystem  # noqa: E402
@@ -248,7 +248,7 @@ class IntegratorSpec(BaseModel):
     """``parameters.integrator``: numerics of the hybrid simulator (defaults are the ones the
     speed-accuracy chart in ``benchmarks/bench_chatter.py`` recommends)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
     method: Literal["dop853", "dopri5"] = "dop853"
     rtol: float = Field(1e-10, gt=0, lt=1e-2)
     atol: float = Field(1e-12, gt=0, lt=1e-2)
@@ -272,7 +272,8 @@ class HybridStartSpec(BaseModel):
     periodic orbit; without it the orbit is found by simulation from ``initial`` (a full state,
     default: the problem's) over ``transient`` returns to the section (a stable orbit)."""
 
-    model_config = ConfigDict(extra="forbid")
+    #: strict: ``true`` is not a number, ``"3"`` or ``2.0`` not an integer
+    model_config = ConfigDict(extra="forbid", strict=True)
     guess: dict[str, float] | None = None
     initial: dict[str, float] | None = None
     transient: int = Field(40, ge=0)
@@ -282,7 +283,11 @@ class HybridStartSpec(BaseModel):
     label: str | None = None
 
 
-START_ADAPTER = TypeAdapter(HybridStartSpec | list[HybridStartSpec])
+#: one start mapping or a list of them (tagged by type, so an error names the key of the one
+#: model it concerns; capitalised tags are left out of error locations)
+START_ADAPTER = TypeAdapter(Annotated[
+    Annotated[HybridStartSpec, Tag("One")] | Annotated[list[HybridStartSpec], Tag("Many")],
+    Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])
 
 
 class HybridCaseProblem(HybridShootingProblem):
@@ -330,6 +335,153 @@ class HybridCaseProblem(HybridShootingProblem):
         if "e" in values and not 0.0 <= values["e"] < 1.0:
             raise ValueError(f"parameters.e: restitution {values['e']} must lie in [0, 1) "
                              "(complete chattering needs r = e < 1, sec. 3)")
+
+    # -- preflight (issue 9) ------------------------------------------------------------------
+    #: rough upper costs (s, 2-core machine) of one return to the section without
+    #: sensitivities (the transient that finds a start) and of one continuation point per
+    #: return of the period (shooting with sensitivities, multipliers, events; the pendulum
+    #: takes ~0.2 s per point)
+    TRANSIENT_SECONDS_PER_RETURN: ClassVar[float] = 0.05
+    SECONDS_PER_POINT: ClassVar[float] = 1.0
+
+    def parameter_domain(self, name: str) -> tuple[float | None, bool, float | None, bool]:
+        """``(lo, lo_open, hi, hi_open)``: the bounds the ``Parameters`` model declares for
+        ``name`` (None: unbounded on that side; open: the bound itself is excluded)."""
+        import annotated_types as at
+
+        lo = hi = None
+        lo_open = hi_open = False
+        field = type(self.params).model_fields.get(name)
+        for m in (field.metadata if field is not None else []):
+            if isinstance(m, at.Gt):
+                lo, lo_open = float(m.gt), True
+            elif isinstance(m, at.Ge):
+                lo, lo_open = float(m.ge), False
+            elif isinstance(m, at.Lt):
+                hi, hi_open = float(m.lt), True
+            elif isinstance(m, at.Le):
+                hi, hi_open = float(m.le), False
+        return lo, lo_open, hi, hi_open
+
+    def _check_window(self, lo: float | None, hi: float | None) -> None:
+        """The continuation window of the continued parameter lies inside its domain (the
+        ``Parameters`` bounds and :meth:`check_parameters`), and is closed on every side where
+        the domain is bounded: a branch leaving the domain (e.g. ``e >= 1``, where the impact
+        law has no chatter map) would fail inside the simulator."""
+        name = self.parameter
+        d_lo, lo_open, d_hi, hi_open = self.parameter_domain(name)
+        rng = (f"{'(' if lo_open else '['}{d_lo if d_lo is not None else -np.inf:g}, "
+               f"{d_hi if d_hi is not None else np.inf:g}{')' if hi_open else ']'}")
+        for side, bound, d, is_open, below in (("max", hi, d_hi, hi_open, True),
+                                               ("min", lo, d_lo, lo_open, False)):
+            if d is None:
+                continue
+            if bound is None:
+                raise ValueError(
+                    f"continuation.{side}: continuing in {name} needs continuation.{side} "
+                    f"(parameters.{name} must lie in {rng}; a branch leaving that domain "
+                    "cannot be simulated)")
+            outside = (bound >= d if is_open else bound > d) if below else \
+                (bound <= d if is_open else bound < d)
+            if outside:
+                raise ValueError(f"continuation.{side}: {name} = {bound:g} is outside the "
+                                 f"domain of parameters.{name}, {rng}")
+        for side, bound in (("min", lo), ("max", hi)):
+            if bound is None:
+                continue
+            try:
+                self.check_parameters({**self.values, name: float(bound)})
+            except ValueError as exc:
+                raise ValueError(f"continuation.{side}: {name} = {bound:g} leaves the domain "
+                                 f"of the parameters ({exc})") from None
+
+    def _check_state(self, key: str, X: np.ndarray) -> None:
+        """A start state (with the parameter appended) is finite, on the admissible side of the
+        impact surface (``H >= 0``) and, for a mechanical system, has ``M(q)`` positive
+        definite."""
+        c = self.shooting.c
+        if not np.all(np.isfinite(X)):
+            raise ValueError(f"{key}: the state is not finite")
+        H = float(np.asarray(c.probe(X), dtype=float).ravel()[0])
+        if H < -1e-12 * (1.0 + float(np.linalg.norm(X))):
+            raise ValueError(f"{key}: the state is on the inadmissible side of the impact "
+                             f"surface (H = {H:.3g} < 0)")
+        try:
+            c.mass_check(X)
+        except HybridDeclarationError as exc:
+            raise ValueError(f"{key}: {exc}") from None
+
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """Everything checkable without simulating (``window``: bounds on the continued
+        parameter, already chosen by :meth:`parameter_bounds`):
+
+        * the window lies in the parameter's domain and is closed where the domain is bounded
+          (:meth:`_check_window`); the start value ``parameters.<name>`` lies in the window;
+        * ``start.guess`` names exactly the section coordinates (and comes without ``initial``
+          or ``transient``, which it makes unused); ``start.initial`` names only states;
+        * the start state (the guess on the section, or the initial state) is finite,
+          admissible (``H >= 0``) and has ``M(q)`` positive definite;
+        * time: ``transient x returns`` returns plus ``2 max_points x returns`` points
+          (``TRANSIENT_SECONDS_PER_RETURN``, ``SECONDS_PER_POINT``) within the limit.
+        """
+        from ..preflight import as_list, check_budget
+
+        lo, hi = window
+        name = self.parameter
+        self._check_window(lo, hi)
+        p0 = self.values[name]
+        if (lo is not None and p0 < lo) or (hi is not None and p0 > hi):
+            raise ValueError(
+                f"parameters.{name}: the start value {p0:g} lies outside the continuation "
+                f"window [{lo if lo is not None else -np.inf:g}, "
+                f"{hi if hi is not None else np.inf:g}] (continuation.min/max): a branch "
+                "starting there computes nothing")
+        items = as_list(START_ADAPTER.validate_python(start if start is not None else {}))
+        names = self.hybrid.state_names
+        fi = self.shooting.free_idx
+        coords = [names[j] for j in fi]
+        sec = self.shooting.section
+        seconds = 0.0
+        for i, s in items:
+            def key(field: str, i: int | None = i) -> str:
+                return "start" + ("" if i is None else f"[{i}]") + f".{field}"
+
+            if s.guess is not None:
+                unknown = sorted(set(s.guess) - set(coords))
+                missing = [n for n in coords if n not in s.guess]
+                if unknown or missing:
+                    what = (f"unknown state {unknown[0]!r}" if unknown
+                            else f"missing {', '.join(missing)}")
+                    raise ValueError(
+                        f"{key('guess')}: {what}; a guess gives exactly the section coordinates "
+                        f"{', '.join(coords)} ({names[sec.index]} = {sec.value:g} is fixed by "
+                        "the section)")
+                for unused in ("initial", "transient"):
+                    if unused in s.model_fields_set:
+                        raise ValueError(f"{key(unused)}: not used with start.guess (the guess "
+                                         "is corrected directly, nothing is simulated "
+                                         "before): remove one of them")
+                y = np.append([s.guess[n] for n in coords], [p0])
+                self._check_state(key("guess"), self.shooting.x0(y))
+            else:
+                X = np.append(np.asarray(self.default_initial(), dtype=float), [p0])
+                for k, v in (s.initial or {}).items():
+                    if k not in names:
+                        raise ValueError(f"{key('initial')}: unknown state {k!r} (the states "
+                                         f"are {', '.join(names)})")
+                    X[names.index(k)] = v
+                self._check_state(key("initial") if s.initial else "start", X)
+                seconds += s.transient * s.returns * self.TRANSIENT_SECONDS_PER_RETURN
+            seconds += 2 * max_points * s.returns * self.SECONDS_PER_POINT
+        check_budget("start" if len(items) == 1 else "start[0]",
+                     f"{len(items)} start{'s' if len(items) != 1 else ''} with their transient "
+                     f"and continuation.max_points = {max_points}", seconds=seconds)
+
+    def monitor_names(self) -> list[str]:
+        """The keys of :meth:`derived` at a simulated point."""
+        return [self.parameter, "period", "sticking_time", "n_impacts_before_chatter",
+                "n_sticking_phases", "n_impacts", "min_impact_velocity", "grazing_margin"]
 
     # -- generic ----------------------------------------------------------------------------
     def set_parameter(self, name: str, returns: int | None = None) -> None:
