@@ -24,7 +24,7 @@ from pydantic import (
 )
 
 from . import registry
-from .problem import Problem
+from .protocol import Problem
 
 # strict: ``true`` is not a number and ``"3"`` is not an integer (an int is a valid float)
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]

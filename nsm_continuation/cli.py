@@ -104,7 +104,7 @@ def _bug(exc: BaseException) -> int:
 def _run(args: argparse.Namespace, path: str) -> int:
     from .output import OutputTarget
     from .results import build_report, termination_text, write_files
-    from .run import run_case
+    from .runner import run_case
 
     case, problem = cases.load(path, args.overrides)
     out = Path(args.out or case.output.dir or Path("runs") / case.name)

@@ -18,43 +18,9 @@ engine evaluates the curve there and locates both crossings.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
-EVENT_KINDS = (
-    "fold",
-    "branch_point",
-    "period_doubling",
-    "neimark_sacker",
-    "stability_change",
-    "grazing",
-    "endpoint",
-    # lattice problems (nsm_continuation.lattice): energy without bound, change of phase pattern
-    "asymptote",
-    "pattern_change",
-    # hybrid (impacting) systems with chattering (nsm_continuation.hybrid)
-    "sticking_lost",
-    "impact_sequence_change",
-    "homoclinic_approach",
-)
-
-
-@dataclass
-class Event:
-    """A located event. ``point`` is the branch point (a ``continuation.Point``) where it sits."""
-
-    kind: str
-    point: Any
-    detail: str = ""
-    data: dict[str, Any] = field(default_factory=dict)
-    #: width of the final bracket in arclength (the location accuracy actually achieved)
-    bracket: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.kind not in EVENT_KINDS:
-            raise ValueError(f"unknown event kind {self.kind!r}")
 
 
 def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: float, fb: float,

@@ -6,7 +6,7 @@ lengths. There is no smooth residual to correct, but a branch is still a one-par
 and the engine's job is the same: predict where the next solution is, correct (here: pick the
 lattice solution that continues the previous one), record events where the branch ends or changes
 character, and stop with a recorded reason. This module does that generically; it produces the
-same :class:`~nsm_continuation.continuation.Branch` / ``Point`` / ``Event`` records as the
+same :class:`~nsm_continuation.palc.Branch` / ``Point`` / ``Event`` records as the
 pseudo-arclength engine, so results, reports and plots are shared.
 
 A lattice problem (subclass of :class:`LatticeProblem`) implements:
@@ -28,9 +28,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .continuation import NUMERICAL_ERRORS, Branch, ContinuationSettings, Point, describe_error
-from .events import Event, pole_estimate
-from .problem import Problem
+from .events import pole_estimate
+from .palc import NUMERICAL_ERRORS, describe_error
+from .protocol import Problem
+from .records import Branch, Event, Point
+from .settings import ContinuationSettings
 
 
 @dataclass

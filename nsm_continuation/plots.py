@@ -16,8 +16,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from .continuation import Branch  # noqa: E402
-from .run import RunResult  # noqa: E402
+from .records import Branch  # noqa: E402
+from .runner import RunResult  # noqa: E402
 
 MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
            "neimark_sacker": ("o", "tab:green"), "branch_point": ("X", "tab:orange"),

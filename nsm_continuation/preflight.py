@@ -1,5 +1,5 @@
 """Shared pieces of the problems' preflight checks (refuse every bad input before computing;
-see :meth:`nsm_continuation.problem.Problem.preflight`), for the bundled problems and plugins.
+see :meth:`nsm_continuation.protocol.Problem.preflight`), for the bundled problems and plugins.
 
 * **Strict YAML types.** :data:`STRICT` (a pydantic config) makes ``true`` an error where a
   number is expected and ``"3"`` or ``2.0`` an error where an integer is expected (an integer is

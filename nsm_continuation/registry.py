@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib
 from importlib.metadata import entry_points
 
-from .problem import Problem
+from .protocol import Problem
 
 GROUP = "nsm_continuation.problems"
 BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProblem",

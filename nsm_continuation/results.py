@@ -13,10 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from .continuation import Branch, Point
-from .events import Event
 from .output import IfExists, OutputTarget
-from .run import RunResult
+from .records import Branch, Event, Point
+from .runner import RunResult
 
 
 def _f(x: Any) -> Any:

@@ -88,7 +88,7 @@ from pydantic import (
 )
 
 from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, start_key
-from nsm_continuation.problem import Problem, StartPoint
+from nsm_continuation.protocol import Problem, StartPoint
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 #: coincidence tolerance on the ring (jump points closer than this cancel) and grazing tolerance

@@ -38,7 +38,7 @@ from nsm_continuation.hybrid.saltation import (
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
 from nsm_continuation.preflight import STRICT
-from nsm_continuation.problem import Problem, StartPoint
+from nsm_continuation.protocol import Problem, StartPoint
 
 
 class BouncingBallParameters(BaseModel):

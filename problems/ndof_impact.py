@@ -69,7 +69,7 @@ from pydantic import (
 
 from nsm_continuation.floquet import deflate_known_eigenvector, restrict_to_section
 from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, exactly, start_key
-from nsm_continuation.problem import FloquetData, Problem, StartPoint
+from nsm_continuation.protocol import FloquetData, Problem, StartPoint
 
 from .trig_sum import TrigSum
 

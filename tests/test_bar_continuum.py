@@ -23,7 +23,8 @@ from nsm_continuation.problems.wfem_lattice import BarModel, classify, solve_nod
 
 from nsm_continuation import registry
 from nsm_continuation.cases import load
-from nsm_continuation.continuation import ContinuationEngine, ContinuationSettings
+from nsm_continuation.palc import ContinuationEngine
+from nsm_continuation.settings import ContinuationSettings
 
 CASES = Path(__file__).resolve().parents[1] / "yaml_cases"
 
@@ -305,7 +306,7 @@ def test_internal_resonance_branch_leaves_main_backbone() -> None:
 def test_cases_run(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """The YAML cases validate and run; each branch ends at its phase end (grazing event) and at
     the energy bound just before its asymptote; energies follow the closed form."""
-    from nsm_continuation.run import run_case
+    from nsm_continuation.runner import run_case
 
     monkeypatch.setitem(registry.BUILTIN, "bar_continuum",
                         "nsm_continuation.problems.bar_continuum:BarContinuumProblem")

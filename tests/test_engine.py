@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from pydantic import BaseModel
 
-from nsm_continuation.continuation import ContinuationEngine, ContinuationSettings
-from nsm_continuation.problem import FloquetData, Problem, StartPoint
+from nsm_continuation.palc import ContinuationEngine
+from nsm_continuation.protocol import FloquetData, Problem, StartPoint
+from nsm_continuation.settings import ContinuationSettings
 
 
 class _Params(BaseModel):

@@ -16,10 +16,11 @@ import numpy as np
 import pytest
 from pydantic import BaseModel
 
-from nsm_continuation.continuation import ContinuationEngine, ContinuationSettings
 from nsm_continuation.events import pole_estimate
 from nsm_continuation.lattice import LatticeContinuation, LatticeProblem, LatticeSeed
-from nsm_continuation.problem import EvaluationError, Problem, StartPoint
+from nsm_continuation.palc import ContinuationEngine
+from nsm_continuation.protocol import EvaluationError, Problem, StartPoint
+from nsm_continuation.settings import ContinuationSettings
 
 SIM_MESSAGE = "simulation: time limit: no end condition reached by t = 1000 (state s6)"
 

@@ -207,7 +207,8 @@ def test_newton_near_homoclinic_orbit_ends_with_a_reason():
     event (the period bound) or a termination reason, never an exception."""
     from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
 
-    from nsm_continuation.continuation import ContinuationEngine, ContinuationSettings
+    from nsm_continuation.palc import ContinuationEngine
+    from nsm_continuation.settings import ContinuationSettings
 
     pb = DoublePendulumProblem({"e": 0.9, "d": 0.5, "torque": -31.09,
                                 "integrator": {"wall_time": 2.0}})

@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from nsm_continuation import cli
-from nsm_continuation import run as run_module
+from nsm_continuation import runner as run_module
 from nsm_continuation.output import MARKER
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from nsm_continuation import cases
-from nsm_continuation.run import run_case
+from nsm_continuation.runner import run_case
 
 CASES = Path(__file__).resolve().parents[1] / "yaml_cases"
 

@@ -21,7 +21,7 @@ from nsm_continuation.problems.wfem_operators import CONTACT, FREE, phase_operat
 
 from nsm_continuation import cases
 from nsm_continuation.cli import main as cli_main
-from nsm_continuation.run import run_case
+from nsm_continuation.runner import run_case
 
 
 def main_energy(model: BarModel, T: float) -> float:

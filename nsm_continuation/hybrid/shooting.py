@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..problem import EvaluationError, FloquetData, Problem
+from ..protocol import EvaluationError, FloquetData, Problem
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
 from .system import CompiledHybrid
 
@@ -159,7 +159,7 @@ class HybridShootingProblem(Problem):
 
     def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residual and Jacobian from one (cached) simulation. A simulation that fails raises
-        :class:`~nsm_continuation.problem.EvaluationError` with the simulator's reason (e.g.
+        :class:`~nsm_continuation.protocol.EvaluationError` with the simulator's reason (e.g.
         ``simulation: time limit: ...``): the engine retries the step smaller and, if the branch
         has to end, records that reason, not a NaN residual."""
         try:
@@ -240,7 +240,7 @@ from typing import Annotated, ClassVar, Literal  # noqa: E402
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, TypeAdapter  # noqa: E402
 
-from ..problem import StartPoint  # noqa: E402
+from ..protocol import StartPoint  # noqa: E402
 from .system import HybridDeclarationError, HybridSystem  # noqa: E402
 
 

@@ -10,8 +10,10 @@ from typing import Any
 import numpy as np
 
 from .cases import Case, CaseError
-from .continuation import Branch, ContinuationEngine, ContinuationSettings
-from .problem import Problem, StartPoint
+from .palc import ContinuationEngine
+from .protocol import Problem, StartPoint
+from .records import Branch
+from .settings import ContinuationSettings
 
 
 @dataclass

@@ -7,7 +7,7 @@ The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
 * a Newton corrector on the bordered system ``[G(y); t_k . (y - y_k) - h] = 0`` with the exact
   CasADi Jacobian;
 * step control: a step is rejected (and retried with ``h / 2``) when Newton fails (or the
-  problem raises :class:`~nsm_continuation.problem.EvaluationError`) or the tangent turns by more
+  problem raises :class:`~nsm_continuation.protocol.EvaluationError`) or the tangent turns by more
   than ``max_angle``; accepted steps grow or shrink ``h`` from the number of Newton iterations
   and the turning angle. A step never carries the parameter past an edge of the window (it is
   shortened to end on the edge, corrected there), nor an admissibility test function far past a
@@ -26,14 +26,14 @@ multipliers; sign changes of the test functions listed in :func:`_test_values` a
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
-from .events import Event, bisect_predicate, illinois, interior_extremum, pole_estimate
+from .events import bisect_predicate, illinois, interior_extremum, pole_estimate
 from .floquet import classify_crossing, count_outside
-from .problem import EvaluationError, FloquetData, Problem, StartPoint
+from .protocol import EvaluationError, FloquetData, Problem, StartPoint
+from .records import Branch, Event, Point
+from .settings import ContinuationSettings
 
 #: errors of numerical origin (a problem that cannot evaluate at a point, linear algebra,
 #: floating point): a step that meets one is retried smaller, like a failed Newton step, and the
@@ -70,95 +70,8 @@ class _RetryStep(Exception):
     located on the arc, a bound not reached): the step is retried with half its length."""
 
 
-@dataclass
-class ContinuationSettings:
-    """Numerical settings of one continuation run (the YAML ``continuation`` block maps here)."""
-
-    step_initial: float = 1e-2
-    step_min: float = 1e-9
-    step_max: float = 0.2
-    max_points: int = 400
-    newton_tol: float = 1e-11
-    newton_max_iter: int = 10
-    max_angle: float = 0.25
-    param_min: float | None = None
-    param_max: float | None = None
-    #: bounds on derived quantities, e.g. {"energy": (None, 1e3)}
-    derived_bounds: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
-    unit_circle_tol: float = 1e-7
-    event_tol: float = 1e-12
-    stop_on_inadmissible: bool = False
-    detect_bifurcations: bool = True
-    stability_on_phantom: bool = False
-    #: location tolerance (arclength) for multiplier crossings, found by bisection
-    multiplier_event_tol: float = 1e-9
-    #: largest move of a multiplier near the unit circle in one step (see multiplier_motion)
-    max_multiplier_step: float = 0.02
-    #: at most this many halvings of one step for multiplier motion (then the step is taken and
-    #: counted in ``ContinuationEngine.motion_limited_steps``): multipliers that move fast for
-    #: any step (near grazing, DF ~ 1/v; dense spectra at large N) must not stall the branch
-    max_multiplier_halvings: int = 10
-    #: 0: both directions from the start, +1 / -1: only towards increasing / decreasing parameter
-    direction: int = 0
-    #: location tolerance (arclength) of a change of the problem's event signature
-    signature_event_tol: float = 1e-6
-
-
-@dataclass
-class Point:
-    """One solution on a branch, with everything computed there."""
-
-    y: np.ndarray
-    s: float
-    tangent: np.ndarray
-    tests: dict[str, float]
-    multipliers: np.ndarray | None
-    trivial_error: float
-    n_unstable: int
-    derived: dict[str, float]
-    bordered_det: float
-    newton_iterations: int = 0
-    residual_norm: float = 0.0
-    #: unit-circle tolerance actually used at this point (see ContinuationEngine.analyse)
-    circle_tol: float = 0.0
-    #: the problem's discrete signature (e.g. the event sequence of a hybrid orbit), if any
-    signature: str | None = None
-
-    @property
-    def admissible(self) -> bool:
-        return all(v >= 0.0 for v in self.tests.values())
-
-    @property
-    def stable(self) -> bool | None:
-        if self.multipliers is None:
-            return None
-        return self.n_unstable == 0
-
-    @property
-    def max_abs_multiplier(self) -> float:
-        if self.multipliers is None or self.multipliers.size == 0:
-            return float("nan") if self.multipliers is None else 1.0
-        return float(np.max(np.abs(self.multipliers)))
-
-
-@dataclass
-class Branch:
-    """A continued branch: points ordered by arclength, located events, termination reasons."""
-
-    id: int
-    label: str
-    points: list[Point]
-    events: list[Event]
-    termination: dict[str, str]
-    info: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def n_points(self) -> int:
-        return len(self.points)
-
-
 class ContinuationEngine:
-    """Continue the solution branches of a :class:`~nsm_continuation.problem.Problem`."""
+    """Continue the solution branches of a :class:`~nsm_continuation.protocol.Problem`."""
 
     def __init__(self, problem: Problem, settings: ContinuationSettings,
                  progress: Callable[[int], None] | None = None) -> None:

@@ -1,6 +1,6 @@
 """The Problem contract: what a system must declare to be continued by the engine.
 
-The engine (:mod:`nsm_continuation.continuation`) knows nothing about impacts. It continues the
+The engine (:mod:`nsm_continuation.palc`) knows nothing about impacts. It continues the
 solution curve of an under-determined system ``G(y) = 0`` with ``G: R^(n+1) -> R^n`` and asks the
 problem, through optional hooks, for admissibility test functions, Floquet multipliers and derived
 quantities at each point.

@@ -1,0 +1,253 @@
+"""The Python API: everything the command line does, from a notebook or a script.
+
+.. code-block:: python
+
+    import nsm_continuation as nsm
+
+    case = nsm.load_case("yaml_cases/ndof_default.yaml")        # or a dict, with overrides
+    result = nsm.run(case)
+    branch = result.branches[0]
+    branch["omega"], branch["energy"]                           # numpy arrays, one per column
+    [(e.kind, e.parameter) for e in result.events]
+    result.save("runs/my_study")                                # the CLI's files, same policy
+
+    problem = nsm.problem("ndof_impact", {"chain": {"n": 3, "mass": 1, "stiffness": 1}})
+    result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
+
+A case is validated exactly as on the command line (:func:`nsm_continuation.cases.validate`):
+bad input raises :class:`~nsm_continuation.cases.CaseError` whose message names the key, before
+anything is computed.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+
+from . import cases, registry
+from .cases import Case, CaseError
+from .protocol import Problem, StartPoint
+from .records import Branch, Point
+from .results import branch_rows, build_report, event_record, termination_text, write_outputs
+from .runner import RunResult, run_case
+
+CaseSource = str | Path | Mapping[str, Any] | Case
+
+
+def load_case(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = ()) -> Case:
+    """A validated case from a YAML file, a mapping or a :class:`Case`.
+
+    ``overrides`` are ``"dotted.key=value"`` strings (as ``--set``) or a mapping
+    ``{"continuation.max": 2.0}``. The problem is built and its preflight run, so an invalid
+    case raises :class:`CaseError` here, as ``nsm-continuation validate`` would.
+    """
+    case, _ = _validated(source, overrides)
+    return case
+
+
+def _raw(source: CaseSource) -> dict[str, Any]:
+    if isinstance(source, Case):
+        return source.model_dump(mode="python")
+    if isinstance(source, Mapping):
+        return copy.deepcopy(dict(source))  # overrides never change the caller's mapping
+    if isinstance(source, str | Path):
+        return cases.load_raw(source)
+    raise CaseError(f"case: expected a YAML path, a mapping or a Case, got "
+                    f"{type(source).__name__}")
+
+
+def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = ()
+               ) -> tuple[Case, Problem]:
+    if isinstance(overrides, Mapping):
+        raw = _raw(source)
+        for key, value in overrides.items():
+            node = raw
+            *path, last = str(key).split(".")
+            for part in path:
+                node = node.setdefault(part, {})
+                if not isinstance(node, dict):
+                    raise CaseError(f"{key}: {part} is not a mapping")
+            node[last] = value
+    else:
+        raw = cases.apply_overrides(_raw(source), list(overrides))
+    return cases.validate(raw)
+
+
+def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
+        progress: bool = False) -> Result:
+    """Run a case (file, mapping or :class:`Case`) and return its :class:`Result`. Nothing is
+    written: call :meth:`Result.save`."""
+    case, problem = _validated(source, overrides)
+    return Result(run_case(case, problem, progress=progress))
+
+
+def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
+    """The registered problem ``name`` (``nsm-continuation list``) built from ``parameters``
+    (the YAML ``parameters:`` block, validated by the problem's schema)."""
+    try:
+        cls = registry.get(name)
+    except registry.UnknownProblemError as exc:
+        raise CaseError(f"problem: {exc}") from None
+    try:
+        params = cls.Parameters.model_validate(dict(parameters or {}))
+    except ValidationError as err:
+        raise CaseError(cases._format(err, dict(parameters or {}), "parameters")) from None
+    try:
+        return cls(params)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(cases._keyed("parameters", str(exc))) from None
+
+
+def continuation(problem: Problem, start: Any, *, name: str = "python",
+                 analysis: Mapping[str, Any] | None = None, **settings: Any) -> Result:
+    """Continue ``problem`` from ``start`` with our pseudo-arclength engine.
+
+    ``start`` is the YAML ``start:`` block of the problem (e.g. ``{"mode": 1}``), a
+    :class:`~nsm_continuation.protocol.StartPoint`, or a guess ``y`` (array of the problem's
+    unknowns, corrected by Newton at fixed parameter). ``settings`` are the keys of the YAML
+    ``continuation:`` block (``parameter``, ``min``, ``max``, ``step={...}``, ``max_points``,
+    ...) and ``analysis`` those of ``analysis:``.
+    """
+    block = start if not isinstance(start, StartPoint | np.ndarray | list | tuple) else {}
+    raw = {"name": name, "problem": problem.name,
+           "parameters": problem.params.model_dump(mode="python"), "start": block,
+           "continuation": {"parameter": problem.parameter, **settings},
+           "analysis": dict(analysis or {}), "output": {"plots": False, "progress": False}}
+    try:
+        case = Case.model_validate(raw)
+    except ValidationError as err:
+        raise CaseError(cases._format(err, raw)) from None
+    try:
+        window = problem.parameter_bounds(case.continuation.parameter, case.continuation.min,
+                                          case.continuation.max)
+    except ValueError as exc:
+        raise CaseError(cases._keyed("continuation.parameter", str(exc))) from None
+    if block is start:
+        try:
+            problem.preflight(start, window, case.continuation.max_points)
+        except (ValueError, ArithmeticError) as exc:
+            raise CaseError(cases._keyed("start", str(exc))) from None
+        return Result(run_case(case, problem, progress=False))
+    if not isinstance(start, StartPoint):
+        y = np.asarray(start, dtype=float).reshape(-1)
+        if y.size != problem.dim:
+            raise CaseError(f"start: a guess needs {problem.dim} values ({problem.variables}), "
+                            f"got {y.size}")
+        start = StartPoint(y, "from guess")
+    return Result(run_case(case, problem, progress=False, starts=[start]))
+
+
+@dataclass(frozen=True)
+class EventRecord:
+    """One located event: its kind, branch, the continued parameter's value, and the full
+    record written to ``report.json`` (multipliers, derived quantities, data)."""
+
+    kind: str
+    branch: int
+    parameter: float
+    detail: str
+    record: dict[str, Any]
+    point: Point
+
+
+class BranchData:
+    """One branch as columns (the CSV columns, as numpy arrays) and as records."""
+
+    def __init__(self, branch: Branch, problem: Problem) -> None:
+        self.raw = branch
+        self.id = branch.id
+        self.label = branch.label
+        self.termination = dict(branch.termination)
+        cols, rows = branch_rows(branch, problem.variables, getattr(problem, "csv_head", None))
+        self.column_names = cols
+        self._columns: dict[str, np.ndarray] = {}
+        for j, c in enumerate(cols):
+            values = [r[j] for r in rows]
+            self._columns[c] = np.array([np.nan if v == "" or v is None else v
+                                         for v in values], dtype=float)
+        self.parameter = np.array([p.y[problem.parameter_index] for p in branch.points])
+        self.y = np.array([p.y for p in branch.points]).reshape(len(branch.points),
+                                                               problem.dim)
+        self.multipliers = [p.multipliers for p in branch.points]
+
+    def __len__(self) -> int:
+        return len(self.raw.points)
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        try:
+            return self._columns[column]
+        except KeyError:
+            raise KeyError(f"{column!r} is not a column of branch {self.id} (one of "
+                           f"{self.column_names})") from None
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Every column as a numpy array (NaN where a value is not defined)."""
+        return dict(self._columns)
+
+    def to_frame(self) -> Any:
+        """The branch as a pandas DataFrame (needs pandas)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("BranchData.to_frame needs pandas (pip install pandas); "
+                              "BranchData.columns() gives the same data as numpy arrays"
+                              ) from None
+        return pd.DataFrame(self._columns)
+
+    def __repr__(self) -> str:
+        return (f"BranchData(id={self.id}, label={self.label!r}, points={len(self)}, "
+                f"termination={termination_text(self.raw)!r})")
+
+
+class Result:
+    """The result of a run: branches, events, the report, and the CLI's outputs on demand."""
+
+    def __init__(self, run_result: RunResult) -> None:
+        self.run_result = run_result
+        self.problem = run_result.problem
+        self.case = run_result.case
+        self.branches = [BranchData(b, self.problem) for b in run_result.branches]
+
+    @property
+    def events(self) -> list[EventRecord]:
+        """Every located event of every branch, in branch then arclength order (branch ends,
+        kind ``endpoint``, included)."""
+        ip = self.problem.parameter_index
+        return [EventRecord(ev.kind, b.id, float(ev.point.y[ip]), ev.detail, event_record(ev),
+                            ev.point)
+                for b in self.run_result.branches for ev in b.events]
+
+    @property
+    def failed_starts(self) -> list[BranchData]:
+        """Branches whose start could not be corrected (no points; the termination says why)."""
+        return [b for b in self.branches if len(b) == 0]
+
+    def report(self) -> dict[str, Any]:
+        """The content of ``report.json``."""
+        return build_report(self.run_result)
+
+    def save(self, directory: str | Path, *, overwrite: bool = False,
+             plots: bool = True) -> Path:
+        """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
+        folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
+        Returns the directory written."""
+        return write_outputs(self.run_result, Path(directory), plots=plots,
+                             if_exists="overwrite" if overwrite else "error")
+
+    def plot(self, ax: Any = None) -> Any:
+        """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);
+        returns the matplotlib Figure."""
+        from . import plots
+
+        return plots.diagram(self.run_result, ax)
+
+    def __repr__(self) -> str:
+        n = sum(len(b) for b in self.branches)
+        return (f"Result(problem={self.problem.name!r}, branches={len(self.branches)}, "
+                f"points={n}, events={len(self.events)})")
