@@ -164,7 +164,7 @@ class BranchData:
         self.id = branch.id
         self.label = branch.label
         self.termination = dict(branch.termination)
-        cols, rows = branch_rows(branch, problem.variables, getattr(problem, "csv_head", None))
+        cols, rows = branch_rows(branch, problem.variables, problem.csv_head)
         self.column_names = cols
         self._columns: dict[str, np.ndarray] = {}
         for j, c in enumerate(cols):

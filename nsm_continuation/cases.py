@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import math
 import re
+import stat
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -88,6 +89,9 @@ class ContinuationSpec(BaseModel):
     #: ``period: [null, 60]``; the branch stops where one is reached (an event of the kind the
     #: problem maps the quantity to, e.g. ``homoclinic_approach`` for the period)
     bounds: dict[str, tuple[Finite | None, Finite | None]] = {}
+    #: the continuation algorithm (:mod:`nsm_continuation.algorithms`): one of the problem's
+    #: ``algorithms`` (default: its first, ``palc`` for most, ``lattice`` for ``wfem_bar``)
+    algorithm: Literal["palc", "lattice", "pycont"] | None = None
 
     @model_validator(mode="after")
     def _bounds(self) -> ContinuationSpec:
@@ -268,30 +272,42 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
     return out
 
 
+def short_text(text: str, limit: int = 120) -> str:
+    """A path or value shortened for a one-line message."""
+    return text if len(text) <= limit else f"{text[:50]}...{text[-50:]} ({len(text)} characters)"
+
+
 def load_raw(path: str | Path) -> dict[str, Any]:
     """The case file as a mapping; every problem with the file is one :class:`CaseError`."""
-    p = Path(path)
-    if not p.exists():
-        raise CaseError(f"case file: {path} does not exist")
-    if p.is_dir():
-        raise CaseError(f"case file: {path} is a directory, not a YAML file")
+    shown = short_text(str(path))
     try:
+        p = Path(path)
+        if not p.exists():
+            raise CaseError(f"case file: {shown} does not exist")
+        if p.is_dir():
+            raise CaseError(f"case file: {shown} is a directory, not a YAML file")
+        mode = p.stat().st_mode
+        if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):  # reading would block
+            raise CaseError(f"case file: {shown} is a pipe or socket, not a YAML file")
         with open(p, "rb") as fh:
             data = fh.read(MAX_CASE_BYTES + 1)
-    except OSError as exc:
-        raise CaseError(f"case file: cannot read {path} ({exc.strerror})") from None
+    except (OSError, ValueError) as exc:
+        if isinstance(exc, CaseError):
+            raise
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise CaseError(f"case file: cannot read {shown} ({why})") from None
     if len(data) > MAX_CASE_BYTES:
-        raise CaseError(f"case file: {path} is larger than {MAX_CASE_BYTES // 1000} kB; a case "
+        raise CaseError(f"case file: {shown} is larger than {MAX_CASE_BYTES // 1000} kB; a case "
                         "is a short YAML file")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise CaseError(f"case file: {path} is not UTF-8 text (byte {exc.start})") from None
+        raise CaseError(f"case file: {shown} is not UTF-8 text (byte {exc.start})") from None
     if not text.strip():
-        raise CaseError(f"case file: {path} is empty")
-    raw = parse_yaml(text, f"case file {path}")
+        raise CaseError(f"case file: {shown} is empty")
+    raw = parse_yaml(text, f"case file {shown}")
     if not isinstance(raw, dict):
-        raise CaseError(f"case file: {path} must contain a mapping of keys")
+        raise CaseError(f"case file: {shown} must contain a mapping of keys")
     bad = [k for k in raw if not isinstance(k, str)]
     if bad:
         raise CaseError(f"case file: key {bad[0]!r} is not a name")
@@ -325,13 +341,19 @@ def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
         problem = cls(params)
     except (ValueError, ArithmeticError) as exc:
         raise CaseError(_keyed("parameters", str(exc))) from None
-    adapter = getattr(cls, "start_adapter", None)
+    adapter = cls.start_adapter
     if adapter is not None:
         try:
             adapter.validate_python(case.start)
         except ValidationError as err:
             raise CaseError(_format(err, case.start, "start")) from None
     c = case.continuation
+    if c.algorithm is not None:
+        from .algorithms import unsupported
+
+        why = unsupported(c.algorithm, problem)
+        if why is not None:
+            raise CaseError(f"continuation.algorithm: {why}")
     try:
         window = problem.parameter_bounds(c.parameter, c.min, c.max)
     except ValueError as exc:

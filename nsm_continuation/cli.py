@@ -21,7 +21,7 @@ import traceback
 import warnings
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from . import __version__, cases, registry
 
@@ -32,8 +32,16 @@ def _default_case_path() -> Path:
     return Path(str(resources.files("nsm_continuation").joinpath(DEFAULT_CASE)))
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the tool's error convention: one line on stderr, exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"error: {self.prog}: {message} (see {self.prog} --help)", file=sys.stderr)
+        sys.exit(2)
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="nsm-continuation",
         description="Continuation of nonsmooth modes of vibration of impacting systems.")
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")

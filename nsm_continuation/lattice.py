@@ -16,7 +16,9 @@ A lattice problem (subclass of :class:`LatticeProblem`) implements:
    the branch (last one last) and a direction, return the next solution (or ``None`` and a reason).
 3. :meth:`LatticeProblem.lattice_point`: ``(y, tests, derived)`` of a solution for the records.
 4. :meth:`LatticeProblem.lattice_character`: named integers (e.g. number of grazing instants);
-   a change between consecutive points is reported as an event.
+   a change between consecutive points is reported as an event of the kind the problem maps
+   the name to in ``character_kinds`` (default ``pattern_change``, a kind this family
+   declares).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 from .events import pole_estimate
 from .palc import NUMERICAL_ERRORS, describe_error
 from .protocol import Problem
-from .records import Branch, Event, Point
+from .records import CORE_EVENT_KINDS, Branch, Event, Point
 from .settings import ContinuationSettings
 
 
@@ -47,7 +49,21 @@ class LatticeSeed:
 class LatticeProblem(Problem):
     """A problem continued on a lattice (see module docstring); no smooth residual."""
 
-    lattice: ClassVar[bool] = True
+    algorithms: ClassVar[tuple[str, ...]] = ("lattice",)
+    event_kinds: ClassVar[dict[str, str]] = {
+        "pattern_change": "the phase pattern of the orbit changes character along the branch",
+    }
+    #: name of a :meth:`lattice_character` -> event kind raised where it changes between two
+    #: consecutive points (names not listed raise ``pattern_change``)
+    character_kinds: ClassVar[dict[str, str]] = {}
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        known = {**CORE_EVENT_KINDS, **cls.event_kinds}
+        for kind in cls.character_kinds.values():
+            if kind not in known:
+                raise TypeError(f"{cls.__qualname__}: character kind {kind!r} is neither a "
+                                "core kind nor declared in event_kinds")
 
     def residual(self, y: Any) -> Any:  # pragma: no cover - never called by the lattice engine
         raise TypeError(f"problem {self.name!r} is a lattice problem: it has no smooth residual")
@@ -67,6 +83,8 @@ class LatticeProblem(Problem):
         """``(y, tests, derived)`` of a solution."""
 
     def lattice_character(self, sol: Any) -> dict[str, int]:
+        """Named integers of a solution; a change between consecutive points is an event of
+        kind ``character_kinds[name]``."""
         return {}
 
     def lattice_key(self, sol: Any) -> Any:
@@ -75,10 +93,10 @@ class LatticeProblem(Problem):
 
     def asymptote(self, points: list[Point]) -> dict[str, float] | None:
         """Estimate of where the energy grows without bound, from the last points. Default:
-        :func:`~nsm_continuation.events.pole_estimate` of the energy axis ``fep_axes[1]``
-        against the parameter (the pseudo-arclength engine's asymptote test); a problem with a
-        known law overrides it."""
-        key = self.fep_axes[1]
+        :func:`~nsm_continuation.events.pole_estimate` of ``energy_quantity`` (else of the
+        diagram's vertical axis ``fep_axes[1]``) against the parameter (the pseudo-arclength
+        engine's asymptote test); a problem with a known law overrides it."""
+        key = self.energy_quantity or self.fep_axes[1]
         last = points[-6:]
         try:
             par = np.array([p.y[self.parameter_index] for p in last], dtype=float)
@@ -163,7 +181,7 @@ class LatticeContinuation:
             old, new = pr.lattice_character(history[-1]), pr.lattice_character(sol)
             for k in new:
                 if k in old and new[k] != old[k]:
-                    kind = "grazing" if "grazing" in k else "pattern_change"
+                    kind = pr.character_kinds.get(k, "pattern_change")
                     events.append(Event(kind, pt, detail=f"{k}: {old[k]} -> {new[k]}",
                                         data={k: new[k], f"{k}_before": old[k]}))
             history.append(sol)

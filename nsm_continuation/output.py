@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Literal
 
 from . import __version__
-from .cases import CaseError
+from .cases import CaseError, short_text
 
 #: marker file of a run directory: JSON with the tool, its version, the time and the files written
 MARKER = ".nsm-continuation-run.json"
@@ -89,6 +89,16 @@ class OutputTarget:
 
         Raises :class:`OutputError` naming the path; on error nothing is left behind.
         """
+        try:
+            self._prepare()
+        except (OSError, ValueError) as exc:  # a name too long, a NUL byte, an odd mount...
+            if isinstance(exc, OutputError):
+                raise
+            self.abort()
+            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            raise OutputError(f"output: cannot use {short_text(str(self.path))} ({why})") from None
+
+    def _prepare(self) -> None:
         self.path = Path(os.path.abspath(self.path))
         if self.if_exists == "new":
             self.path = self._first_free(self.path)

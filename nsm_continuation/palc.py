@@ -181,12 +181,15 @@ class ContinuationEngine:
             derived=pr.derived(y), bordered_det=det, newton_iterations=iterations,
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
             circle_tol=circle_tol,
-            signature=pr.signature(y) if hasattr(pr, "signature") else None,
+            signature=pr.signature(y) if pr.signature_kind is not None else None,
         )
 
     def _floquet(self, y: np.ndarray, t: np.ndarray) -> FloquetData | None:
         """The problem's multipliers, or None where they cannot be computed (e.g. exactly at
-        grazing, where the return map is not differentiable): recorded as unknown."""
+        grazing, where the return map is not differentiable): recorded as unknown. Never
+        called on the problem when ``settings.stability`` is false."""
+        if not self.settings.stability:
+            return None
         try:
             fl = self.problem.floquet(y, t)
         except (*NUMERICAL_ERRORS, ValueError):
@@ -430,7 +433,7 @@ class ContinuationEngine:
     def _bound_kind(self, label: str) -> str:
         """Event kind of a bound (``endpoint`` unless the problem maps the quantity)."""
         kind = "endpoint"
-        for name_, kind_ in getattr(self.problem, "bound_kinds", {}).items():
+        for name_, kind_ in self.problem.bound_kinds.items():
             if label.startswith(f"{name_} ="):
                 kind = kind_
         return kind
@@ -477,7 +480,7 @@ class ContinuationEngine:
         keep = np.arange(len(pts[-1].y)) != self.ip
         monitors: dict[str, Callable[[Point], float]] = {
             "|y|": lambda p: float(np.linalg.norm(p.y[keep]))}
-        for name in getattr(self.problem, "asymptote_monitors", ("energy",)):
+        for name in self.problem.asymptote_monitors:
             if name in pts[-1].derived:
                 monitors[name] = lambda p, n_=name: float(p.derived.get(n_, np.nan))
         par = np.array([p.y[self.ip] for p in pts[-(n + lag):]])
@@ -659,7 +662,7 @@ class ContinuationEngine:
                     self.unlocated_events += 1
                     continue
                 leaving = flo >= 0 > fhi
-                kind = getattr(self.problem, "test_kinds", {}).get(name, "grazing")
+                kind = self.problem.test_kinds.get(name, "grazing")
                 ev = Event(kind, p, f"test function '{name}' "
                            + ("becomes negative: admissibility lost" if leaving
                               else "becomes positive: admissibility regained"),
@@ -723,7 +726,7 @@ class ContinuationEngine:
             p = b if hi >= b.s - a.s else (self._point_at(a, b, hi) or b)
         else:
             p = self.full(p)
-        kind = getattr(self.problem, "test_kinds", {}).get(name, "grazing")
+        kind = self.problem.test_kinds.get(name, "grazing")
         return Event(kind, p, f"test function '{name}' "
                      + ("ceases to be defined" if was else "becomes defined"),
                      data={"test": name, "defined_before": bool(vl),
@@ -735,10 +738,11 @@ class ContinuationEngine:
         A problem may declare a change not worth locating (``locate_signature(before, after)``
         False: e.g. only the number of impacts a simulator resolves before a chatter map, a
         tolerance-dependent count): the event is then recorded at ``b`` with the step as bracket.
+        The event's kind is the problem's ``signature_kind``.
         """
-        kind = getattr(self.problem, "signature_kind", "pattern_change")
-        locate = getattr(self.problem, "locate_signature", None)
-        if locate is not None and not locate(a.signature, b.signature):
+        kind = self.problem.signature_kind
+        assert kind is not None  # signatures are only evaluated when a kind is declared
+        if not self.problem.locate_signature(a.signature, b.signature):
             return [Event(kind, b, f"event sequence {a.signature} -> {b.signature} (not "
                           "located: within the step)",
                           data={"signature_before": a.signature,

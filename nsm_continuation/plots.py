@@ -1,4 +1,8 @@
-"""Figures of a run: frequency-energy plot, multipliers vs frequency, multipliers in the plane.
+"""Figures of a run: the branch diagram (for the chain and the bar the frequency-energy plot),
+multipliers along the branch, multipliers in the plane. Axes, labels, title and scale come from
+the problem's declared presentation members (``fep_axes``, ``fep_labels``, ``diagram_title``,
+``diagram_yscale``, :meth:`~nsm_continuation.protocol.Problem.plot_decorations`,
+:meth:`~nsm_continuation.protocol.Problem.legend_handles`).
 
 Conventions (as in Legrand et al. 2017, Fig. 3.2, 6.1, 6.2): admissible orbits thick, phantom
 (non-admissible) orbits thin grey; admissible-stable black, admissible-unstable red; unstable
@@ -16,7 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from .records import Branch  # noqa: E402
+from .protocol import Problem  # noqa: E402
+from .records import Branch, Point  # noqa: E402
 from .runner import RunResult  # noqa: E402
 
 MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
@@ -24,7 +29,16 @@ MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
            "grazing": ("v", "tab:red")}
 
 
-def _segments(br: Branch, xk: str, yk: str):
+def quantity(problem: Problem, p: Point, name: str) -> float:
+    """The value of ``name`` at ``p``: a derived quantity, else an unknown, else NaN."""
+    if name in p.derived:
+        return p.derived[name]
+    if name in problem.variables:
+        return float(p.y[problem.variables.index(name)])
+    return float("nan")
+
+
+def _segments(problem: Problem, br: Branch, xk: str, yk: str):
     """Consecutive runs of points with the same (admissible, stable) state."""
     pts = br.points
     if not pts:
@@ -34,8 +48,8 @@ def _segments(br: Branch, xk: str, yk: str):
     for i in range(1, len(pts) + 1):
         if i == len(pts) or key[i] != key[start]:
             seg = pts[start:min(i + 1, len(pts))]
-            x = np.array([p.derived.get(xk, np.nan) for p in seg])
-            y = np.array([p.derived.get(yk, np.nan) for p in seg])
+            x = np.array([quantity(problem, p, xk) for p in seg], dtype=float)
+            y = np.array([quantity(problem, p, yk) for p in seg], dtype=float)
             yield key[start], x, y
             start = i
 
@@ -51,7 +65,9 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
     frequency-energy plot of Fig. 3.2), admissible/stable/phantom styled as in the papers,
     located events marked; drawn on ``ax`` (a new figure if None). Returns the figure."""
-    xk, yk = res.problem.fep_axes
+    pr = res.problem
+    xk, yk = pr.fep_axes
+    log = pr.diagram_yscale == "log"
     if ax is None:
         fig, ax = plt.subplots(figsize=(11, 5.5))
     else:
@@ -59,8 +75,8 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     xs: list[float] = []
     ys: list[float] = []
     for br in res.branches:
-        for (adm, stable), x, y in _segments(br, xk, yk):
-            ok = np.isfinite(x) & np.isfinite(y) & (y > 0)
+        for (adm, stable), x, y in _segments(pr, br, xk, yk):
+            ok = np.isfinite(x) & np.isfinite(y) & ((y > 0) if log else True)
             if not ok.any():
                 continue
             xs += list(x[ok])
@@ -77,22 +93,21 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
         for ev in br.events:
             # events of a branch start outside the plotted window (e.g. a linear grazing orbit
             # above the energy bound) are listed in the report, not drawn
-            if ev.kind in MARKERS and ev.point.derived.get(yk, np.inf) <= y_top:
+            ye = quantity(pr, ev.point, yk)
+            if ev.kind in MARKERS and ye <= y_top:
                 m, c = MARKERS[ev.kind]
-                ax.plot(ev.point.derived.get(xk), ev.point.derived.get(yk), m, color=c,
+                ax.plot(quantity(pr, ev.point, xk), ye, m, color=c,
                         ms=6, mec="k", mew=0.5, zorder=5)
     x_range = (min(xs) if xs else 0.0, max(xs) if xs else 1.0)
-    if xs:
+    if xs and log:
         ax.set_yscale("log")
     ylim = ax.get_ylim()
-    res.problem.plot_decorations(ax, x_range)
+    pr.plot_decorations(ax, x_range, res.branches)
     ax.set_ylim(ylim)
-    xl, yl = getattr(res.problem, "fep_labels", (
-        r"frequency $\omega = 2\pi/T$ [rad/s]",
-        r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$"))
+    xl, yl = pr.fep_labels
     ax.set_xlabel(xl)
     ax.set_ylabel(yl)
-    ax.set_title(f"Frequency-energy plot: {res.case.name}")
+    ax.set_title(f"{pr.diagram_title}: {res.case.name}")
     handles = [Line2D([], [], color="k", lw=2.2, label="admissible, stable"),
                Line2D([], [], color="tab:red", lw=2.2, label="admissible, unstable"),
                Line2D([], [], color="k", lw=2.2, ls=(0, (4, 1.5)),
@@ -101,7 +116,7 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     for k, (m, c) in MARKERS.items():
         if any(ev.kind == k for br in res.branches for ev in br.events):
             handles.append(Line2D([], [], marker=m, color=c, ls="", mec="k", label=k))
-    handles += getattr(res.problem, "legend_handles", lambda: [])()
+    handles += pr.legend_handles()
     ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
               framealpha=0.9)
     ax.grid(alpha=0.25, which="both")
@@ -109,10 +124,10 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     return fig
 
 
-def _unstable_spans(br: Branch, xk: str) -> list[tuple[float, float]]:
+def _unstable_spans(problem: Problem, br: Branch, xk: str) -> list[tuple[float, float]]:
     spans, cur = [], None
     for p in br.points:
-        x = p.derived.get(xk)
+        x = quantity(problem, p, xk)
         if p.stable is False:
             cur = [x, x] if cur is None else [cur[0], x]
         elif cur is not None:
@@ -124,7 +139,10 @@ def _unstable_spans(br: Branch, xk: str) -> list[tuple[float, float]]:
 
 
 def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
-    xk = res.problem.fep_axes[0]
+    """The multipliers (modulus, real and imaginary parts) against the diagram's horizontal
+    quantity ``fep_axes[0]`` (the file keeps its historical name)."""
+    pr = res.problem
+    xk = pr.fep_axes[0]
     data = [(br, [p for p in br.points if p.multipliers is not None]) for br in res.branches]
     if not any(pts for _, pts in data):
         return False
@@ -132,11 +150,11 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
     for br, pts in data:
         if not pts:
             continue
-        for a, b in _unstable_spans(br, xk):
+        for a, b in _unstable_spans(pr, br, xk):
             for ax in axes:
                 ax.axvspan(min(a, b), max(a, b), color="tab:red", alpha=0.12, lw=0)
     allp = [p for _, pts in data for p in pts]
-    x = np.concatenate([np.full(p.multipliers.size, p.derived.get(xk)) for p in allp])
+    x = np.concatenate([np.full(p.multipliers.size, quantity(pr, p, xk)) for p in allp])
     m = np.concatenate([p.multipliers for p in allp])
     c = np.abs(m.real)
     for ax, val in zip(axes, (np.abs(m), m.real, m.imag), strict=True):
@@ -155,7 +173,7 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
     axes[0].set_ylabel(r"$|\lambda|$")
     axes[1].set_ylabel(r"Re $\lambda$")
     axes[2].set_ylabel(r"Im $\lambda$")
-    axes[2].set_xlabel(r"frequency $\omega$ [rad/s]")
+    axes[2].set_xlabel(pr.fep_labels[0])
     axes[0].set_title("Floquet multipliers (trivial 0 and 1 removed); unstable zones shaded; "
                       r"colour: $|$Re $\lambda|$")
     for ax in axes:
@@ -167,7 +185,9 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
 
 
 def multipliers_plane(res: RunResult, path: Path) -> bool:
-    xk = res.problem.fep_axes[0]
+    """The multipliers in the complex plane, coloured by ``fep_axes[0]``."""
+    pr = res.problem
+    xk = pr.fep_axes[0]
     pts = [p for br in res.branches for p in br.points if p.multipliers is not None]
     if not pts:
         return False
@@ -175,9 +195,9 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
     th = np.linspace(0, 2 * np.pi, 400)
     ax.plot(np.cos(th), np.sin(th), color="k", lw=0.8)
     z = np.concatenate([p.multipliers for p in pts])
-    w = np.concatenate([np.full(p.multipliers.size, p.derived.get(xk)) for p in pts])
+    w = np.concatenate([np.full(p.multipliers.size, quantity(pr, p, xk)) for p in pts])
     sc = ax.scatter(z.real, z.imag, c=w, cmap="plasma", s=5)
-    fig.colorbar(sc, ax=ax, label=r"frequency $\omega$ [rad/s]")
+    fig.colorbar(sc, ax=ax, label=pr.fep_labels[0])
     r = min(max(1.6, float(np.percentile(np.abs(z), 98)) * 1.1), 4.0)
     ax.set_xlim(-r, r)
     ax.set_ylim(-r, r)

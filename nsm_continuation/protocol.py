@@ -17,14 +17,31 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
    ``y`` of length ``n + 1``. The engine builds compiled CasADi Functions for ``G`` and its exact
    Jacobian once per instance (:attr:`Problem.compiled`). A problem without a symbolic residual may
    instead override :meth:`Problem.evaluate` and :meth:`Problem.jacobian` with an exact Jacobian.
-4. Optional hooks (defaults do nothing):
-   - :meth:`admissibility`: named scalar test functions, ``> 0`` where the point is admissible
-     (physically realisable); a sign change is located and reported as a ``grazing`` event.
-   - :meth:`floquet`: the non-trivial Floquet multipliers at a point (trivial ones removed, see
-     :mod:`nsm_continuation.floquet`), used for stability and bifurcation test functions.
-   - :meth:`derived`: named derived quantities (period, frequency, energy, ...), written to CSV.
-   - :meth:`start_points`: initial guesses built from the YAML ``start:`` block.
-   - :meth:`parameter_from_user` / ``parameter_bounds``: conversion of user bounds.
+4. Everything else is optional: every member the core reads is declared on :class:`Problem`,
+   typed, with a default and a docstring, in six groups (the core never probes for an
+   undeclared attribute):
+
+   - *unknowns & parameter*: ``variables``, ``parameter``, ``algorithms`` (the continuation
+     algorithms that can continue the problem, :mod:`nsm_continuation.algorithms`),
+     ``energy_quantity`` / ``energy_cap``;
+   - *residual & Jacobian*: :meth:`residual` or :meth:`evaluate` / :meth:`jacobian`;
+   - *starts*: :meth:`start_points`, ``start_adapter``, :meth:`preflight`,
+     :meth:`parameter_bounds`;
+   - *monitors*: continuous test functions (:meth:`admissibility`, > 0 where the point is
+     admissible, a sign change raises the event kind ``test_kinds[name]``, default ``grazing``),
+     derived quantities (:meth:`derived`, bounded by ``continuation.bounds``; a bound ends the
+     branch with the event kind ``bound_kinds[name]``, default ``endpoint``), discrete
+     signatures (:meth:`signature`, a change raises ``signature_kind``), and ``event_kinds``:
+     the kinds the problem family adds to the core ones
+     (:data:`nsm_continuation.records.CORE_EVENT_KINDS`), each with its one-line meaning for
+     ``report.md``;
+   - *stability*: :meth:`floquet`, the non-trivial Floquet multipliers (trivial ones removed,
+     see :mod:`nsm_continuation.floquet`), computed unless ``analysis.stability: false``;
+   - *presentation*: the diagram's axes, labels, title and scale (``fep_axes``, ``fep_labels``,
+     ``diagram_title``, ``diagram_yscale``), CSV and report columns (``csv_head``,
+     ``event_columns``), figures and report extras, all pure functions of the results
+     (:meth:`plot_decorations`, :meth:`legend_handles`, :meth:`extra_plots`,
+     :meth:`report_extras`, :meth:`summary`, :meth:`warnings`).
 5. Register the class: in this repository in ``pyproject.toml`` under the entry-point group
    ``nsm_continuation.problems``; a third-party package does the same in its own metadata.
 """
@@ -38,7 +55,9 @@ from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
-from pydantic import BaseModel
+from pydantic import BaseModel, TypeAdapter
+
+from .records import CORE_EVENT_KINDS, register_event_kinds
 
 
 class EvaluationError(RuntimeError):
@@ -100,25 +119,61 @@ class CompiledResidual:
 
 
 class Problem(ABC):
-    """Base class of all problems; see the module docstring for the contract."""
+    """Base class of all problems: the declared contract (module docstring).
 
+    Every member the core (engines, runner, results, report, plots) reads is declared here,
+    typed, with a default; a subclass overrides what it needs. Class-level declarations
+    (``test_kinds``, ``bound_kinds``, ``signature_kind``, ``event_kinds``) are checked when the
+    subclass is defined: every event kind a problem raises is a core kind or one it declares.
+    """
+
+    # == unknowns & parameter ==================================================================
+    #: the registry key (YAML ``problem:``)
     name: ClassVar[str] = ""
+    #: pydantic model validating the YAML ``parameters:`` block
     Parameters: ClassVar[type[BaseModel]]
     #: symbolic type used to build the residual: "SX" (small, fast calls) or "MX" (large, dense)
     symbolic: str = "SX"
-
+    #: names of the ``n + 1`` unknowns ``y`` (set by ``__init__``)
     variables: list[str]
+    #: the unknown that is the continuation parameter (window bounds apply to it)
     parameter: str
+    #: names of the continuation algorithms that can continue this problem
+    #: (:data:`nsm_continuation.algorithms.ALGORITHMS`: ``palc``, ``lattice``, ``pycont``); the
+    #: first is the default of YAML ``continuation.algorithm``
+    algorithms: ClassVar[tuple[str, ...]] = ("palc",)
+    #: the derived quantity that ``continuation.max_energy`` bounds (None: the problem has no
+    #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
+    energy_quantity: ClassVar[str | None] = None
+    #: the run's ``continuation.max_energy`` (a bound on ``energy_quantity``), set by the runner
+    #: before the starts are built: a problem may skip starts above it (None: no bound)
+    energy_cap: float | None = None
 
     def __init__(self, params: BaseModel) -> None:
         self.params = params
 
-    # -- required -------------------------------------------------------------------------------
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Register the family's event kinds and check that every kind the class maps a
+        monitor to is declared (a core kind or one of ``event_kinds``)."""
+        super().__init_subclass__(**kwargs)
+        register_event_kinds(cls.event_kinds, cls.__qualname__)
+        known = {**CORE_EVENT_KINDS, **cls.event_kinds}
+        declared = [*cls.test_kinds.values(), *cls.bound_kinds.values()]
+        if cls.signature_kind is not None:
+            declared.append(cls.signature_kind)
+        for kind in declared:
+            if kind not in known:
+                raise TypeError(f"{cls.__qualname__}: event kind {kind!r} is neither a core "
+                                "kind nor declared in event_kinds")
+        if cls.signature is not Problem.signature and cls.signature_kind is None:
+            raise TypeError(f"{cls.__qualname__}: signature() is overridden but no "
+                            "signature_kind is declared (the event kind of a change)")
+
+    # == residual & Jacobian ===================================================================
     @abstractmethod
     def residual(self, y: Any) -> Any:
         """``G(y)`` as a CasADi expression of the symbol ``y`` (length ``n + 1``)."""
 
-    # -- derived from residual ------------------------------------------------------------------
     @property
     def dim(self) -> int:
         """Number of unknowns ``n + 1``."""
@@ -126,10 +181,13 @@ class Problem(ABC):
 
     @property
     def parameter_index(self) -> int:
+        """Index of the continuation parameter in ``y``."""
         return self.variables.index(self.parameter)
 
     @cached_property
     def compiled(self) -> CompiledResidual:
+        """CasADi Functions of ``G`` and its exact Jacobian, built once from :meth:`residual`
+        (a problem that evaluates numerically overrides this with ``None``)."""
         sym = ca.SX if self.symbolic == "SX" else ca.MX
         y = sym.sym("y", self.dim)
         g = self.residual(y)
@@ -146,27 +204,21 @@ class Problem(ABC):
         return CompiledResidual(G=G, J=J, GJ=GJ, n=n)
 
     def evaluate(self, y: np.ndarray) -> np.ndarray:
+        """``G(y)`` (length ``n``)."""
         return self.compiled.residual(y)
 
     def jacobian(self, y: np.ndarray) -> np.ndarray:
+        """``G_y(y)`` (``n x (n + 1)``), exact."""
         return self.compiled.jacobian(y)
 
     def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(G(y), G_y(y))`` in one call (override together with evaluate/jacobian)."""
         return self.compiled.both(y)
 
-    # -- optional hooks -------------------------------------------------------------------------
-    def admissibility(self, y: np.ndarray) -> dict[str, float]:
-        """Named test functions, positive where ``y`` is admissible."""
-        return {}
-
-    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
-        """Non-trivial Floquet multipliers at ``y`` (``tangent``: unit tangent of the branch)."""
-        return None
-
-    def derived(self, y: np.ndarray) -> dict[str, float]:
-        """Named derived quantities written with each point."""
-        return {}
+    # == starts ================================================================================
+    #: validator of the YAML ``start:`` block, run by ``validate`` before the problem's
+    #: preflight so that a malformed start is refused naming its key (None: no schema)
+    start_adapter: ClassVar[TypeAdapter[Any] | None] = None
 
     def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
                      ) -> list[StartPoint]:
@@ -187,11 +239,6 @@ class Problem(ABC):
         """
         return None
 
-    def monitor_names(self) -> list[str]:
-        """Names of the derived quantities (:meth:`derived`) a ``continuation.bounds`` entry may
-        name; a bound on any other name is refused before computing."""
-        return []
-
     def parameter_bounds(self, name: str, lo: float | None, hi: float | None
                          ) -> tuple[float | None, float | None]:
         """Convert user bounds on ``name`` (e.g. ``omega``) to bounds on ``self.parameter``."""
@@ -200,16 +247,102 @@ class Problem(ABC):
                              f"problem continues in {self.parameter!r}")
         return lo, hi
 
-    def summary(self) -> dict[str, Any]:
-        """Problem facts for the report (linear frequencies, coefficients, ...)."""
+    # == monitors ==============================================================================
+    #: event kinds this problem family raises besides the core ones
+    #: (:data:`~nsm_continuation.records.CORE_EVENT_KINDS`): kind -> one-line meaning, written
+    #: in ``report.md`` under "What the events mean"
+    event_kinds: ClassVar[dict[str, str]] = {}
+    #: admissibility test name -> event kind raised where it changes sign, or ceases to / starts
+    #: to be defined (tests not listed raise ``grazing``)
+    test_kinds: ClassVar[dict[str, str]] = {}
+    #: bounded quantity (the parameter or a derived quantity) -> event kind raised where its
+    #: bound ends the branch (quantities not listed raise ``endpoint``)
+    bound_kinds: ClassVar[dict[str, str]] = {}
+    #: derived quantities watched (with ``|y|``) for an ``asymptote``: growth without bound as
+    #: the parameter approaches a limit
+    asymptote_monitors: ClassVar[tuple[str, ...]] = ("energy",)
+    #: event kind raised where the discrete :meth:`signature` changes (None: the problem has no
+    #: signature and :meth:`signature` is never called)
+    signature_kind: ClassVar[str | None] = None
+
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        """Named continuous test functions, ``>= 0`` where ``y`` is admissible (physically
+        realisable); a sign change is located and raises ``test_kinds[name]``."""
         return {}
 
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        """Problem-specific results added to ``report.json`` under ``problem_results``."""
+    def derived(self, y: np.ndarray) -> dict[str, float]:
+        """Named derived quantities (period, frequency, energy, ...) written with each point."""
         return {}
 
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float]) -> None:
-        """Draw problem-specific references on the frequency-energy plot (no-op by default)."""
+    def monitor_names(self) -> list[str]:
+        """Names of the derived quantities (:meth:`derived`) a ``continuation.bounds`` entry may
+        name; a bound on any other name is refused before computing."""
+        return []
+
+    def signature(self, y: np.ndarray) -> str | None:
+        """A discrete signature of the solution at ``y`` (e.g. the event sequence of a hybrid
+        orbit), or None where it is undefined; a change between two points is located and
+        raises ``signature_kind``. Called only when ``signature_kind`` is declared."""
+        return None
+
+    def locate_signature(self, before: str | None, after: str | None) -> bool:
+        """Whether a change ``before -> after`` of the signature is located by bisection
+        (True) or recorded at the end of its step (False: e.g. a tolerance-dependent count)."""
+        return True
+
+    def all_event_kinds(self) -> dict[str, str]:
+        """Every kind a run of this problem may raise: core kinds and ``event_kinds``, each
+        with its one-line meaning."""
+        return {**CORE_EVENT_KINDS, **self.event_kinds}
+
+    # == stability =============================================================================
+    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
+        """Non-trivial Floquet multipliers at ``y`` (``tangent``: unit tangent of the branch);
+        None where there are none. Not called when ``analysis.stability`` is false."""
+        return None
+
+    # == presentation (pure functions of the results) =========================================
+    #: title of the branch diagram (``fep.png``), followed by ``: <case name>``
+    diagram_title: ClassVar[str] = "Branch diagram"
+    #: scale of the branch diagram's vertical axis: "linear" or "log" (log drops values <= 0)
+    diagram_yscale: ClassVar[str] = "linear"
+
+    @property
+    def fep_axes(self) -> tuple[str, str]:
+        """Quantities (derived quantities or unknowns) on the branch diagram's axes and, for
+        the first, on the multiplier plots' horizontal axis. Default: the parameter and the
+        first other unknown."""
+        others = [v for v in self.variables if v != self.parameter]
+        return (self.parameter, others[0] if others else self.parameter)
+
+    @property
+    def fep_labels(self) -> tuple[str, str]:
+        """Axis labels of the two ``fep_axes`` quantities (default: their names)."""
+        return self.fep_axes
+
+    @property
+    def csv_head(self) -> list[str]:
+        """First columns of ``branch_<id>.csv`` (derived quantities or unknowns); the other
+        derived quantities, tests, unknowns and multipliers follow. Default: the parameter
+        and the diagram axes."""
+        return list(dict.fromkeys([self.parameter, *self.fep_axes]))
+
+    @property
+    def event_columns(self) -> list[str]:
+        """Quantities shown for each event in the table of ``report.md`` (default:
+        ``csv_head``)."""
+        return list(self.csv_head)
+
+    def legend_handles(self) -> list[Any]:
+        """Extra legend entries (matplotlib artists) for what :meth:`plot_decorations`
+        draws."""
+        return []
+
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """Draw problem-specific references on the branch diagram (e.g. linear frequencies);
+        ``branches`` are the run's :class:`~nsm_continuation.records.Branch` records. A pure
+        function of its arguments (no state shared with other hooks)."""
         return None
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
@@ -217,12 +350,15 @@ class Problem(ABC):
         """Write problem-specific figures into ``out_dir``; return their file names."""
         return []
 
-    #: derived quantities used as axes of the frequency-energy plot
-    fep_axes: tuple[str, str] = ("omega", "energy")
-    #: the derived quantity that ``continuation.max_energy`` bounds (None: the problem has no
-    #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
-    energy_quantity: ClassVar[str | None] = None
+    def summary(self) -> dict[str, Any]:
+        """Problem facts for the report (linear frequencies, coefficients, ...)."""
+        return {}
 
     def warnings(self) -> list[str]:
         """Warnings about the instance (e.g. a violated assumption) to put in the report."""
         return []
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Problem-specific results added to ``report.json`` under ``problem_results``: a pure
+        function of the branches (no state shared with other hooks)."""
+        return {}

@@ -10,22 +10,43 @@ from typing import Any
 
 import numpy as np
 
-EVENT_KINDS = (
-    "fold",
-    "branch_point",
-    "period_doubling",
-    "neimark_sacker",
-    "stability_change",
-    "grazing",
-    "endpoint",
-    # lattice problems (nsm_continuation.lattice): energy without bound, change of phase pattern
-    "asymptote",
-    "pattern_change",
-    # hybrid (impacting) systems with chattering (nsm_continuation.hybrid)
-    "sticking_lost",
-    "impact_sequence_change",
-    "homoclinic_approach",
-)
+#: the event kinds of the core, raised by any algorithm for any problem: kind -> one-line
+#: meaning (written in ``report.md``). A problem family adds its own kinds with their meanings
+#: (``Problem.event_kinds``, registered by :func:`register_event_kinds` when the class is
+#: defined).
+CORE_EVENT_KINDS: dict[str, str] = {
+    "fold": "a Floquet multiplier pair reaches +1 (or a limit point of the parameter); in a "
+            "conservative family it signals a bifurcating family of orbits",
+    "branch_point": "two solution curves cross (det of the bordered Jacobian changes sign)",
+    "period_doubling": "a multiplier passes through -1: a family of period-2T orbits bifurcates",
+    "neimark_sacker": "a complex pair leaves the unit circle away from +-1 (for a conservative "
+                      "system, after a Krein collision): quasi-periodic motion nearby",
+    "stability_change": "the number of multipliers outside the unit circle becomes zero or "
+                        "non-zero",
+    "grazing": "an admissibility test function vanishes: the orbit touches the obstacle "
+               "tangentially (nonlinear grazing) or leaves it with zero velocity (linear "
+               "grazing); beyond it the orbit is a phantom",
+    "endpoint": "end of the computed branch (bound reached or numerical termination)",
+    "asymptote": "a monitored quantity (the energy, the size of the unknowns) grows without "
+                 "bound as the parameter approaches a limit (estimated from the last points)",
+}
+
+#: kinds declared by the problem families defined so far (kind -> declaring class)
+_FAMILY_KINDS: dict[str, str] = {}
+
+
+def register_event_kinds(kinds: dict[str, str], owner: str) -> None:
+    """Register the event kinds a problem family declares (``Problem.event_kinds``), so that
+    :class:`Event` accepts them. A family may not redefine a core kind."""
+    for kind in kinds:
+        if kind in CORE_EVENT_KINDS:
+            raise TypeError(f"{owner}: event kind {kind!r} is a core kind; declare a new name")
+        _FAMILY_KINDS.setdefault(kind, owner)
+
+
+def known_event_kinds() -> set[str]:
+    """Core kinds and every kind registered by a problem family."""
+    return set(CORE_EVENT_KINDS) | set(_FAMILY_KINDS)
 
 
 @dataclass
@@ -40,8 +61,9 @@ class Event:
     bracket: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.kind not in EVENT_KINDS:
-            raise ValueError(f"unknown event kind {self.kind!r}")
+        if self.kind not in CORE_EVENT_KINDS and self.kind not in _FAMILY_KINDS:
+            raise ValueError(f"unknown event kind {self.kind!r} (neither a core kind nor "
+                             "declared in a problem's event_kinds)")
 
 
 @dataclass

@@ -4,31 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-MEANING = {
-    "fold": "a Floquet multiplier pair reaches +1 (or a limit point of the parameter); in a "
-            "conservative family it signals a bifurcating family of orbits",
-    "period_doubling": "a multiplier passes through -1: a family of period-2T orbits bifurcates",
-    "neimark_sacker": "a complex pair leaves the unit circle away from +-1 (for a conservative "
-                      "system, after a Krein collision): quasi-periodic motion nearby",
-    "branch_point": "two solution curves cross (det of the bordered Jacobian changes sign)",
-    "stability_change": "the number of multipliers outside the unit circle becomes zero or "
-                        "non-zero",
-    "grazing": "an admissibility test function vanishes: the orbit touches the obstacle "
-               "tangentially (nonlinear grazing) or leaves it with zero velocity (linear "
-               "grazing); beyond it the orbit is a phantom",
-    "endpoint": "end of the computed branch (bound reached or numerical termination)",
-    "asymptote": "the energy grows without bound as the frequency approaches a limit (estimated "
-                 "from the last points)",
-    "pattern_change": "the phase pattern of the orbit changes character along the branch",
-    "sticking_lost": "the sticking time tends to zero: complete chattering turns into "
-                     "incomplete chattering (the branch of orbits with sticking ends; located "
-                     "where the sticking time reaches its floor, extrapolated to zero)",
-    "impact_sequence_change": "the sequence of events over one period changes (an impact is "
-                              "gained or lost, or the number of impacts resolved before the "
-                              "chatter map changes)",
-    "homoclinic_approach": "the period grows without bound: the orbit approaches a homoclinic "
-                           "orbit of a saddle (limit parameter from a fit T ~ -ln|p - p*|/mu)",
-}
+from .records import CORE_EVENT_KINDS
+
+#: meanings of the core event kinds; a run's report adds its problem's (``event_kinds`` of
+#: ``report.json``, from ``Problem.event_kinds``)
+MEANING = CORE_EVENT_KINDS
 
 
 def _fmt(x: Any, nd: int = 6) -> str:
@@ -72,7 +52,7 @@ def markdown(rep: dict[str, Any]) -> str:
         rng = f"{_fmt(pr[0])} .. {_fmt(pr[1])}" if pr else "-"
         lines.append(f"| {b['id']} | {b['label']} | {b['n_points']} | {b['admissible_points']}"
                      f" | {rng} | {b['termination']} |")
-    cols = rep.get("event_columns") or ["omega", "T", "energy"]
+    cols = list(rep.get("event_columns") or [])
     lines += ["", "## Events", "",
               "| branch | kind | " + " | ".join(cols) + " | max abs multiplier | "
               "stable before -> after | detail |",
@@ -91,7 +71,9 @@ def markdown(rep: dict[str, Any]) -> str:
             lines.append(f"| {b['id']} | {e['kind']} | {vals} | {_fmt(mam)} | "
                          f"{stab} | {e['detail']} |")
     lines += ["", "### What the events mean", ""]
-    lines += [f"- **{k}**: {MEANING[k]}" for k in sorted(kinds | {"endpoint"})]
+    meaning = {**MEANING, **(rep.get("event_kinds") or {})}
+    lines += [f"- **{k}**: {meaning.get(k, '(meaning not declared)')}"
+              for k in sorted(kinds | {"endpoint"})]
     extras = rep.get("problem_results") or {}
     if extras:
         lines += ["", "## Problem-specific results", ""]

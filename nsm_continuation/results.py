@@ -55,8 +55,20 @@ def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
 
 
+def _head_value(p: Point, name: str, variables: list[str]) -> Any:
+    """A head column's value at ``p``: a derived quantity, else an unknown, else empty."""
+    if name in p.derived:
+        return p.derived[name]
+    if name in variables:
+        return float(p.y[variables.index(name)])
+    return ""
+
+
 def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
                 ) -> tuple[list[str], list[list[Any]]]:
+    """Columns and rows of ``branch_<id>.csv``: ``head`` (the problem's ``csv_head``, derived
+    quantities or unknowns), admissibility and stability, the other derived quantities, the
+    test functions, accuracy, the unknowns and the multipliers."""
     pts: list[Point] = br.points
     derived_keys: list[str] = []
     test_keys: list[str] = []
@@ -68,7 +80,7 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
             if k not in test_keys:
                 test_keys.append(k)
     n_mult = max((0 if p.multipliers is None else p.multipliers.size) for p in pts) if pts else 0
-    head = list(head) if head is not None else ["T", "omega", "energy"]
+    head = list(head) if head is not None else []
     extra = [k for k in derived_keys if k not in head]
     cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + extra
             + [f"test_{k}" for k in test_keys]
@@ -81,7 +93,7 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
         mult_flat = [c for z in mult for c in z] + [""] * (2 * n_mult - 2 * len(mult))
         stable = "" if p.stable is None else int(p.stable)
         mam = p.max_abs_multiplier
-        rows.append([p.derived.get(k, "") for k in head] + [int(p.admissible), stable,
+        rows.append([_head_value(p, k, variables) for k in head] + [int(p.admissible), stable,
                     "" if not np.isfinite(mam) else mam, p.s]
                     + [p.derived.get(k, "") for k in extra]
                     + [p.tests.get(k, "") for k in test_keys]
@@ -93,8 +105,16 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
 
 def build_report(res: RunResult) -> dict[str, Any]:
     pr = res.problem
+    columns = list(pr.event_columns)
     branches = []
     for br in res.branches:
+        events = []
+        for ev in br.events:
+            rec = event_record(ev)
+            for c in columns:  # a column that is an unknown, not a derived quantity
+                if c not in rec and c in pr.variables:
+                    rec[c] = _f(ev.point.y[pr.variables.index(c)])
+            events.append(rec)
         branches.append({
             "id": br.id, "label": br.label, "n_points": br.n_points,
             "termination": termination_text(br), "termination_by_direction": br.termination,
@@ -108,7 +128,7 @@ def build_report(res: RunResult) -> dict[str, Any]:
                                                      if p.multipliers is not None),
                                                     default=float("nan"))),
             "info": {k: _f(v) for k, v in br.info.items()},
-            "events": [event_record(ev) for ev in br.events],
+            "events": events,
         })
     s = res.settings
     warnings = list(pr.warnings())
@@ -130,7 +150,8 @@ def build_report(res: RunResult) -> dict[str, Any]:
         "timings": {k: ([_f(x) for x in v] if isinstance(v, list) else _f(v))
                     for k, v in res.timings.items()},
         "skipped_starts": res.skipped,
-        "event_columns": list(getattr(pr, "csv_head", None) or ["omega", "T", "energy"]),
+        "event_columns": columns,
+        "event_kinds": pr.all_event_kinds(),
         "branches": branches,
         "problem_results": pr.report_extras(res.branches),
     }
@@ -144,8 +165,7 @@ def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
     directory = Path(directory)
     rep = build_report(res)
     for br in res.branches:
-        cols, rows = branch_rows(br, res.problem.variables,
-                                 getattr(res.problem, "csv_head", None))
+        cols, rows = branch_rows(br, res.problem.variables, res.problem.csv_head)
         with open(directory / f"branch_{br.id}.csv", "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(cols)

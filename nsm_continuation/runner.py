@@ -1,4 +1,5 @@
-"""Run a validated case: build settings, continue every start, collect the results."""
+"""Run a validated case: build settings, continue every start with the case's algorithm
+(:mod:`nsm_continuation.algorithms`), collect the results."""
 
 from __future__ import annotations
 
@@ -7,10 +8,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
+from .algorithms import make_algorithm, unsupported
 from .cases import Case, CaseError
-from .palc import ContinuationEngine
 from .protocol import Problem, StartPoint
 from .records import Branch
 from .settings import ContinuationSettings
@@ -42,27 +41,10 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
         unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
         multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
         stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
-        stability_on_phantom=a.stability_on_phantom,
+        stability_on_phantom=a.stability_on_phantom, stability=a.stability,
         direction={"both": 0, "increase": 1, "decrease": -1}[c.direction],
     )
     return settings, (lo, hi)
-
-
-def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
-    """Whether a start lies on an already computed branch (within 1e-6 relative)."""
-    y0 = np.asarray(start.y)
-    p0 = y0[ip]
-    for br in branches:
-        ys = np.array([p.y for p in br.points]) if br.points else np.empty((0, len(y0)))
-        for k in range(len(ys) - 1):
-            a, b = ys[k, ip], ys[k + 1, ip]
-            if min(a, b) <= p0 <= max(a, b) and a != b:
-                lam = (p0 - a) / (b - a)
-                yi = (1 - lam) * ys[k] + lam * ys[k + 1]
-                if np.linalg.norm(yi - y0) <= 1e-6 * (1 + np.linalg.norm(y0)) + \
-                        1e-3 * np.linalg.norm(ys[k + 1] - ys[k]):
-                    return True
-    return False
 
 
 class _Progress:
@@ -105,75 +87,42 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
              starts: list[StartPoint] | None = None,
              poll: Callable[[], None] | None = None) -> RunResult:
     """Continue every start of ``case`` (or the given ``starts``: explicit start points of a
-    curve problem, e.g. from the Python API) and collect the branches. ``poll`` is called after
-    every point (it may raise to stop the run)."""
+    curve problem, e.g. from the Python API) with the case's algorithm
+    (``continuation.algorithm``, default the problem's first, :mod:`nsm_continuation.algorithms`)
+    and collect the branches. ``poll`` is called after every point (it may raise to stop the
+    run)."""
     settings, window = settings_from_case(case, problem)
-    if getattr(problem, "lattice", False):
-        if starts is not None:
-            raise CaseError("start: a lattice problem starts from its start: block only")
-        return run_lattice_case(case, problem, settings, window, progress, poll)
-    if case.analysis.stability is False:
-        problem.floquet = lambda y, t: None  # type: ignore[method-assign]
+    name = case.continuation.algorithm or problem.algorithms[0]
+    why = unsupported(name, problem)
+    if why is not None:
+        raise CaseError(f"continuation.algorithm: {why}")
+    algorithm = make_algorithm(name, problem, settings)
+    if starts is not None and not algorithm.takes_start_points:
+        raise CaseError(f"start: the {name} algorithm starts from the start: block only (a "
+                        "lattice problem has no start guess)")
+    problem.energy_cap = case.continuation.max_energy
     t0 = time.perf_counter()
-    if starts is None:
-        try:
-            starts = problem.start_points(case.start, window)
-        except ValueError as exc:
-            return _failed_start(case, problem, settings, window, exc, t0)
-    _ = problem.compiled  # build CasADi functions once
-    t_build = time.perf_counter() - t0
-    bar = _Progress(case, len(starts) * settings.max_points, progress, poll)
-    engine = ContinuationEngine(problem, settings, progress=bar)
-    branches: list[Branch] = []
-    skipped: list[str] = []
-    per_branch = []
-    for start in starts:
-        if start.info.get("skip_if_covered") and _covered(start, branches, problem.parameter_index):
-            skipped.append(start.label)
-            continue
-        tb = time.perf_counter()
-        br = engine.run(start, branch_id=len(branches))
-        per_branch.append(time.perf_counter() - tb)
-        branches.append(br)
-    bar.close()
-    total = time.perf_counter() - t0
-    timings = {"total_s": total, "build_casadi_s": t_build, "per_branch_s": per_branch,
-               "n_points": int(sum(b.n_points for b in branches)),
-               "residual_evaluations": engine.n_evaluations,
-               "steps_taken_despite_multiplier_motion": engine.motion_limited_steps,
-               "events_not_located_on_their_arc": engine.unlocated_events}
-    return RunResult(case, problem, branches, settings, window, timings, skipped)
-
-
-def run_lattice_case(case: Case, problem: Problem, settings: ContinuationSettings,
-                     window: tuple[float | None, float | None], progress: bool,
-                     poll: Callable[[], None] | None = None) -> RunResult:
-    """Same contract as :func:`run_case` for a :class:`~nsm_continuation.lattice.LatticeProblem`."""
-    from .lattice import LatticeContinuation, LatticeProblem
-
-    assert isinstance(problem, LatticeProblem)
-    t0 = time.perf_counter()
-    if hasattr(problem, "energy_cap"):
-        problem.energy_cap = case.continuation.max_energy
     try:
-        seeds = problem.lattice_seeds(case.start, window)
+        seeds = (algorithm.starts(case.start, window) if starts is None
+                 else algorithm.seeds_from_points(starts))
     except ValueError as exc:
         return _failed_start(case, problem, settings, window, exc, t0)
-    t_seed = time.perf_counter() - t0
+    algorithm.prepare()
+    t_setup = time.perf_counter() - t0
     bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
-    engine = LatticeContinuation(problem, settings, progress=bar)
+    algorithm.progress = bar
     branches: list[Branch] = []
     skipped: list[str] = []
     per_branch = []
     for seed in seeds:
-        if problem.lattice_key(seed.solution) in engine.visited:
-            skipped.append(seed.label)
+        if algorithm.covered(seed, branches):
+            skipped.append(algorithm.label(seed))
             continue
         tb = time.perf_counter()
-        branches.append(engine.run(seed, branch_id=len(branches)))
+        branches.append(algorithm.run_branch(seed, branch_id=len(branches)))
         per_branch.append(time.perf_counter() - tb)
     bar.close()
-    timings = {"total_s": time.perf_counter() - t0, "seeds_s": t_seed,
-               "per_branch_s": per_branch, "n_points": int(sum(b.n_points for b in branches)),
-               "lattice_steps": engine.n_evaluations}
+    timings = {"total_s": time.perf_counter() - t0, algorithm.setup_key: t_setup,
+               "per_branch_s": per_branch,
+               "n_points": int(sum(b.n_points for b in branches)), **algorithm.counters()}
     return RunResult(case, problem, branches, settings, window, timings, skipped)

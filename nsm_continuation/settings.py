@@ -26,6 +26,9 @@ class ContinuationSettings:
     event_tol: float = 1e-12
     stop_on_inadmissible: bool = False
     detect_bifurcations: bool = True
+    #: compute Floquet multipliers (``Problem.floquet``); False (YAML ``analysis.stability:
+    #: false``): the problem's ``floquet`` is never called and points carry no multipliers
+    stability: bool = True
     stability_on_phantom: bool = False
     #: location tolerance (arclength) for multiplier crossings, found by bisection
     multiplier_event_tol: float = 1e-9

@@ -395,9 +395,14 @@ class BarContinuumProblem(Problem):
     name: ClassVar[str] = "bar_continuum"
     Parameters: ClassVar[type[BaseModel]] = BarContinuumParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
-    fep_axes: tuple[str, str] = ("omega_ratio", "energy_ratio")
     energy_quantity = "energy_ratio"
+    # presentation: the frequency-energy plot of the paper's figures
+    fep_axes = ("omega_ratio", "energy_ratio")
     fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
+    diagram_title: ClassVar[str] = "Frequency-energy plot"
+    diagram_yscale: ClassVar[str] = "log"
+    csv_head = ["T", "omega", "energy"]
+    event_columns = ["omega", "T", "energy"]
 
     def __init__(self, params: BarContinuumParameters | dict[str, Any]) -> None:
         if isinstance(params, dict):
@@ -412,7 +417,6 @@ class BarContinuumProblem(Problem):
         self.energy_0 = float(self.E * self.g0**2 / (2 * self.L))
         self.variables = ["omega_ratio", "contact_fraction", "sig_a", "sig_b"]
         self.parameter = "omega_ratio"
-        self._signatures: list[Signature] = []
         if not (np.isfinite(self.omega1) and self.omega1 > 0):
             raise ValueError(f"parameters.E: E, rho and L give omega_1 = pi c / (2L) = "
                              f"{self.omega1:.3g}, not a positive finite number: rescale them")
@@ -661,7 +665,6 @@ class BarContinuumProblem(Problem):
                 label = f"subharmonic n = {s.n} of mode {s.mode}"
             else:
                 label = f"signature {tuple(sig)}"
-            self._signatures.append(sig)
             d = {"both": 0, "increase": 1, "decrease": -1}[s.direction]
             out.append(StartPoint(self.point(sig, r0), f"{label} ({sig.label()})", d,
                                   {"signature": [sig.a, sig.b],
@@ -709,10 +712,14 @@ class BarContinuumProblem(Problem):
                         **ends})
         return {"branches": out}
 
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float]) -> None:
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """omega_k, Omega_k, and the asymptotes of the main backbones and of every backbone
+        the run continued (its start's ``omega_ratio_asymptote``)."""
         lo, hi = x_range
         asym = {main_signature(k).omega_ratio_asymptote for k in range(1, 20)}
-        asym |= {s.omega_ratio_asymptote for s in self._signatures if s.is_backbone}
+        asym |= {br.info["omega_ratio_asymptote"] for br in branches
+                 if br.info.get("omega_ratio_asymptote") is not None}
         for k in range(1, 40):
             for x, col in ((2 * k - 1, "tab:blue"), (2 * k, "tab:orange")):
                 if lo - 0.05 <= x <= hi + 0.05:

@@ -35,7 +35,7 @@ from nsm_continuation.hybrid.saltation import (
     ball_pn_chain,
     ball_pn_closed_form,
 )
-from nsm_continuation.hybrid.simulate import SimOptions, SimResult, Simulator
+from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
 from nsm_continuation.preflight import STRICT
 from nsm_continuation.protocol import Problem, StartPoint
@@ -125,6 +125,14 @@ class BouncingBallProblem(Problem):
         without a check: ~250 simulations to ``t_end``, each with at most ``max_chatter_impacts``
         (2000) impacts before the chatter map (a few seconds; 25 s at ``chatter_tol: 1e-300``).
         """
+        p = self.p
+        # the simulator squares velocities (v0^2 = 2 g s) and energies: keep them far from
+        # overflow (closed form, eq. (47) ff.)
+        scale = 2 * p.g * abs(p.s)
+        if not (np.isfinite(scale) and scale < 1e150):
+            raise ValueError(f"parameters.g: with s = {p.s:g} the impact velocity squared "
+                             f"2 g s = {scale:g} is beyond what double precision simulates "
+                             "(at most 1e150): rescale the units")
         if start is None or start == {}:
             return
         if isinstance(start, dict):
@@ -157,7 +165,11 @@ class BouncingBallProblem(Problem):
         if "results" in self._cache:
             return self._cache["results"]
         p = self.p
-        res = self.simulate(record=True)
+        try:
+            res = self.simulate(record=True)
+        except SimulationError as exc:  # recorded in the report, never a traceback
+            self._cache["results"] = {"simulation_failed": str(exc)}
+            return self._cache["results"]
         imp = impact_times(res)
         cf = closed_form(p.g, p.e, p.s, len(imp))
         chatter = [ev for ev in res.events if ev.kind == "chatter"]
@@ -239,6 +251,8 @@ class BouncingBallProblem(Problem):
 
         out = Path(out_dir)
         info = self.results()
+        if "simulation_failed" in info:
+            return []
         res: SimResult = self._cache["res"]
         files = []
         ts, xs = self._dense(res)

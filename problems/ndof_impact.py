@@ -212,6 +212,19 @@ class NDofImpactProblem(Problem):
     Parameters: ClassVar[type[BaseModel]] = NDofParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
     energy_quantity = "energy"
+    #: the residual is smooth with an exact Jacobian: pycont-lite can follow it as well
+    algorithms: ClassVar[tuple[str, ...]] = ("palc", "pycont")
+    # presentation: the frequency-energy plot of Fig. 3.2
+    fep_axes = ("omega", "energy")
+    fep_labels = (r"frequency $\omega = 2\pi/T$ [rad/s]",
+                  r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$")
+    diagram_title: ClassVar[str] = "Frequency-energy plot"
+    diagram_yscale: ClassVar[str] = "log"
+    csv_head = ["T", "omega", "energy"]
+    event_columns = ["omega", "T", "energy"]
+    #: largest subharmonic order k of the references omega_j / k (Fig. 3.2) and of the poles
+    #: k T_j drawn in Fig. 3.1
+    SUBHARMONIC_KMAX: ClassVar[int] = 10
 
     def __init__(self, params: NDofParameters | dict[str, Any]) -> None:
         if isinstance(params, dict):
@@ -232,6 +245,8 @@ class NDofImpactProblem(Problem):
                               + [f"du{i + 1}" for i in range(N)] + ["T"])
         self.parameter = "T"
         self.symbolic = "SX" if N <= 30 else "MX"
+        #: (the branches, their static grazing spectrum): see :meth:`static_grazing_spectrum`
+        self._spectrum_cache: tuple[list[Any], list[dict[str, Any]]] | None = None
 
     # ------------------------------------------------------------------ sizes and preflight
     #: memory of a run in doubles per N^2: M, K, P, P^-1 and the eigensolver's copies; the
@@ -746,17 +761,17 @@ class NDofImpactProblem(Problem):
 
 
     # ------------------------------------------------------------------ report and figure hooks
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float]
-                               ) -> None:
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
         """Fig. 3.2 references: linear frequencies (thick) and subharmonics w_j / k (thin); the flat
         (linear, contact-free) part of each mode up to its linear grazing energy; for g = 0 the
-        discrete spectrum (roots of w_N, Prop. 7.2)."""
+        discrete spectrum (roots of w_N, Prop. 7.2) found on ``branches``."""
         import matplotlib.pyplot as plt
 
         lo, hi = x_range
         lo, hi = lo - 0.02 * (hi - lo), hi + 0.02 * (hi - lo)
         colors = plt.get_cmap("tab10")
-        kmax = getattr(self, "_kmax", 10)
+        kmax = self.SUBHARMONIC_KMAX
         for j, w in enumerate(self.omega):
             for k in range(1, kmax + 1):
                 if lo <= w / k <= hi:
@@ -766,7 +781,7 @@ class NDofImpactProblem(Problem):
                 ax.plot([w, w], [1e-300, self.grazing_energy(j)], color=colors(j % 10), lw=3.2,
                         solid_capstyle="butt", zorder=4)
         if self.g == 0.0:
-            for T in getattr(self, "_spectrum", []):
+            for T in [s["T"] for s in self.static_grazing_spectrum(branches)]:
                 w = 2 * np.pi / T
                 if lo <= w <= hi:
                     ax.axvline(w, color="tab:green", lw=1.8, ls="--", zorder=2)
@@ -800,18 +815,30 @@ class NDofImpactProblem(Problem):
         if graz:
             out["nonlinear_grazing_orbits"] = graz
         if self.g == 0.0:
-            spec = []
-            for br in branches:
-                for ev in br.events:
-                    if ev.kind == "branch_point":
-                        T_bp = float(ev.point.y[-1])
-                        T = self.polish_root(T_bp)
-                        spec.append({"T": T, "omega": 2 * np.pi / T, "T_branch_point": T_bp,
-                                     "w_N(T_branch_point)": float(self.w_N(T_bp)),
-                                     "admissible": self.static_grazing_admissible(T)})
-            self._spectrum = [s["T"] for s in spec]
-            out["static_grazing_spectrum"] = spec
+            out["static_grazing_spectrum"] = self.static_grazing_spectrum(branches)
         return out
+
+    def static_grazing_spectrum(self, branches: list[Any]) -> list[dict[str, Any]]:
+        """For g = 0 (Prop. 7.2): each branch point of ``branches`` polished to a root of
+        ``w_N``, with its admissibility. Cached for the last list of branches (the report and
+        the figure both use it; the branches are compared by identity)."""
+        if self.g != 0.0:
+            return []
+        hit = self._spectrum_cache
+        if hit is not None and len(hit[0]) == len(branches) and all(
+                a is b for a, b in zip(hit[0], branches, strict=True)):
+            return [dict(s) for s in hit[1]]
+        spec = []
+        for br in branches:
+            for ev in br.events:
+                if ev.kind == "branch_point":
+                    T_bp = float(ev.point.y[-1])
+                    T = self.polish_root(T_bp)
+                    spec.append({"T": T, "omega": 2 * np.pi / T, "T_branch_point": T_bp,
+                                 "w_N(T_branch_point)": float(self.w_N(T_bp)),
+                                 "admissible": self.static_grazing_admissible(T)})
+        self._spectrum_cache = (list(branches), spec)
+        return [dict(s) for s in spec]
 
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
@@ -824,7 +851,7 @@ class NDofImpactProblem(Problem):
         hi = hi if hi is not None else 1.2 * self.T_lin[0]
         T = np.linspace(lo, hi, 20000)
         wn = self.w_N(T)
-        kmax = getattr(self, "_kmax", 10)
+        kmax = self.SUBHARMONIC_KMAX
         fig, ax = plt.subplots(figsize=(9, 4.5))
         poles = self.poles(lo, hi, kmax)
         wn_plot = np.where(np.abs(wn) > 50 * np.median(np.abs(wn)), np.nan, wn)

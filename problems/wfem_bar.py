@@ -147,8 +147,16 @@ class WfemBarProblem(LatticeProblem):
     name = "wfem_bar"
     Parameters = WfemBarParameters
     start_adapter = TypeAdapter(StartSpec)
-    fep_axes = ("omega_ratio", "energy_ratio")
     energy_quantity = "energy_ratio"
+    #: a change of the number of grazing instants is a grazing event
+    character_kinds: ClassVar[dict[str, str]] = {"grazing_instants": "grazing"}
+    # presentation: the frequency-energy plot of the paper's figures
+    fep_axes = ("omega_ratio", "energy_ratio")
+    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
+    diagram_title: ClassVar[str] = "Frequency-energy plot"
+    diagram_yscale: ClassVar[str] = "log"
+    csv_head = ["T", "omega", "energy"]
+    event_columns = ["omega", "T", "energy"]
 
     def __init__(self, params: WfemBarParameters) -> None:
         super().__init__(params)
@@ -159,7 +167,7 @@ class WfemBarProblem(LatticeProblem):
         self.filter_counts: dict[str, int] = {}
         self.node_evaluations = 0
         #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
-        self.energy_cap: float | None = None
+        self.energy_cap = None
         self._seed_cache: dict[tuple[str, Any], list[LatticeSeed]] = {}
         self._check_model()
 
@@ -599,7 +607,9 @@ class WfemBarProblem(LatticeProblem):
                 "lattice_nodes_evaluated": self.node_evaluations,
                 "main_asymptotes_omega_ratio": [main_asymptote(k) for k in (1, 2, 3)]}
 
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float]) -> None:
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """omega_k (fixed-free), Omega_k (fixed-fixed) and the g0 = 0 asymptotes."""
         lo, hi = x_range
         for k in range(1, 20):
             for x, ls, col in ((2 * k - 1, ":", "tab:blue"), (2 * k, ":", "tab:orange"),
@@ -619,5 +629,3 @@ class WfemBarProblem(LatticeProblem):
         return [Line2D([], [], ls=":", color="tab:blue", label=r"$\omega_k$ (fixed-free)"),
                 Line2D([], [], ls=":", color="tab:orange", label=r"$\Omega_k$ (fixed-fixed)"),
                 Line2D([], [], ls="--", color="0.5", label=r"$g_0=0$ asymptote (sec. 6.1)")]
-
-    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")

@@ -21,8 +21,9 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
+import casadi as ca
 import numpy as np
 
 from ..protocol import EvaluationError, FloquetData, Problem
@@ -141,12 +142,42 @@ class HybridShootingProblem(Problem):
     """
 
     shooting: HybridShooting
-    #: admissibility test -> event kind reported when it changes sign
-    test_kinds = {"sticking_time": "sticking_lost"}
-    signature_kind = "impact_sequence_change"
-    #: derived-bound name -> event kind (the branch stops there)
-    bound_kinds = {"period": "homoclinic_approach", "sticking_time": "sticking_lost"}
-    fep_axes: tuple[str, str] = ("parameter", "period")
+    event_kinds: ClassVar[dict[str, str]] = {
+        "sticking_lost": "the sticking time tends to zero: complete chattering turns into "
+                         "incomplete chattering (the branch of orbits with sticking ends; "
+                         "located where the sticking time reaches its floor, extrapolated to "
+                         "zero)",
+        "impact_sequence_change": "the sequence of events over one period changes (an impact "
+                                  "is gained or lost, or the number of impacts resolved before "
+                                  "the chatter map changes)",
+        "homoclinic_approach": "the period grows without bound: the orbit approaches a "
+                               "homoclinic orbit of a saddle (limit parameter from a fit "
+                               "T ~ -ln|p - p*|/mu)",
+    }
+    #: the sticking time (an admissibility test of orbits with sticking) vanishes where
+    #: complete chattering is lost
+    test_kinds: ClassVar[dict[str, str]] = {"sticking_time": "sticking_lost"}
+    signature_kind: ClassVar[str | None] = "impact_sequence_change"
+    #: a bound on the period ends the branch near a homoclinic orbit, one on the sticking time
+    #: where sticking is lost
+    bound_kinds: ClassVar[dict[str, str]] = {"period": "homoclinic_approach",
+                                             "sticking_time": "sticking_lost"}
+    diagram_yscale: ClassVar[str] = "log"
+
+    @property
+    def fep_axes(self) -> tuple[str, str]:
+        """The continued parameter against the period (return time to the section)."""
+        return (self.parameter, "period")
+
+    @property
+    def fep_labels(self) -> tuple[str, str]:
+        """Labelled by the continued parameter's name and the period."""
+        return (self.parameter, "period (return time to the section)")
+
+    @property
+    def csv_head(self) -> list[str]:
+        """The parameter, the period and the chattering quantities first."""
+        return [self.parameter, "period", "sticking_time", "n_impacts_before_chatter"]
 
     def residual(self, y: Any) -> Any:  # pragma: no cover - numeric problem
         raise NotImplementedError("hybrid shooting problems evaluate numerically")
@@ -213,12 +244,11 @@ class HybridShootingProblem(Problem):
         if res is None:
             return {}
         tests: dict[str, float] = {}
-        if getattr(self, "watch_sticking", True) and res.sticking_intervals:
+        if res.sticking_intervals:
             tests["sticking_time"] = res.sticking_time
         return tests
 
-    @staticmethod
-    def locate_signature(before: str | None, after: str | None) -> bool:
+    def locate_signature(self, before: str | None, after: str | None) -> bool:
         """Locate (by bisection) only structural changes: an impact gained or lost, a sticking
         phase gained or lost. A change of the number of impacts resolved before the chatter
         map alone depends on the chatter tolerance and is recorded within its step."""
@@ -236,7 +266,7 @@ class HybridShootingProblem(Problem):
 
 # ---------------------------------------------------------------------- YAML-facing base class
 from abc import abstractmethod  # noqa: E402
-from typing import Annotated, ClassVar, Literal  # noqa: E402
+from typing import Annotated, Literal  # noqa: E402
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, TypeAdapter  # noqa: E402
 
@@ -343,6 +373,14 @@ class HybridCaseProblem(HybridShootingProblem):
     #: takes ~0.2 s per point)
     TRANSIENT_SECONDS_PER_RETURN: ClassVar[float] = 0.05
     SECONDS_PER_POINT: ClassVar[float] = 1.0
+    #: cost of the explicit Runge-Kutta integration of a stiff field: about
+    #: ``STEPS_PER_STIFFNESS * rho * T`` steps per return (``rho`` the spectral radius of
+    #: ``dF/dx``, ``T`` the return time) at ``SECONDS_PER_STEP`` each, and a continuation point
+    #: costs about ``RETURNS_PER_POINT`` returns with sensitivities. Measured on the two-mass
+    #: chain, k2 = 1e4 and 1e6 (2.2 steps per unit of rho T, 0.75-1.5e-4 s per step).
+    STEPS_PER_STIFFNESS: ClassVar[float] = 2.2
+    SECONDS_PER_STEP: ClassVar[float] = 1e-4
+    RETURNS_PER_POINT: ClassVar[float] = 15.0
 
     def parameter_domain(self, name: str) -> tuple[float | None, bool, float | None, bool]:
         """``(lo, lo_open, hi, hi_open)``: the bounds the ``Parameters`` model declares for
@@ -472,11 +510,34 @@ class HybridCaseProblem(HybridShootingProblem):
                                          f"are {', '.join(names)})")
                     X[names.index(k)] = v
                 self._check_state(key("initial") if s.initial else "start", X)
-                seconds += s.transient * s.returns * self.TRANSIENT_SECONDS_PER_RETURN
-            seconds += 2 * max_points * s.returns * self.SECONDS_PER_POINT
+                per_return = max(self.TRANSIENT_SECONDS_PER_RETURN, self._return_seconds(X))
+                seconds += s.transient * s.returns * per_return
+            per_point = self.RETURNS_PER_POINT * self._return_seconds(
+                self.shooting.x0(y) if s.guess is not None else X)
+            seconds += 2 * max_points * s.returns * max(self.SECONDS_PER_POINT, per_point)
         check_budget("start" if len(items) == 1 else "start[0]",
                      f"{len(items)} start{'s' if len(items) != 1 else ''} with their transient "
                      f"and continuation.max_points = {max_points}", seconds=seconds)
+
+    def _return_seconds(self, X: np.ndarray) -> float:
+        """Estimated cost of one return to the section from the full state ``X`` for an explicit
+        integrator: ``STEPS_PER_STIFFNESS * rho * T`` steps, with ``rho`` the spectral radius of
+        the exact ``dF/dx`` at ``X`` and ``T = |shift| / |F_index(X)|`` the return time of a
+        section coordinate moving at its present rate (a clock: exact); 1 when it is at rest."""
+        c = self.shooting.c
+        Xs = ca.SX.sym("X", c.N)
+        field = ca.Function("Fj", [Xs], [c.f(Xs), ca.jacobian(c.f(Xs), Xs)])
+        try:
+            F, J = (np.asarray(v, dtype=float) for v in field(X))
+            rho = float(np.max(np.abs(np.linalg.eigvals(J[: c.n, : c.n]))))
+        except (RuntimeError, np.linalg.LinAlgError):
+            return 0.0
+        sec = self.shooting.section
+        rate = abs(float(F.reshape(-1)[sec.index]))
+        T = abs(sec.shift) / rate if rate > 1e-12 else 1.0
+        if not np.isfinite(rho * T):
+            return float("inf")
+        return self.SECONDS_PER_STEP * self.STEPS_PER_STIFFNESS * rho * T
 
     def monitor_names(self) -> list[str]:
         """The keys of :meth:`derived` at a simulated point."""
@@ -503,9 +564,6 @@ class HybridCaseProblem(HybridShootingProblem):
         names = self.hybrid.state_names
         self.variables = [names[i] for i in self.shooting.free_idx] + [name]
         self._compiled_for = name
-        self.fep_axes = (name, "period")
-        self.fep_labels = (name, "period (return time to the section)")
-        self.csv_head = [name, "period", "sticking_time", "n_impacts_before_chatter"]
 
     @property
     def compiled_hybrid(self) -> CompiledHybrid:

@@ -1,0 +1,327 @@
+"""Continuation algorithms as objects behind one runner.
+
+An :class:`Algorithm` turns the YAML ``start:`` block of a problem into seeds, continues one
+branch per seed and tells whether a seed already lies on a computed branch;
+:func:`nsm_continuation.runner.run_case` drives any of them with one loop and counts the same
+things for all (branches, points, time per branch, the algorithm's own counters).
+
+* :class:`PseudoArclength` (``palc``): the pseudo-arclength engine
+  (:mod:`nsm_continuation.palc`) with event location and Floquet stability;
+* :class:`Lattice` (``lattice``): the lattice engine (:mod:`nsm_continuation.lattice`) for
+  problems whose solutions sit on integer lattice nodes (:class:`~nsm_continuation.lattice.
+  LatticeProblem`);
+* :class:`PycontLite` (``pycont``): pycont-lite through :mod:`nsm_continuation.adapters.pycont`
+  follows the branch (its own predictor, matrix-free corrector and step control); each of its
+  points is then analysed by the problem's hooks exactly as the engine's (admissibility,
+  multipliers, derived quantities). Events other than the branch ends are not located
+  (pycont-lite's fold/branch-point detection works on ``G_u``, not on the hooks), and bounds on
+  derived quantities cut the branch at the last point inside them.
+
+A problem declares the algorithms it supports (``Problem.algorithms``, the first is the
+default); YAML ``continuation.algorithm`` picks one of them.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .lattice import LatticeContinuation, LatticeProblem, LatticeSeed
+from .palc import NUMERICAL_ERRORS, ContinuationEngine, describe_error
+from .protocol import Problem, StartPoint
+from .records import Branch, Event, Point
+from .settings import ContinuationSettings
+
+Window = tuple[float | None, float | None]
+
+
+class Algorithm(ABC):
+    """A continuation algorithm for one problem and one set of settings.
+
+    The runner calls :meth:`starts` (or :meth:`seeds_from_points`), then :meth:`prepare`, then
+    for each seed :meth:`covered` and :meth:`run_branch`; ``progress`` (set by the runner) is
+    called with the number of new points as they are accepted.
+    """
+
+    #: the name used in YAML ``continuation.algorithm`` and ``Problem.algorithms``
+    name: ClassVar[str]
+    #: whether explicit start points (a guess ``y`` from the Python API) can seed it
+    takes_start_points: ClassVar[bool] = True
+    #: key of ``report.json``'s ``timings`` for the time to build the seeds and prepare
+    setup_key: ClassVar[str] = "setup_s"
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
+        self.problem = problem
+        self.settings = settings
+        self.progress: Callable[[int], None] | None = None
+
+    def _tick(self, n: int) -> None:
+        """Per-point callback handed to the engines."""
+        if self.progress is not None:
+            self.progress(n)
+
+    @abstractmethod
+    def starts(self, case_start: Any, window: Window) -> list[Any]:
+        """The seeds of the YAML ``start:`` block (``window``: bounds on the parameter). Raises
+        :class:`ValueError` when they cannot be built (the run then records a failed start)."""
+
+    def seeds_from_points(self, points: list[StartPoint]) -> list[Any]:
+        """Seeds from explicit start points (only if ``takes_start_points``)."""
+        return list(points)
+
+    def prepare(self) -> None:
+        """Work done once before the first branch (e.g. build the CasADi functions)."""
+        return None
+
+    @abstractmethod
+    def run_branch(self, seed: Any, branch_id: int) -> Branch:
+        """The branch through ``seed``; never raises (failures end it with a reason)."""
+
+    @abstractmethod
+    def covered(self, seed: Any, branches: list[Branch]) -> bool:
+        """Whether ``seed`` lies on one of ``branches`` (then it is skipped)."""
+
+    def label(self, seed: Any) -> str:
+        """The seed's label (reports list skipped seeds by it)."""
+        return str(seed.label)
+
+    def counters(self) -> dict[str, Any]:
+        """Counters of the run for ``report.json``'s ``timings``."""
+        return {}
+
+
+def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
+    """Whether a start lies on an already computed branch (within 1e-6 relative)."""
+    y0 = np.asarray(start.y)
+    p0 = y0[ip]
+    for br in branches:
+        ys = np.array([p.y for p in br.points]) if br.points else np.empty((0, len(y0)))
+        for k in range(len(ys) - 1):
+            a, b = ys[k, ip], ys[k + 1, ip]
+            if min(a, b) <= p0 <= max(a, b) and a != b:
+                lam = (p0 - a) / (b - a)
+                yi = (1 - lam) * ys[k] + lam * ys[k + 1]
+                if np.linalg.norm(yi - y0) <= 1e-6 * (1 + np.linalg.norm(y0)) + \
+                        1e-3 * np.linalg.norm(ys[k + 1] - ys[k]):
+                    return True
+    return False
+
+
+class _CurveAlgorithm(Algorithm):
+    """Common part of the algorithms that follow the curve ``G(y) = 0`` from start points."""
+
+    setup_key: ClassVar[str] = "build_casadi_s"
+
+    def starts(self, case_start: Any, window: Window) -> list[Any]:
+        return list(self.problem.start_points(case_start, window))
+
+    def prepare(self) -> None:
+        _ = self.problem.compiled  # build the CasADi functions once
+
+    def covered(self, seed: Any, branches: list[Branch]) -> bool:
+        """Only starts that ask for it (``info['skip_if_covered']``, e.g. the chain's
+        ``all: true``) are skipped when they lie on a computed branch."""
+        return bool(seed.info.get("skip_if_covered")) and _covered(
+            seed, branches, self.problem.parameter_index)
+
+
+class PseudoArclength(_CurveAlgorithm):
+    """Pseudo-arclength continuation with event location (:mod:`nsm_continuation.palc`)."""
+
+    name: ClassVar[str] = "palc"
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
+        super().__init__(problem, settings)
+        self.engine = ContinuationEngine(problem, settings, progress=self._tick)
+
+    def run_branch(self, seed: Any, branch_id: int) -> Branch:
+        return self.engine.run(seed, branch_id=branch_id)
+
+    def counters(self) -> dict[str, Any]:
+        return {"residual_evaluations": self.engine.n_evaluations,
+                "steps_taken_despite_multiplier_motion": self.engine.motion_limited_steps,
+                "events_not_located_on_their_arc": self.engine.unlocated_events}
+
+
+class Lattice(Algorithm):
+    """Continuation on an integer lattice (:mod:`nsm_continuation.lattice`)."""
+
+    name: ClassVar[str] = "lattice"
+    takes_start_points: ClassVar[bool] = False
+    setup_key: ClassVar[str] = "seeds_s"
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
+        if not isinstance(problem, LatticeProblem):
+            raise ValueError(f"the lattice algorithm needs a lattice problem (a "
+                             f"LatticeProblem); {problem.name!r} is not one")
+        super().__init__(problem, settings)
+        self.lattice_problem = problem
+        self.engine = LatticeContinuation(problem, settings, progress=self._tick)
+
+    def starts(self, case_start: Any, window: Window) -> list[Any]:
+        return list(self.lattice_problem.lattice_seeds(case_start, window))
+
+    def seeds_from_points(self, points: list[StartPoint]) -> list[Any]:
+        raise ValueError("a lattice problem starts from its start: block only")
+
+    def run_branch(self, seed: LatticeSeed, branch_id: int) -> Branch:
+        return self.engine.run(seed, branch_id=branch_id)
+
+    def covered(self, seed: LatticeSeed, branches: list[Branch]) -> bool:
+        """A seed whose lattice solution a branch has visited."""
+        return self.lattice_problem.lattice_key(seed.solution) in self.engine.visited
+
+    def counters(self) -> dict[str, Any]:
+        return {"lattice_steps": self.engine.n_evaluations}
+
+
+class PycontLite(_CurveAlgorithm):
+    """pycont-lite follows the branch; our hooks analyse each of its points (module doc)."""
+
+    name: ClassVar[str] = "pycont"
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
+        from .adapters.pycont import import_pycont
+
+        import_pycont()  # ImportError with the install hint when pycont-lite is missing
+        super().__init__(problem, settings)
+        #: analyses pycont's points (tangent, tests, multipliers, derived) as the engine's
+        self.engine = ContinuationEngine(problem, settings)
+        self.n_pycont_evaluations = 0
+
+    def run_branch(self, seed: StartPoint, branch_id: int) -> Branch:
+        from .adapters.pycont import run_pycont
+
+        st = self.settings
+        info = {**seed.info, "algorithm": "pycont-lite (events other than the ends not located)"}
+        sp: dict[str, Any] = {"tolerance": st.newton_tol, "bifurcation_detection": False}
+        if st.param_min is not None:
+            sp["param_min"] = st.param_min
+        if st.param_max is not None:
+            sp["param_max"] = st.param_max
+        direction = seed.direction or st.direction
+        try:
+            run = run_pycont(self.problem, np.asarray(seed.y, dtype=float), ds_min=st.step_min,
+                             ds_max=st.step_max, ds_0=st.step_initial, n_steps=st.max_points,
+                             direction=direction, full_output=True, **sp)
+        except Exception as exc:  # noqa: BLE001 - recorded as the start's failure
+            return Branch(branch_id, seed.label, [], [],
+                          {"start": f"pycont-lite: {describe_error(exc)}"}, info)
+        self.n_pycont_evaluations += run.n_evaluations
+        ys = np.asarray(run.y, dtype=float)
+        ends = _pycont_terminations(run.result)
+        k0 = int(np.argmin(np.linalg.norm(ys - np.asarray(seed.y, dtype=float), axis=1)))
+        try:
+            points = self._analyse(ys, k0)
+        except NUMERICAL_ERRORS as exc:
+            return Branch(branch_id, seed.label, [], [],
+                          {"start": f"pycont-lite point cannot be analysed: "
+                                    f"{describe_error(exc)}"}, info)
+        # each direction from the start, cut at the first point outside a derived bound
+        termination: dict[str, str] = {}
+        lo, hi = k0, k0
+        sides = [("forward", 1)] + ([("backward", -1)] if k0 > 0 else [])
+        for side, step in sides:
+            reason = f"pycont-lite: {ends.get(side, 'ended')}"
+            k = k0
+            while 0 <= k + step < len(points):
+                bound = self._outside_bound(points[k + step])
+                if bound is not None:
+                    reason = f"bound: {bound} (pycont-lite points beyond it dropped)"
+                    break
+                k += step
+            termination[side] = reason
+            lo, hi = (lo, k) if step > 0 else (k, hi)
+        points = points[lo:hi + 1]
+        events = [Event("endpoint", p, f"branch end: {termination[side]}",
+                        data={"reason": termination[side]})
+                  for p, side in ((points[0], "backward"), (points[-1], "forward"))
+                  if side in termination]
+        self._tick(len(points))
+        return Branch(branch_id, seed.label, points, events, termination, info)
+
+    def _analyse(self, ys: np.ndarray, k0: int) -> list[Point]:
+        """Points of pycont's path ``ys``: tangent along the path, arclength (chord length,
+        0 at the start ``ys[k0]``), and every hook of the problem."""
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ys, axis=0), axis=1))])
+        s = s - s[k0]
+        out: list[Point] = []
+        t_prev: np.ndarray | None = None
+        for k, y in enumerate(ys):
+            t = self.engine.tangent(y, t_prev)
+            if t_prev is None and len(ys) > 1 and t @ (ys[1] - ys[0]) < 0:
+                t = -t
+            out.append(self.engine.analyse(y, t, float(s[k])))
+            t_prev = t
+        return out
+
+    def _outside_bound(self, p: Point) -> str | None:
+        """The bound on a derived quantity ``p`` violates (pycont-lite does not know them)."""
+        for name, (lo, hi) in self.settings.derived_bounds.items():
+            v = p.derived.get(name, np.nan)
+            if hi is not None and v > hi:
+                return f"{name} = max"
+            if lo is not None and v < lo:
+                return f"{name} = min"
+        return None
+
+    def counters(self) -> dict[str, Any]:
+        return {"pycont_residual_evaluations": self.n_pycont_evaluations,
+                "residual_evaluations": self.engine.n_evaluations}
+
+
+def _pycont_terminations(result: Any) -> dict[str, str]:
+    """Termination kind (``MAXSTEPS``, ``PARAM_MAX``, ``DSFLOOR``, ...) of each direction
+    pycont-lite followed from the start, following its segments restarted at folds: the first
+    is the one :func:`~nsm_continuation.adapters.pycont.run_pycont` puts forward, the second
+    the one it reverses in front (backward)."""
+    out = {}
+    for side, b in zip(("forward", "backward"),
+                       [b for b in result.branches if b.from_event == 0], strict=False):
+        while b.termination_event is not None and b.termination_event.kind == "LP":
+            idx = next((k for k, ev in enumerate(result.events) if ev is b.termination_event),
+                       None)
+            nxt = next((bb for bb in result.branches if bb.from_event == idx), None)
+            if idx is None or nxt is None:
+                break
+            b = nxt
+        ev = b.termination_event
+        out[side] = "no termination event" if ev is None else str(ev.kind)
+    return out
+
+
+#: the algorithms YAML ``continuation.algorithm`` may name
+ALGORITHMS: dict[str, type[Algorithm]] = {
+    "palc": PseudoArclength,
+    "lattice": Lattice,
+    "pycont": PycontLite,
+}
+
+
+def unsupported(name: str, problem: type[Problem] | Problem) -> str | None:
+    """Why ``problem`` cannot be continued by the algorithm ``name`` (one line), or None."""
+    label = problem.name
+    if name not in ALGORITHMS:
+        return f"unknown algorithm {name!r} (one of {', '.join(ALGORITHMS)})"
+    if name not in problem.algorithms:
+        return (f"problem {label!r} cannot be continued by {name!r}; it supports "
+                f"{', '.join(problem.algorithms)}")
+    if name == "pycont":
+        from importlib.util import find_spec
+
+        if find_spec("pycont") is None:
+            return ("pycont needs pycont-lite (import name 'pycont'): "
+                    "pip install nsm-continuation[pycont]")
+    return None
+
+
+def make_algorithm(name: str, problem: Problem, settings: ContinuationSettings) -> Algorithm:
+    """The algorithm ``name`` for ``problem`` (check :func:`unsupported` first)."""
+    return ALGORITHMS[name](problem, settings)
+
+
+__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "PseudoArclength", "PycontLite",
+           "make_algorithm", "unsupported"]
