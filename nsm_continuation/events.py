@@ -31,7 +31,6 @@ def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: fl
     with its abscissa and the final bracket width. If ``f`` fails (returns ``nan``) the bracket is
     bisected instead.
     """
-    payload = None
     side = 0
     best = (a, None) if abs(fa) < abs(fb) else (b, None)
     for _ in range(max_iter):
@@ -64,8 +63,6 @@ def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: fl
             if side == 1:
                 fb *= 0.5
             side = 1
-        payload = payload_c
-    del payload
     return best[0], best[1], abs(b - a)
 
 

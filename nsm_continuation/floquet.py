@@ -68,11 +68,6 @@ def count_outside(multipliers: np.ndarray, tol: float) -> int:
     return int(np.sum(np.abs(multipliers) > 1.0 + tol))
 
 
-def is_stable(multipliers: np.ndarray, tol: float) -> bool:
-    """Spectral stability: every non-trivial multiplier in the closed unit disc (to ``tol``)."""
-    return count_outside(multipliers, tol) == 0
-
-
 def classify_crossing(before: np.ndarray, after: np.ndarray, tol: float,
                       angle_tol: float = 1e-3) -> tuple[str, np.ndarray]:
     """Classify how multipliers crossed the unit circle between two close points.
@@ -97,10 +92,3 @@ def classify_crossing(before: np.ndarray, after: np.ndarray, tol: float,
     if abs(ang) < angle_tol or abs(abs(ang) - np.pi) < angle_tol:
         return (CROSSING_PLUS_ONE if lam.real > 0 else CROSSING_MINUS_ONE), leaving
     return CROSSING_COMPLEX, leaving
-
-
-def product_test(multipliers: np.ndarray, at: float) -> float:
-    """Real test ``prod_i (lambda_i - at)``: changes sign when a real pair passes ``at``."""
-    if multipliers.size == 0:
-        return 1.0
-    return float(np.real(np.prod(multipliers - at)))

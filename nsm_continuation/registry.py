@@ -7,8 +7,8 @@ systems in its metadata without touching this repository:
     [project.entry-points."nsm_continuation.problems"]
     my_oscillator = "my_package.my_module:MyProblem"
 
-The problems bundled here are also listed in :data:`BUILTIN` so that a source checkout that was
-not installed still finds them.
+This is the one registration mechanism, for the bundled problems too (``pyproject.toml``): a
+source checkout must be installed (``pip install -e .``) for its problems to be found.
 """
 
 from __future__ import annotations
@@ -19,24 +19,13 @@ from importlib.metadata import entry_points
 from .protocol import Problem
 
 GROUP = "nsm_continuation.problems"
-BUILTIN = {"ndof_impact": "nsm_continuation.problems.ndof_impact:NDofImpactProblem",
-           "wfem_bar": "nsm_continuation.problems.wfem_bar:WfemBarProblem",
-           "bar_continuum": "nsm_continuation.problems.bar_continuum:BarContinuumProblem",
-           "double_pendulum":
-               "nsm_continuation.problems.double_pendulum:DoublePendulumProblem",
-           "impact_oscillator":
-               "nsm_continuation.problems.impact_oscillator:ImpactOscillatorProblem",
-           "two_mass_chain": "nsm_continuation.problems.two_mass_chain:TwoMassChainProblem",
-           "bouncing_ball": "nsm_continuation.problems.bouncing_ball:BouncingBallProblem"}
-
-
 class UnknownProblemError(LookupError):
     pass
 
 
 def available() -> dict[str, str]:
     """Registered problem names -> ``module:Class`` targets."""
-    found = dict(BUILTIN)
+    found: dict[str, str] = {}
     for ep in entry_points(group=GROUP):
         found[ep.name] = ep.value
     return dict(sorted(found.items()))
@@ -49,7 +38,11 @@ def get(name: str) -> type[Problem]:
         raise UnknownProblemError(
             f"unknown problem {name!r}; registered problems: {', '.join(targets) or 'none'}")
     module, _, attr = targets[name].partition(":")
-    cls = getattr(importlib.import_module(module), attr)
+    try:
+        cls = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:  # a broken plugin: say which and why
+        raise UnknownProblemError(f"entry point {name!r} -> {targets[name]} cannot be loaded "
+                                  f"({type(exc).__name__}: {exc})") from None
     if not (isinstance(cls, type) and issubclass(cls, Problem)):
         raise UnknownProblemError(f"entry point {name!r} -> {targets[name]} is not a Problem")
     return cls

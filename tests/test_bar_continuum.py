@@ -21,7 +21,6 @@ from nsm_continuation.problems.bar_continuum import (
 )
 from nsm_continuation.problems.wfem_lattice import BarModel, classify, solve_node
 
-from nsm_continuation import registry
 from nsm_continuation.cases import load
 from nsm_continuation.palc import ContinuationEngine
 from nsm_continuation.settings import ContinuationSettings
@@ -308,8 +307,6 @@ def test_cases_run(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
     the energy bound just before its asymptote; energies follow the closed form."""
     from nsm_continuation.runner import run_case
 
-    monkeypatch.setitem(registry.BUILTIN, "bar_continuum",
-                        "nsm_continuation.problems.bar_continuum:BarContinuumProblem")
     c, pr = load(CASES / case)
     res = run_case(c, pr, progress=False)
     for br in res.branches:

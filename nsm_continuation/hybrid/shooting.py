@@ -565,10 +565,6 @@ class HybridCaseProblem(HybridShootingProblem):
         self.variables = [names[i] for i in self.shooting.free_idx] + [name]
         self._compiled_for = name
 
-    @property
-    def compiled_hybrid(self) -> CompiledHybrid:
-        return self.shooting.c
-
     def parameter_bounds(self, name: str, lo: float | None, hi: float | None
                          ) -> tuple[float | None, float | None]:
         self.set_parameter(name)

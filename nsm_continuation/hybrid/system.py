@@ -27,10 +27,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import casadi as ca
 import numpy as np
+
+from . import tableaus
 
 
 class HybridDeclarationError(ValueError):
@@ -38,19 +39,15 @@ class HybridDeclarationError(ValueError):
 
 
 def _dop853() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-    from scipy.integrate._ivp import dop853_coefficients as c
-
-    s = c.N_STAGES
-    return c.A[:s, :s], c.B, c.C[:s], c.E5, c.E3, 8
+    return (tableaus.DOP853_A, tableaus.DOP853_B, tableaus.DOP853_C, tableaus.DOP853_E5,
+            tableaus.DOP853_E3, 8)
 
 
 def _dopri5() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, None, int]:
-    from scipy.integrate._ivp.rk import RK45
-
-    return RK45.A, RK45.B, RK45.C, RK45.E, None, 5
+    return tableaus.DOPRI5_A, tableaus.DOPRI5_B, tableaus.DOPRI5_C, tableaus.DOPRI5_E, None, 5
 
 
-#: explicit embedded Runge-Kutta tableaus (the coefficients are SciPy's)
+#: explicit embedded Runge-Kutta tableaus (:mod:`nsm_continuation.hybrid.tableaus`)
 TABLEAUS = {"dop853": _dop853, "dopri5": _dopri5}
 
 
@@ -343,12 +340,3 @@ class CompiledHybrid:
             raise HybridDeclarationError(
                 f"{sys.name}: mass matrix M(q) is not positive definite at q = "
                 f"{X[: sys._nq].tolist()}") from None
-
-
-def field_names(c: CompiledHybrid) -> list[str]:
-    """Names of the components of ``X`` (state names then freed parameters)."""
-    return [*c.system.state_names, *c.free]
-
-
-def as_array(v: Any) -> np.ndarray:
-    return np.asarray(v, dtype=float).ravel()
