@@ -74,7 +74,7 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.double_pendulum import DoublePendulumProblem  # noqa: E402
+from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
 from nsm_continuation.hybrid.shooting import ShootingFailure  # noqa: E402
 from nsm_continuation.hybrid.simulate import SimOptions  # noqa: E402

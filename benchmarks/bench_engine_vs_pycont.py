@@ -59,7 +59,7 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.ndof_impact import NDofImpactProblem  # noqa: E402
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
 from nsm_continuation.adapters.pycont import as_pycont_system, run_pycont  # noqa: E402
 from nsm_continuation.palc import ContinuationEngine  # noqa: E402

@@ -16,7 +16,7 @@ engine):
 * ``Floquet``: ``problem.floquet`` (return-map Jacobian (A.8), restriction, Householder deflation,
   ``eigvals`` of a ``(2N - 2)`` square matrix, its 2-norm);
 * ``admissibility``: ``problem.admissibility`` (exact maximum of ``u_N(t)`` over ``(0, T)`` by
-  certified subdivision, :class:`~nsm_continuation.problems.trig_sum.TrigSum`);
+  certified subdivision, :class:`~nsm_continuation.problems.chain.trig_sum.TrigSum`);
 * ``per point``: wall time of ``ContinuationEngine.run`` (bifurcation detection off, no bounds,
   multipliers also on phantom points) divided by the number of points it returns: Newton
   corrections + tangent + every hook.
@@ -57,7 +57,7 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.ndof_impact import NDofImpactProblem  # noqa: E402
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
 from nsm_continuation.palc import ContinuationEngine  # noqa: E402
 from nsm_continuation.protocol import StartPoint  # noqa: E402

@@ -1,9 +1,9 @@
 """Accuracy and cost of the WFEM lattice backbone vs N, against its continuum limit.
 
 Yoong, Thorin, Legrand (2017), sec. 6.1: main backbone of mode 1 for g0 = 1e-3 (E = rho = L = 1).
-The lattice orbits (eq. 12 with COND1-COND3, :mod:`problems.wfem_lattice`) of this branch sit on
+The lattice orbits (eq. 12 with COND1-COND3, :mod:`problems.bar.wfem_lattice`) of this branch sit on
 the line ``m = 2M - 4N`` (``M = m + p`` steps per period, ``T = M/N`` in units L/c); the continuum
-branch (:mod:`problems.bar_continuum`) is ``t_f = 2T - 4`` with the exact energy
+branch (:mod:`problems.bar.continuum`) is ``t_f = 2T - 4`` with the exact energy
 ``E/E_ref = 8 / (pi^2 (T - 3)^2)`` and the asymptote ``omega/omega_1 = 4/3``. For
 N = 50 ... 4000 this script scans every node of the line on the admissible side (3N < M < 4N) and
 measures:
@@ -50,17 +50,17 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.bar_continuum import (  # noqa: E402
+from nsm_continuation.problems.bar.continuum import (  # noqa: E402
     BarContinuumProblem,
     main_signature,
 )
-from nsm_continuation.problems.wfem_lattice import BarModel, solve_node  # noqa: E402
+from nsm_continuation.problems.bar.wfem_lattice import BarModel, solve_node  # noqa: E402
 
 from nsm_continuation.palc import ContinuationEngine  # noqa: E402
 from nsm_continuation.settings import ContinuationSettings  # noqa: E402
 
 try:  # all candidates at nodes with h > 1 (newer wfem_lattice)
-    from nsm_continuation.problems.wfem_lattice import node_solutions  # noqa: E402
+    from nsm_continuation.problems.bar.wfem_lattice import node_solutions  # noqa: E402
 except ImportError:  # pragma: no cover
     node_solutions = None
 

@@ -2,7 +2,7 @@
 
 The bouncing bar: E = 900, rho = 1, L = 10, g0 = 5, F0 = 10 (c = 30), reconstructed as a bar free
 at x = 0, at rest and stress-free at distance g0 from the obstacle at t = 0, falling under the
-uniform body force F0 (module docstring of :mod:`problems.bouncing_bar_exact`). Exact solution:
+uniform body force F0 (module docstring of :mod:`problems.bar.bouncing_bar_exact`). Exact solution:
 impacts at t = 1, 11/3, 19/3, ... (every 8/3 s: contact 2L/c = 2/3 s, flight 2V/(F0/rho) = 2 s),
 period 16/3 s (two bounces of two kinds). The WFEM (:func:`simulate`, Algorithm 2) runs
 ``[0, 17]`` s, i.e. 3 periods after the first impact, for N = 10 ... 1000.
@@ -38,8 +38,8 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from nsm_continuation.problems.bouncing_bar_exact import BouncingBarExact  # noqa: E402
-from nsm_continuation.problems.wfem_simulation import BarParams, Loading, simulate  # noqa: E402
+from nsm_continuation.problems.bar.bouncing_bar_exact import BouncingBarExact  # noqa: E402
+from nsm_continuation.problems.bar.wfem_simulation import BarParams, Loading, simulate  # noqa: E402
 
 TABLE1 = {"E": 900.0, "rho": 1.0, "L": 10.0, "g0": 5.0, "F0": 10.0}
 T_END = 17.0

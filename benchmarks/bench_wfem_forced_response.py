@@ -48,8 +48,8 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from nsm_continuation.problems.wfem_plots_forced import plot_forced_response  # noqa: E402
-from nsm_continuation.problems.wfem_simulation import (  # noqa: E402
+from nsm_continuation.problems.bar.plots_forced import plot_forced_response  # noqa: E402
+from nsm_continuation.problems.bar.wfem_simulation import (  # noqa: E402
     BarParams,
     ForcedPoint,
     ForcedSweep,

@@ -3,15 +3,16 @@
 For every lattice node (m, p) the paper's solution procedure (sec. 5.2) needs ``h = dim ker S_T``
 and a kernel basis. Two ways:
 
-* ``structured``: :func:`problems.wfem_operators.phase_operator` writes ``A_c^p A_f^m`` as a signed
-  rotation of the ring of 2N characteristic slots (dt = dx/c); its kernel is read from the cycles
-  of the rotation (one basis vector per cycle with sign product +1): ``h`` in O(N)
+* ``structured``: :func:`problems.bar.wfem_operators.phase_operator` writes ``A_c^p A_f^m`` as a
+  signed rotation of the ring of 2N characteristic slots (dt = dx/c); its kernel is read from the
+  cycles of the rotation (one basis vector per cycle with sign product +1): ``h`` in O(N)
   (``kernel_dimension``, the column compared with the dense method); the orthonormal basis
   (``kernel()``) is timed separately: it is stored as a dense 2N x h array, O(N h), which
   dominates for nodes with large h (e.g. h = N/2 at ``M = 3.5 N`` with ``gcd(M, 2N) = N/2``);
-* ``dense``: the 2N x 2N matrices of Appendix A.7 (:func:`problems.wfem_operators.dense_operator`,
-  corner entries as derived from (A.18)-(A.19)), ``numpy.linalg.matrix_power`` for ``A_c^p`` and
-  ``A_f^m`` (O(N^3 log M)), then ``h = 2N - matrix_rank(S_T)`` (an SVD, O(N^3)).
+* ``dense``: the 2N x 2N matrices of Appendix A.7
+  (:func:`problems.bar.wfem_operators.dense_operator`, corner entries as derived from
+  (A.18)-(A.19)), ``numpy.linalg.matrix_power`` for ``A_c^p`` and ``A_f^m`` (O(N^3 log M)), then
+  ``h = 2N - matrix_rank(S_T)`` (an SVD, O(N^3)).
 
 Nodes: for each N, three nodes with ``M = m + p`` near ``3.5 N``: two on the main backbone of mode 1
 (``m = 2M - 4N``, one with ``h = 1``, one with ``gcd(M, 2N) > 1`` and ``h > 1``) and one off it
@@ -46,7 +47,7 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.wfem_operators import (  # noqa: E402
+from nsm_continuation.problems.bar.wfem_operators import (  # noqa: E402
     dense_operator,
     pattern_from_counts,
     phase_operator,

@@ -1,7 +1,7 @@
 """Orbital stability of the WFEM bar's main backbones under floating-BC time stepping.
 
 Yoong, Thorin, Legrand (2017) leave the stability of the bar's nonsmooth modes open. Method and
-reasoning: :mod:`problems.wfem_stability`. E = rho = L = 1, |g0| = 1e-3; branches (main
+reasoning: :mod:`problems.bar.wfem_stability`. E = rho = L = 1, |g0| = 1e-3; branches (main
 backbones, lattice nodes ``m = 2k M - 4N``):
 
 * mode 1, g0 = +1e-3 (hardening from omega_1), mode 1, g0 = -1e-3 (softening from 2 omega_1),
@@ -48,12 +48,12 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.wfem_lattice import (  # noqa: E402
+from nsm_continuation.problems.bar.wfem_lattice import (  # noqa: E402
     BarModel,
     LatticeSolution,
     node_solutions,
 )
-from nsm_continuation.problems.wfem_stability import (  # noqa: E402
+from nsm_continuation.problems.bar.wfem_stability import (  # noqa: E402
     GROWTH_CRITERION,
     GrowthResult,
     main_backbone_counts,

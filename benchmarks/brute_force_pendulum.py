@@ -2,7 +2,7 @@
 
 An independent cross-check of the continuation: the attractor is simulated section to section
 (``q1 = pi/2`` mod ``2 pi``, no sensitivities, no Newton) with
-:func:`nsm_continuation.problems.pendulum_brute_force.sweep`, each parameter value starting from
+:func:`nsm_continuation.problems.impacting.brute_force.sweep`, each parameter value starting from
 the previous value's final state. Three scenarios:
 
 * **Fig. 8(b)**: ``e`` from 0.85 to 0.92 (``d = 0.5``, ``T = -31.15``). The stable period-1 orbit
@@ -53,13 +53,13 @@ import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from nsm_continuation.problems.double_pendulum import DoublePendulumProblem  # noqa: E402
-from nsm_continuation.problems.pendulum_brute_force import (  # noqa: E402
+from nsm_continuation.problems.impacting.brute_force import (  # noqa: E402
     PendulumSweeper,
     SweepPoint,
     sweep,
     wrap,
 )
+from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
 from nsm_continuation.hybrid.simulate import SimulationError  # noqa: E402
 

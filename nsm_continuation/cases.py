@@ -97,6 +97,10 @@ class ContinuationSpec(BaseModel):
     def _bounds(self) -> ContinuationSpec:
         if self.min is not None and self.max is not None and self.min >= self.max:
             raise ValueError(f"need min < max (got min = {self.min}, max = {self.max})")
+        for name, (lo, hi) in self.bounds.items():
+            if lo is not None and hi is not None and lo >= hi:
+                raise ValueError(f"bounds: {name}: need [min, max] with min < max (got "
+                                 f"[{lo}, {hi}])")
         return self
 
 
@@ -249,6 +253,8 @@ def parse_yaml(text: str, where: str) -> Any:
         raise CaseError(f"{where}: not valid YAML{at}{why}") from None
     except RecursionError:
         raise CaseError(f"{where}: nested too deeply") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise CaseError(f"{where}: {str(exc).splitlines()[0]}") from None
     _check_size(data, where)
     return data
 
@@ -333,6 +339,8 @@ def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
         raise CaseError(f"problem: {exc}") from None
     if not isinstance(case.parameters, dict):
         raise CaseError("parameters: must be a mapping of keys")
+    if isinstance(case.start, list) and not case.start:
+        raise CaseError("start: an empty list starts no branch")
     try:
         params = cls.Parameters.model_validate(case.parameters)
     except ValidationError as err:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from . import __version__, cases, registry
+from .output import OutputTarget
 
 DEFAULT_CASE = "default_case.yaml"
 
@@ -55,9 +56,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="replace a previous run in the output directory (only the files it "
                         "wrote; never files this tool did not write)")
     r.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
-    v = sub.add_parser("validate", help="check a YAML case without running it")
+    v = sub.add_parser("validate", help="check a YAML case (and where it would write) without "
+                                        "running it")
     v.add_argument("case")
+    v.add_argument("--out", help="output directory the run would use")
     v.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    v.add_argument("--overwrite", action="store_true", help="as for run")
     sub.add_parser("list", help="list registered problems")
     return p
 
@@ -84,8 +88,14 @@ class Interrupted(BaseException):
 _received: list[int] = []
 
 
+#: the run's output target (a signal after its final move is recorded, not raised)
+_current: OutputTarget | None = None
+
+
 def _on_signal(signum: int, frame: object) -> None:
     _received.append(signum)
+    if _current is not None and _current.committed:
+        return
     _raise_for(signum)
 
 
@@ -109,28 +119,32 @@ def _bug(exc: BaseException) -> int:
     return 1
 
 
+def _target(args: argparse.Namespace, case: cases.Case) -> OutputTarget:
+    out = Path(args.out or case.output.dir or Path("runs") / case.name)
+    return OutputTarget(out, "overwrite" if args.overwrite else case.output.if_exists)
+
+
 def _run(args: argparse.Namespace, path: str) -> int:
-    from .output import OutputTarget
     from .results import build_report, termination_text, write_files
     from .runner import run_case
 
+    global _current
     case, problem = cases.load(path, args.overrides)
-    out = Path(args.out or case.output.dir or Path("runs") / case.name)
-    policy = "overwrite" if args.overwrite else case.output.if_exists
-    target = OutputTarget(out, policy)
+    target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            res = run_case(case, problem, progress=case.output.progress and not args.quiet,
-                           poll=_poll)
-            assert target.tmp is not None
-            write_files(res, target.tmp, plots=case.output.plots)
+        res = run_case(case, problem, progress=case.output.progress and not args.quiet,
+                       poll=_poll)
+        assert target.tmp is not None
+        write_files(res, target.tmp, plots=case.output.plots)
         _poll()
         out = target.commit()
     except BaseException:
         target.abort()
         raise
+    if _received:  # arrived during the final move, held until it was complete
+        print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
+        return 130 if _received[0] == signal.SIGINT else 143
     failed = [b for b in res.branches if not b.points]
     if not args.quiet:
         print(_summary(build_report(res), out))
@@ -144,9 +158,27 @@ def _run(args: argparse.Namespace, path: str) -> int:
     return 0
 
 
+def _dispatch(args: argparse.Namespace) -> int:
+    if args.command == "list":
+        for name, target in registry.available().items():
+            print(f"{name}\t{target}")
+        return 0
+    path = args.case or str(_default_case_path())
+    if args.command == "validate":
+        case, problem = cases.load(path, args.overrides)
+        _target(args, case).check()  # where the run would write (nothing is created)
+        print(f"{path}: valid ({case.problem}, {len(problem.variables)} unknowns)")
+        for w in problem.warnings():
+            print(f"warning: {w}")
+        return 0
+    return _run(args, path)
+
+
 def main(argv: list[str] | None = None) -> int:
+    global _current
     args = _parser().parse_args(argv)
     _received.clear()
+    _current = None
     previous: dict[int, Any] = {}
     for sig in (signal.SIGTERM, signal.SIGINT):
         handler = signal.getsignal(sig)
@@ -158,18 +190,10 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError:  # not the main thread (e.g. called from a worker): keep them
             break
     try:
-        if args.command == "list":
-            for name, target in registry.available().items():
-                print(f"{name}\t{target}")
-            return 0
-        path = getattr(args, "case", None) or str(_default_case_path())
-        if args.command == "validate":
-            case, problem = cases.load(path, args.overrides)
-            print(f"{path}: valid ({case.problem}, {len(problem.variables)} unknowns)")
-            for w in problem.warnings():
-                print(f"warning: {w}")
-            return 0
-        return _run(args, path)
+        with warnings.catch_warnings():
+            # numpy's RuntimeWarnings are numerical noise here: results carry their reasons
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return _dispatch(args)
     except cases.CaseError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

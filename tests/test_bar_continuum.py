@@ -1,8 +1,9 @@
-"""Continuum limit of the WFEM bar (problems/bar_continuum.py) against the lattice orbits.
+"""Continuum limit of the WFEM bar (problems/bar/continuum.py) against the lattice orbits.
 
-Yoong, Thorin, Legrand (2017): the lattice orbits of (12) with COND1-COND3 (problems/wfem_lattice)
-must be exact samples of the continuum branches ``t_f = a T + b``: same energy, same
-characteristic profile, same admissible side; the asymptotes are those of sec. 6.1 and eq. (16).
+Yoong, Thorin, Legrand (2017): the lattice orbits of (12) with COND1-COND3
+(problems/bar/wfem_lattice) must be exact samples of the continuum branches ``t_f = a T + b``:
+same energy, same characteristic profile, same admissible side; the asymptotes are those of
+sec. 6.1 and eq. (16).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.bar_continuum import (
+from nsm_continuation.problems.bar.continuum import (
     BarContinuumProblem,
     Signature,
     check_signature,
@@ -19,7 +20,7 @@ from nsm_continuation.problems.bar_continuum import (
     main_signature,
     subharmonic_signature,
 )
-from nsm_continuation.problems.wfem_lattice import BarModel, classify, solve_node
+from nsm_continuation.problems.bar.wfem_lattice import BarModel, classify, solve_node
 
 from nsm_continuation.cases import load
 from nsm_continuation.palc import ContinuationEngine

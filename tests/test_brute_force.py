@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.pendulum_brute_force import (
+from nsm_continuation.problems.impacting.brute_force import (
     brute_force,
     n_distinct,
     sequence_period,

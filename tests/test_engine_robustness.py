@@ -191,7 +191,7 @@ def test_evaluation_error_at_the_start_is_reported():
 def test_hybrid_shooting_raises_the_simulators_message():
     """HybridShootingProblem.evaluate raises EvaluationError("simulation: <reason>") instead of
     returning NaN, and the engine records that reason."""
-    from nsm_continuation.problems.impact_oscillator import ImpactOscillatorProblem
+    from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 
     pb = ImpactOscillatorProblem({"integrator": {"max_return_time": 1e-3}})
     (start,) = pb.start_points({"guess": {n: 0.1 for n in pb.variables[:-1]}})
@@ -263,7 +263,7 @@ def test_huge_steps_on_the_paper_chain_stop_at_the_nonlinear_grazing_point():
     """Default case (5-dof chain, branch 1) with steps of 5..10: was a point outside the window
     labelled 'bound: T = min' past the grazing point B; now B is located, as with small steps,
     and every point lies in the window."""
-    from nsm_continuation.problems.ndof_impact import NDofImpactProblem
+    from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
     pb = NDofImpactProblem({"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
     lo, hi = pb.parameter_bounds("omega", 1.0, 2.0)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
-from nsm_continuation.problems.bouncing_ball import (
+from nsm_continuation.problems.impacting.bouncing_ball import (
     BouncingBallProblem,
     ball_system,
     closed_form,
@@ -249,7 +249,7 @@ Y61 = np.array([-1.14038278, -3.66533148, 0.23345446, 0.89])
 
 @pytest.fixture(scope="module")
 def pendulum():
-    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
     pb = DoublePendulumProblem({"e": 0.89, "d": 0.5, "torque": -31.15})
     pb.set_parameter("e")
@@ -353,7 +353,7 @@ def test_monodromy_fd_pendulum(pendulum):
 
 @pytest.mark.parametrize("omega, sticking", [(0.45, True), (0.8, False)])
 def test_monodromy_fd_impact_oscillator(omega, sticking):
-    from nsm_continuation.problems.impact_oscillator import ImpactOscillatorProblem
+    from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 
     pb = ImpactOscillatorProblem({"omega": omega})
     y = pb.start_points({"transient": 30})[0].y

@@ -14,12 +14,12 @@ import time
 import casadi as ca
 import numpy as np
 import pytest
-from nsm_continuation.problems.bouncing_ball import (
+from nsm_continuation.problems.impacting.bouncing_ball import (
     BouncingBallProblem,
     ball_system,
     closed_form,
 )
-from nsm_continuation.problems.impact_oscillator import ImpactOscillatorProblem
+from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 from scipy.integrate import solve_ivp
 
 from nsm_continuation.hybrid.simulate import SimOptions, SimulationError, Simulator
@@ -205,7 +205,7 @@ def test_newton_near_homoclinic_orbit_ends_with_a_reason():
     parameter land where the orbit is trapped at a stable sticking equilibrium (the simulation
     fails with a reason and Newton retreats). The branch must end with a homoclinic_approach
     event (the period bound) or a termination reason, never an exception."""
-    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
     from nsm_continuation.palc import ContinuationEngine
     from nsm_continuation.settings import ContinuationSettings
@@ -269,7 +269,7 @@ def test_chatter_estimate_round_off_floor_near_loss_of_sticking():
     a -> 0). The map must still be applied (floor recorded), never skipped until round-off
     breaks the sequence into a wrong, unflagged orbit. Oracle: every order gives the same
     sticking time and a converged orbit."""
-    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
     y = np.array([-1.1403809635651985, -3.665330511373152, 0.23345989973542672, 0.894463])
     taus = []
@@ -289,7 +289,7 @@ def test_turning_lower_bar_periodic_modulo_two_pi():
     modulo 2 pi. The shooting residual wraps it: at the period-2 orbit (d = 0.5009, found by
     simulation and Newton in this session) the residual vanishes although q2 itself has moved
     by a multiple of 2 pi."""
-    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
     pb = DoublePendulumProblem({"e": 0.19, "torque": -40.0, "d": 0.5009})
     pb.set_parameter("d", returns=2)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-from nsm_continuation.problems.ndof_impact import NDofImpactProblem, simulate_first_return
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem, simulate_first_return
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 from scipy.optimize import fsolve, linear_sum_assignment, minimize_scalar
@@ -700,7 +700,7 @@ def test_alpha_is_static_compliance_and_high_frequency_limit():
     """alpha = sum_j a_j / w_j^2 (Prop. 5.2) equals (K^-1 M)_cc, since K^-1 M = P Omega^-2 P^-1;
     and w_N(T) ~ 2 alpha / T as T -> 0 (eq. 5.12). For the paper's chain alpha = m sum 1/k_i =
     (1/5) * 5 * (1/5) = 0.2 > 0: admissible frequencies are bounded."""
-    from nsm_continuation.problems.ndof_impact import NDofImpactProblem
+    from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 5, 8):

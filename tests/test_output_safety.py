@@ -45,13 +45,17 @@ def _snapshot(d: Path) -> dict[str, bytes]:
     return {str(p.relative_to(d)): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
 
 
-@pytest.fixture
-def no_compute(monkeypatch):
-    """Fail the test if the computation starts (refusals must come before it)."""
+def _forbid_compute(monkeypatch) -> None:
     def boom(*a, **k):
         raise AssertionError("the computation started")
 
     monkeypatch.setattr(run_module, "run_case", boom)
+
+
+@pytest.fixture
+def no_compute(monkeypatch):
+    """Fail the test if the computation starts (refusals must come before it)."""
+    _forbid_compute(monkeypatch)
 
 
 def _run(argv: list[str], capsys) -> tuple[int, str]:
@@ -103,7 +107,7 @@ def test_rerun_needs_overwrite_which_replaces_only_our_files(tmp_path, capsys):
     assert _run([str(case), "--out", str(out)], capsys)[0] == 0
     marker = json.loads((out / MARKER).read_text())
     assert marker["tool"] == "nsm-continuation"
-    assert set(marker["files"]) == {"branch_0.csv", "report.json", "report.md"}
+    assert set(marker["files"]) == {"branch_0.csv", "report.json", "report.md"}  # + SHA-256
     first = _snapshot(out)
     # a second run refuses to replace the first one silently
     code, err = _run([str(case), "--out", str(out)], capsys)
@@ -228,3 +232,95 @@ def test_signal_mid_run_leaves_previous_result_intact(tmp_path, sig, code):
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert _snapshot(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out"]
+
+
+def _two_runs(tmp_path: Path, capsys) -> tuple[Path, Path]:
+    case = _case(tmp_path)
+    out = tmp_path / "out"
+    assert _run([str(case), "--out", str(out)], capsys)[0] == 0
+    return case, out
+
+
+@pytest.mark.parametrize("tamper", ["edited", "replaced_by_dir", "listed_in_marker", "symlink"])
+def test_overwrite_never_removes_what_the_user_changed_or_added(tmp_path, capsys, tamper,
+                                                                 monkeypatch):
+    case, out = _two_runs(tmp_path, capsys)
+    _forbid_compute(monkeypatch)  # the refusal must come before computing
+    if tamper == "edited":  # the user annotated the report of the previous run
+        (out / "report.md").write_text("my notes")
+    elif tamper == "replaced_by_dir":  # a folder of theirs where a run's file was
+        (out / "report.md").unlink()
+        (out / "report.md").mkdir()
+        (out / "report.md" / "data.txt").write_text("precious")
+    elif tamper == "listed_in_marker":  # a marker edited to list the user's files
+        (out / "notes.txt").write_text("precious")
+        marker = json.loads((out / MARKER).read_text())
+        marker["files"]["notes.txt"] = "0" * 64
+        (out / MARKER).write_text(json.dumps(marker))
+    else:
+        (out / "branch_0.csv").unlink()
+        (out / "branch_0.csv").symlink_to(tmp_path / "case.yaml")
+    before = _snapshot(tmp_path)
+    code, err = _run([str(case), "--out", str(out), "--overwrite"], capsys)
+    assert code == 2 and err.startswith("error: output:"), err
+    assert _snapshot(tmp_path) == before  # refused before computing, nothing touched
+
+
+def test_signal_during_the_final_move_is_held_until_it_is_complete(tmp_path, capsys,
+                                                                   monkeypatch):
+    import nsm_continuation.output as output
+
+    case, out = _two_runs(tmp_path, capsys)
+    real = os.replace
+    calls = []
+
+    def replace_and_interrupt(a, b):
+        calls.append(b)
+        if len(calls) == 2:  # in the middle of swapping the files
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(a, b)
+
+    monkeypatch.setattr(output.os, "replace", replace_and_interrupt)
+    code, err = _run([str(case), "--out", str(out), "--overwrite"], capsys)
+    assert len(calls) > 2
+    assert code == 130 and "complete" in err
+    # the new result is whole: every file the marker lists is there, byte for byte
+    assert output.previous_run_files(out).keys() == {"branch_0.csv", "report.json", "report.md"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out"]
+
+
+def test_validate_checks_where_the_run_would_write(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    case = _case(tmp_path)
+    (tmp_path / "runs").write_text("a file where the runs folder would be")
+    assert cli.main(["validate", str(case)]) == 2
+    assert capsys.readouterr().err.startswith("error: output:")
+    assert cli.main(["validate", str(case), "--out", str(tmp_path / "elsewhere")]) == 0
+    assert not (tmp_path / "elsewhere").exists()
+
+
+def test_folders_created_for_a_run_are_removed_when_it_fails(tmp_path, capsys, monkeypatch):
+    from nsm_continuation import plots
+
+    def boom(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "make_all", boom)
+    case = _case(tmp_path, output={"plots": True, "progress": False})
+    code, _ = _run([str(case), "--out", str(tmp_path / "a" / "b" / "out")], capsys)
+    assert code == 130
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml"]
+
+
+def test_if_exists_new_skips_a_number_another_run_is_writing(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    case = _case(tmp_path, output={"plots": False, "progress": False, "if_exists": "new"})
+    (tmp_path / "runs").mkdir()
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (tmp_path / "runs" / ".safety.lock").write_text(str(sleeper.pid))
+        assert _run([str(case)], capsys)[0] == 0
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == [".safety.lock", "safety-2"]

@@ -12,11 +12,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.bar_continuum import BarContinuumProblem
-from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
-from nsm_continuation.problems.impact_oscillator import ImpactOscillatorProblem
-from nsm_continuation.problems.ndof_impact import NDofImpactProblem
-from nsm_continuation.problems.wfem_bar import WfemBarParameters, WfemBarProblem
+from nsm_continuation.problems.bar.continuum import BarContinuumProblem
+from nsm_continuation.problems.bar.wfem_bar import WfemBarParameters, WfemBarProblem
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
+from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 from pydantic import ValidationError
 
 from nsm_continuation import cases

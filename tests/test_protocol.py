@@ -184,9 +184,9 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
 
 
 def test_paper_problems_keep_their_presentation() -> None:
-    from nsm_continuation.problems.bar_continuum import BarContinuumProblem
-    from nsm_continuation.problems.ndof_impact import NDofImpactProblem
-    from nsm_continuation.problems.wfem_bar import WfemBarProblem
+    from nsm_continuation.problems.bar.continuum import BarContinuumProblem
+    from nsm_continuation.problems.bar.wfem_bar import WfemBarProblem
+    from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
     for cls in (NDofImpactProblem, WfemBarProblem, BarContinuumProblem):
         assert cls.diagram_title == "Frequency-energy plot"
@@ -200,7 +200,7 @@ def test_paper_problems_keep_their_presentation() -> None:
 
 
 def test_hybrid_problems_label_by_their_parameter_and_period() -> None:
-    from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
     pr = DoublePendulumProblem({})
     pr.parameter_bounds("d", 0.4, 0.6)

@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 import pytest
-from nsm_continuation.problems.ndof_impact import NDofImpactProblem
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from pydantic import BaseModel
 
 from nsm_continuation.adapters.pycont import (

@@ -1,6 +1,6 @@
 """TrigSum: certified critical points and maximum of a finite sum of sinusoids.
 
-Oracles (independent of :mod:`problems.trig_sum`):
+Oracles (independent of :mod:`problems.chain.trig_sum`):
 
 * ``f'`` is re-implemented here and its roots are found by a dense sign-change grid (at least
   100 samples per radian of the highest frequency) refined by :func:`scipy.optimize.brentq`;
@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.trig_sum import TrigSum
+from nsm_continuation.problems.chain.trig_sum import TrigSum
 from scipy.optimize import brentq
 
 EPS = np.finfo(float).eps

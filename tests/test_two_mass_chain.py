@@ -1,4 +1,4 @@
-"""The worked example ``problems/two_mass_chain.py`` (docs/adding_an_impact_system.md).
+"""The worked example ``problems/impacting/two_mass_chain.py`` (docs/adding_an_impact_system.md).
 
 A system that is not in the paper, declared in a few lines: checks that the declaration errors
 name the field, that the derived impact map is Newton's law (energy), and that the exact shooting
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.two_mass_chain import TwoMassChainProblem
+from nsm_continuation.problems.impacting.two_mass_chain import TwoMassChainProblem
 from pydantic import ValidationError
 
 from nsm_continuation import registry

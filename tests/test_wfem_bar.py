@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from nsm_continuation.problems.wfem_lattice import (
+from nsm_continuation.problems.bar.wfem_lattice import (
     BarModel,
     classify,
     feasible_cone,
@@ -17,7 +17,7 @@ from nsm_continuation.problems.wfem_lattice import (
     profile_jumps,
     solve_node,
 )
-from nsm_continuation.problems.wfem_operators import CONTACT, FREE, phase_operator, ring_step
+from nsm_continuation.problems.bar.wfem_operators import CONTACT, FREE, phase_operator, ring_step
 
 from nsm_continuation import cases
 from nsm_continuation.cli import main as cli_main
@@ -26,7 +26,7 @@ from nsm_continuation.runner import run_case
 
 def main_energy(model: BarModel, T: float) -> float:
     """Continuum main backbone of mode 1: E = E S g0^2 / (2 L (cT/L - 3)^2) (derived in
-    problems/bar_continuum.py; independent of the lattice code)."""
+    problems/bar/continuum.py; independent of the lattice code)."""
     tau = model.c * T / model.L
     return model.E * model.g0**2 / (2 * model.L * (tau - 3) ** 2)
 
@@ -102,7 +102,7 @@ def test_end_displacement_from_stresses_equals_integrated_end_velocity() -> None
 @pytest.mark.parametrize("N", [20, 24])
 def test_g0_zero_periods_are_exact(N: int) -> None:
     """Section 6.1: g0 = 0 backbones have T = 3L/c (contact L/c) and 5L/(4c) (contact L/(4c))."""
-    from nsm_continuation.problems.wfem_bar import WfemBarParameters, WfemBarProblem
+    from nsm_continuation.problems.bar.wfem_bar import WfemBarParameters, WfemBarProblem
 
     pr = WfemBarProblem(WfemBarParameters(cells=N, gap=0.0))
     s1 = pr.lattice_seeds({"branch": "main", "mode": 1}, (None, None))[0].solution
@@ -146,7 +146,7 @@ def test_filter_removes_relabelled_and_grid_scale_orbits() -> None:
     md_neg = BarModel(1.0, 1.0, 1.0, 20, -1e-3)
     _, sols = node_solutions(md_neg, (38, 3))
     assert sols and profile_jumps(sols[0].w0) == 38
-    from nsm_continuation.problems.wfem_bar import WfemBarParameters, WfemBarProblem
+    from nsm_continuation.problems.bar.wfem_bar import WfemBarParameters, WfemBarProblem
 
     pr = WfemBarProblem(WfemBarParameters(cells=20, gap=-1e-3))
     assert pr.physical((38, 3)) == []

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.wfem_operators import (
+from nsm_continuation.problems.bar.wfem_operators import (
     CONTACT,
     FREE,
     A_g,

@@ -1,11 +1,11 @@
-"""Reconstructions and figures of the WFEM bar orbits (:mod:`problems.wfem_plots`).
+"""Reconstructions and figures of the WFEM bar orbits (:mod:`problems.bar.plots`).
 
 Yoong, Thorin, Legrand (2017), section 6, Figs. 8, 9, 13. Oracles:
 
 * the end displacement from the stresses, ``u_(N+1/2) = (dx/E) sum sigma_j``, against the time
   integral of the end velocity ``-J[n]/Z`` (free) / 0 (contact) from ``u = g0`` at t = 0;
-* the field against cell averages from :func:`problems.wfem_operators.simulate_ring` and
-  :func:`~problems.wfem_operators.from_ring` (a second, independent stepping);
+* the field against cell averages from :func:`problems.bar.wfem_operators.simulate_ring` and
+  :func:`~problems.bar.wfem_operators.from_ring` (a second, independent stepping);
 * the admissibility of the plotted orbit: ``u_end <= g0`` free, ``u_end = g0`` in contact (Fig. 8),
   a compressive and (main backbone, section 6.1) piecewise-constant contact force.
 """
@@ -24,14 +24,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from nsm_continuation.problems.wfem_bar import WfemBarParameters, WfemBarProblem  # noqa: E402
-from nsm_continuation.problems.wfem_lattice import (  # noqa: E402
-    BarModel,
-    LatticeSolution,
-    node_solutions,
-)
-from nsm_continuation.problems.wfem_operators import from_ring, simulate_ring  # noqa: E402
-from nsm_continuation.problems.wfem_plots import (  # noqa: E402
+from nsm_continuation.problems.bar.plots import (  # noqa: E402
     contact_force,
     contact_mask,
     displacement_field,
@@ -43,6 +36,13 @@ from nsm_continuation.problems.wfem_plots import (  # noqa: E402
     resolve_point,
     space_time,
 )
+from nsm_continuation.problems.bar.wfem_bar import WfemBarParameters, WfemBarProblem  # noqa: E402
+from nsm_continuation.problems.bar.wfem_lattice import (  # noqa: E402
+    BarModel,
+    LatticeSolution,
+    node_solutions,
+)
+from nsm_continuation.problems.bar.wfem_operators import from_ring, simulate_ring  # noqa: E402
 
 
 def orbit(N: int, g0: float, counts: tuple[int, ...]) -> LatticeSolution:

@@ -1,13 +1,13 @@
 """WFEM time stepping with floating boundary conditions (Algorithm 2) and its oracles.
 
-Oracles independent of :mod:`problems.wfem_simulation`:
+Oracles independent of :mod:`problems.bar.wfem_simulation`:
 
 * conservation laws of the continuous problem (energy without damping and forcing, to
   round-off; monotone decay with damping);
 * ``u_end = int sigma / E dx`` for a clamped left end (finite-volume conservation, derived in
   the module docstring) against the time-integrated end velocity;
 * the bouncing bar of Table 1 solved exactly in continuous time by back-tracing characteristics
-  (:mod:`problems.bouncing_bar_exact`, no grid, no shared code), and its physical facts derived
+  (:mod:`problems.bar.bouncing_bar_exact`, no grid, no shared code), and its physical facts derived
   by hand: impact at ``t1 = sqrt(2 rho g0 / F0) = 1`` with speed 10, contact phases of ``2L/c``,
   rigid rebound at speed 10, period ``2 (2L/c) + 2 (2V / (F0/rho)) = 16/3``, energy plus the
   body-force potential constant;
@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.bouncing_bar_exact import BouncingBarExact, falling_bar_exact
-from nsm_continuation.problems.wfem_simulation import (
+from nsm_continuation.problems.bar.bouncing_bar_exact import BouncingBarExact, falling_bar_exact
+from nsm_continuation.problems.bar.wfem_simulation import (
     BarParams,
     BarState,
     Loading,

@@ -1,22 +1,22 @@
-"""Orbital stability of the WFEM bar's nonsmooth modes (problems/wfem_stability.py).
+"""Orbital stability of the WFEM bar's nonsmooth modes (problems/bar/wfem_stability.py).
 
-Oracles: the lattice orbits of problems/wfem_lattice.py (exact periodic orbits of the scheme), the
-exact conservation laws of a signed permutation, and brute-force distance computations.
+Oracles: the lattice orbits of problems/bar/wfem_lattice.py (exact periodic orbits of the scheme),
+the exact conservation laws of a signed permutation, and brute-force distance computations.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.bar_continuum import main_signature
-from nsm_continuation.problems.wfem_lattice import (
+from nsm_continuation.problems.bar.continuum import main_signature
+from nsm_continuation.problems.bar.wfem_lattice import (
     BarModel,
     LatticeSolution,
     node_solutions,
     solve_node,
 )
-from nsm_continuation.problems.wfem_operators import ring_energy
-from nsm_continuation.problems.wfem_stability import (
+from nsm_continuation.problems.bar.wfem_operators import ring_energy
+from nsm_continuation.problems.bar.wfem_stability import (
     classify_growth,
     continuum_state,
     family_distance,

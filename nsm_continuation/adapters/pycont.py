@@ -32,9 +32,9 @@ Notes on pycont-lite 0.6 (read from its source):
   residual up to ~``6.6e-5`` even for a tiny ``tolerance``;
 * ``analyze_stability`` computes the right-most eigenvalue of ``G_u`` (stability of an equilibrium
   of ``u' = G(u, p)``). For a fixed-point residual such as the return-map equations of
-  :mod:`nsm_continuation.problems.ndof_impact` that number has no dynamical meaning (stability is
-  given by the Floquet multipliers, ``problem.floquet``), so :func:`run_pycont` switches it off
-  unless asked for;
+  :mod:`nsm_continuation.problems.chain.ndof_impact` that number has no dynamical meaning
+  (stability is given by the Floquet multipliers, ``problem.floquet``), so :func:`run_pycont`
+  switches it off unless asked for;
 * a fold (``LP``) is placed on the chord between the two points that bracket it
   (``x_left + alpha (x_right - x_left)``) and is not corrected back onto the curve: that one point
   of the returned branch is ``O(ds^2)`` off the solution set. Fold and bifurcation tests are

@@ -1,7 +1,7 @@
 """Figures of the WFEM bar orbits (Yoong, Thorin, Legrand 2017, section 6).
 
-Reconstructions from a :class:`~problems.wfem_lattice.LatticeSolution` (ring layout of
-:mod:`problems.wfem_operators`: slots ``0..N-1`` hold ``b_i = sigma_i - Z v_i``, slots
+Reconstructions from a :class:`~problems.bar.wfem_lattice.LatticeSolution` (ring layout of
+:mod:`problems.bar.wfem_operators`: slots ``0..N-1`` hold ``b_i = sigma_i - Z v_i``, slots
 ``N..2N-1`` hold ``a_N..a_1`` with ``a_i = sigma_i + Z v_i``):
 
 * the displacement at the cell interfaces ``x_(i+1/2) = i dx`` (the bar is clamped at x = 0)::
@@ -93,9 +93,9 @@ def displacement_field(sol: LatticeSolution, periods: float = 1.0, max_rows: int
                        ) -> Field:
     """``u(x_(i+1/2), t_n)`` from the stresses, for ``n = 0..round(periods M)``.
 
-    The ring is advanced step by step (:func:`~problems.wfem_operators.ring_step`) and only every
-    ``stride``-th state is kept, ``stride`` chosen so that at most ``max_rows`` rows are stored
-    (all steps when None): O(N) memory per kept row.
+    The ring is advanced step by step (:func:`~problems.bar.wfem_operators.ring_step`) and only
+    every ``stride``-th state is kept, ``stride`` chosen so that at most ``max_rows`` rows are
+    stored (all steps when None): O(N) memory per kept row.
     """
     md = sol.model
     N, M = md.N, sol.M
@@ -346,7 +346,7 @@ def resolve_point(problem: Any, derived: dict[str, Any]) -> LatticeSolution | No
     """The orbit of a branch point, re-solved at its node (energy closest to the stored one).
 
     For ``g0 = 0`` (amplitude free) the node may have no unique candidate: the representative of
-    :func:`~problems.wfem_lattice.grazing_representative` is used, scaled to the stored energy.
+    :func:`~problems.bar.wfem_lattice.grazing_representative` is used, scaled to the stored energy.
     """
     counts = _counts_of(derived)
     if counts is None:

@@ -4,8 +4,9 @@ sec. 6.3, eqs. (60)-(61)) and their eigenvalues.
 Equilibrium. With ``q' = 0`` eq. (53) reduces to ``V(q) = lambda N(q)`` (60) and ``H(q) = 0``
 (61). The three unknowns ``(q1, q2, lambda)`` are found by Newton's method with the exact CasADi
 Jacobian of the residual ``(f(q, 0) + lambda N(q), H(q))``, where ``f(q, 0) = -V(q)`` comes from
-the Euler-Lagrange derivation :func:`problems.pendulum_lagrange.lagrange_terms`. ``H = X + d``
-(``d > 0``: wall at ``X = -d``, admissible side ``H >= 0``), ``N = (L1 c1, L2 c2)^T``, and
+the Euler-Lagrange derivation :func:`problems.impacting.pendulum_lagrange.lagrange_terms`.
+``H = X + d`` (``d > 0``: wall at ``X = -d``, admissible side ``H >= 0``),
+``N = (L1 c1, L2 c2)^T``, and
 ``lambda`` is reported in the normalisation of eq. (53)/(60) (force ``lambda N``; ``lambda > 0``
 pushes the lower mass away from the wall, into ``H > 0``). The sticking multiplier of
 eq. (10)-(12), ``F' = F - lambda_s W``, is a different normalisation of the same force:
@@ -46,7 +47,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from nsm_continuation.problems.pendulum_lagrange import (
+from nsm_continuation.problems.impacting.pendulum_lagrange import (
     contact_normal,
     lagrange_terms,
     positions,

@@ -1,7 +1,7 @@
 """Time-stepping WFEM simulation of the bar with unilateral contact (Algorithm 2, Appendix B).
 
 Yoong, Thorin, Legrand (2017). The bar of section 2 (x in [0, L], contact end at x = L) is
-advanced in the characteristic variables of :mod:`problems.wfem_operators`::
+advanced in the characteristic variables of :mod:`problems.bar.wfem_operators`::
 
     a_i = sigma_i + Z v_i  (moves left one cell per step),
     b_i = sigma_i - Z v_i  (moves right),       Z = rho c,  dt = dx / c  (A.18),
@@ -43,14 +43,15 @@ stress 0, velocity ``-(b_N - c Fbar)/Z`` on average; contact: velocity ``<w_t>``
 of the interface velocity (B.2). With a clamped left end it also equals ``int sigma/E dx =
 dx/(2E) sum_k w_k`` exactly (finite-volume conservation; tested).
 
-**Switching rule** (Algorithm 2 with the sign conventions of :mod:`problems.wfem_operators`): the
-gap is ``g = g0 + w_wall(t) - u_end`` (section 7). Contact is *a candidate* for step n if the bar
-was in contact, or if ``g_n <= 0``, or if the free step would make the gap negative with the
-crossing in the first half of the step (``g_n < -g_(n+1)^free``: the switch goes to the nearest
-grid time). A candidate is kept if the wall stress of the contact step is compressive
-(``lambda = -S sigma >= 0``, B.5 with the compressive sign: the paper's (3) and COND2 disagree on
-the sign of r); otherwise the end is released (free step). Switching times that fall on the grid
-are thus found exactly; off-grid switches cost O(dt) (at most half a step). This is
+**Switching rule** (Algorithm 2 with the sign conventions of
+:mod:`problems.bar.wfem_operators`): the gap is ``g = g0 + w_wall(t) - u_end`` (section 7).
+Contact is *a candidate* for step n if the bar was in contact, or if ``g_n <= 0``, or if the free
+step would make the gap negative with the crossing in the first half of the step
+(``g_n < -g_(n+1)^free``: the switch goes to the nearest grid time). A candidate is kept if the
+wall stress of the contact step is compressive (``lambda = -S sigma >= 0``, B.5 with the
+compressive sign: the paper's (3) and COND2 disagree on the sign of r); otherwise the end is
+released (free step). Switching times that fall on the grid are thus found exactly; off-grid
+switches cost O(dt) (at most half a step). This is
 ``switching="grid"``, the paper's algorithm: it conserves energy exactly without damping.
 
 ``switching="subcell"`` (an addition) places the switch inside the step: impact at the root

@@ -11,7 +11,7 @@ Conventions (documented choices where the paper is inconsistent):
   Sec. 6.3 prints ``d = -0.5``, but its saddle ``q*`` has ``X(q*) = -0.49997``, i.e. the wall
   at ``X = -0.5``: the same wall as ``d = +0.5`` here (and as secs. 6.1-6.2). We use ``d = 0.5``
   for all three scenarios.
-* **Equations of motion** derived by Lagrange (``problems/pendulum_lagrange.py`` is the
+* **Equations of motion** derived by Lagrange (``problems/impacting/pendulum_lagrange.py`` is the
   independent symbolic derivation the tests compare with): ``M(q) qdd = f(q, qd)`` with the
   printed ``M`` and ``V`` of eq. (53) but the Coriolis vector
   ``m2 L1 L2 sin(q1 - q2) (qd2^2, -qd1^2)``: the printed ``L(q, qd) = L1 L2 s12 (m1 qd2^2,

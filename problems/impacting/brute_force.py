@@ -12,7 +12,7 @@ agreement with the shooting orbits (Figs. 8(b), 9(b)-(c), 10(b)) checks the cont
 
 Usage::
 
-    from nsm_continuation.problems.pendulum_brute_force import brute_force
+    from nsm_continuation.problems.impacting.brute_force import brute_force
     out = brute_force("e", np.linspace(0.85, 0.92, 71), {"d": 0.5, "torque": -31.15})
     for e, q2 in out: ...
 """
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from nsm_continuation.problems.double_pendulum import DoublePendulumProblem
+from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
 from nsm_continuation.hybrid.simulate import SimOptions, SimulationError, Simulator
 

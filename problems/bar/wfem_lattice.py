@@ -3,8 +3,8 @@
 Yoong, Thorin, Legrand (2017), section 5. For a phase pattern (m free steps, p contact steps; or
 m, p, k, l for two contact phases, eq. 18) a periodic orbit is a vector ``Q`` in the kernel of
 ``S_T = A_c^p A_f^m - I`` (12) that also satisfies COND1-COND3. Here ``S_T`` is a signed
-permutation of the characteristic ring (:mod:`problems.wfem_operators`), so its kernel has a basis
-of cycle vectors and everything below costs O(N) per lattice node.
+permutation of the characteristic ring (:mod:`problems.bar.wfem_operators`), so its kernel has a
+basis of cycle vectors and everything below costs O(N) per lattice node.
 
 Conditions fixing a kernel vector (derived here; the paper states them only as COND1-COND3):
 

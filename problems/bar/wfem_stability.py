@@ -2,8 +2,8 @@
 
 The paper leaves the stability of the bar's periodic orbits open. Spectral (Floquet) stability is
 empty here: with grid-aligned switching the linearisation of a lattice orbit is the signed
-permutation ``A_c^p A_f^m`` (:mod:`problems.wfem_operators`), whose eigenvalues all lie on the unit
-circle, and a perturbation too small to move a switching instant by one step is transported
+permutation ``A_c^p A_f^m`` (:mod:`problems.bar.wfem_operators`), whose eigenvalues all lie on the
+unit circle, and a perturbation too small to move a switching instant by one step is transported
 exactly linearly (no growth, no decay). This module measures stability *directly*: perturbations
 resolved by the grid (they move switching instants by several steps) are time stepped with the
 floating boundary condition (Algorithm 2 of the paper, on the characteristic ring), and their
@@ -41,7 +41,7 @@ Method
   profile or the energy norm (Euclidean norm of ``w``: the energy is ``dx |w|^2 / (4E)``, so
   ``d^2`` is the energy of the difference relative to the orbit's). The *distance to the family*
   (:func:`family_distance`) is the orbital distance to the member of the continuum branch with the
-  *same energy* (cell averages of its profile at half-step phases, :mod:`problems.bar_continuum`):
+  *same energy* (cell averages of its profile at half-step phases, :mod:`problems.bar.continuum`):
   the energy is exactly conserved, so that member is the only one of the family a perturbed
   trajectory could approach in the energy norm.
 * Classification (:func:`classify_growth`, :data:`GROWTH_CRITERION`): bounded (the running
@@ -108,7 +108,7 @@ from typing import Any
 
 import numpy as np
 
-from .bar_continuum import Signature, continuum_orbit, main_signature
+from .continuum import Signature, continuum_orbit, main_signature
 from .wfem_lattice import BarModel, LatticeSolution
 from .wfem_operators import CONTACT, FREE, ring_energy, ring_step
 
@@ -346,7 +346,7 @@ def family_member_period(model: BarModel, sig: Signature, energy: float) -> tupl
     """Period T and amplitude A of the member of branch ``sig`` with the given energy.
 
     ``energy = L A^2 / (2E)`` (S = 1) and ``A = 2 E g0 / (L mu(T))`` with ``mu`` affine in T
-    (:mod:`problems.bar_continuum`); ``mu`` has the sign of ``g0`` on the admissible side.
+    (:mod:`problems.bar.continuum`); ``mu`` has the sign of ``g0`` on the admissible side.
     """
     A = float(np.sqrt(2 * model.E * energy / model.L))
     mu = 2 * model.E * model.g0 / (model.L * A)

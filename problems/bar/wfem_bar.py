@@ -5,9 +5,9 @@ obstacle at x = L across the signed gap ``g0``. Periodic orbits of the WFEM disc
 ``(A_c^p A_f^m - I) Q = 0`` (12) with COND1-COND3; they exist only at lattice periods
 ``T = (m + p) dt``. The lattice engine (:mod:`nsm_continuation.lattice`) continues them: the
 predictor extrapolates the phase lengths linearly along the branch (exact for these branches:
-the free time is an affine function of the period, see :mod:`problems.bar_continuum`), the
+the free time is an affine function of the period, see :mod:`problems.bar.continuum`), the
 corrector picks, among the admissible *physical* solutions (filter of
-:func:`problems.wfem_lattice.classify`) near the predicted node, the one continuing the previous
+:func:`problems.bar.wfem_lattice.classify`) near the predicted node, the one continuing the previous
 one (same number of profile jumps, energy closest to the extrapolated energy).
 
 YAML::
@@ -173,7 +173,7 @@ class WfemBarProblem(LatticeProblem):
 
     # -- preflight (issue 9): everything checkable before the lattice is explored -----------------
     #: peak bytes per period step M of one lattice node: the sign combinations of a kernel with
-    #: h <= 12 cycles (2^11 of them, :func:`problems.wfem_lattice.node_solutions`) times the
+    #: h <= 12 cycles (2^11 of them, :func:`problems.bar.wfem_lattice.node_solutions`) times the
     #: end series (M values each) and their partial sums
     NODE_BYTES_PER_STEP: ClassVar[float] = 8.0 * (2.5 * 2**11 + 30)
     #: bytes per (period step x cell) of the scan's kernel-dimension sweep (int64 arrays of
@@ -391,7 +391,7 @@ class WfemBarProblem(LatticeProblem):
         """All physical one-contact-phase orbits with omega_ratio in the window.
 
         The kernel dimension of every node of a period comes from one vectorised sweep
-        (:func:`problems.wfem_operators.kernel_dimensions_at_period`); only nodes with
+        (:func:`problems.bar.wfem_operators.kernel_dimensions_at_period`); only nodes with
         ``1 <= h <= 8`` are solved.
         """
         lo, hi = window
@@ -553,7 +553,7 @@ class WfemBarProblem(LatticeProblem):
     @staticmethod
     def _energy_predict(history: list[LatticeSolution], M: int) -> float:
         """Extrapolate E^(-1/2) linearly in M (exact on the continuum branches, eq. in
-        :mod:`problems.bar_continuum`: E ~ (T - T*)^-2)."""
+        :mod:`problems.bar.continuum`: E ~ (T - T*)^-2)."""
         a, b = history[-2], history[-1]
         ya, yb = a.energy ** -0.5, b.energy ** -0.5
         y = yb + (yb - ya) * (M - b.M) / (b.M - a.M)
@@ -620,9 +620,9 @@ class WfemBarProblem(LatticeProblem):
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
         """Space-time fields (Fig. 8a, 10a, 13, 17), contact-end series, manifold (Fig. 9)."""
-        from . import wfem_plots
+        from . import plots
 
-        return wfem_plots.extra_plots(out_dir, branches, self)
+        return plots.extra_plots(out_dir, branches, self)
 
     def legend_handles(self) -> list[Any]:
         from matplotlib.lines import Line2D

@@ -5,7 +5,7 @@ the signed gap ``g0`` (eq. 1-3). Its WFEM orbits (12) are exact samples of conti
 module describes those continuum orbits in closed form and continues them with the generic
 pseudo-arclength engine.
 
-Characteristic ring (the limit of :mod:`problems.wfem_operators`). Time is measured in units of
+Characteristic ring (the limit of :mod:`problems.bar.wfem_operators`). Time is measured in units of
 ``L/c``. The characteristics ``b = sigma - Z v`` (at ring coordinate ``xi = x/L``) and
 ``a = sigma + Z v`` (at ``xi = 2 - x/L``) form a ring ``xi in [0, 2)`` whose content moves
 ``xi -> xi + t``. The contact end is ``xi = 1``: content crossing it changes sign while the end is
@@ -22,7 +22,7 @@ difference). That is possible iff ``t_f = a T + b`` with integers ``a`` (the num
 of ``p``, even) and ``b`` (a multiple of 4, else the profile closes with the wrong sign), constant
 along a branch: the branch is a *straight line* in ``(T, t_f)``, with ``D = {1 - j T : j = 0..a-1}``
 (mod 2; ``{1 + j T : j = 1..|a|}`` for ``a < 0``). Signatures checked against the lattice
-(:func:`problems.wfem_lattice.solve_node`, N = 40, tests/test_bar_continuum.py):
+(:func:`problems.bar.wfem_lattice.solve_node`, N = 40, tests/test_bar_continuum.py):
 
 * main backbone of mode k (sec. 6.1, from omega_k for g0 > 0, from Omega_k for g0 < 0):
   ``(a, b) = (2k, -4)``, i.e. ``m = 2k M - 4N`` on the lattice; mode 1: ``t_f = 2T - 4``, mode 2:
@@ -257,7 +257,7 @@ class ContinuumOrbit:
         ``J(t) = A p(1 - t) prod_{j >= 1, t - 2j >= 0} s_phase(t - 2j)``: the content reaching the
         end at ``t`` started at ``xi = 1 - t`` and crossed the contact end at ``t - 2, t - 4, ...``
         with sign -1 in the free phase (the continuum form of
-        :func:`problems.wfem_operators.end_series`).
+        :func:`problems.bar.wfem_operators.end_series`).
         """
         T, tf = self.T, self.t_free
         laps = int(np.floor(T / 2.0)) + 1

@@ -541,7 +541,7 @@ class NDofImpactProblem(Problem):
 
         * ``outgoing_velocity = -u_c'(0+) / (|g| w_1)`` > 0: the mass leaves the wall (H+);
         * ``clearance = (g - max u_c(t_k)) / |g|`` over the critical points ``t_k`` of ``u_c`` in
-          ``(0, T)``, located exactly (:class:`~problems.trig_sum.TrigSum`); it vanishes at a
+          ``(0, T)``, located exactly (:class:`~problems.chain.trig_sum.TrigSum`); it vanishes at a
           nonlinear grazing orbit (an extra tangential contact, Fig. 5.2).
         """
         if self.g == 0.0:
