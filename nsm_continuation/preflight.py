@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BeforeValidator, ConfigDict
+from pydantic import BeforeValidator, ConfigDict, Discriminator, Tag, TypeAdapter
 
 #: pydantic config of every YAML-facing model of the problems: unknown keys and coercions refused
 STRICT = ConfigDict(extra="forbid", strict=True)
@@ -41,6 +41,15 @@ DEFAULT_HOURS = 12.0
 
 #: smallest and largest nonzero gap magnitude (module docstring)
 GAP_MIN, GAP_MAX = 1e-100, 1e100
+
+
+def one_or_many(spec: Any) -> TypeAdapter:
+    """The validator of a ``start:`` block: one ``spec`` mapping or a list of them, tagged by
+    type so that an error names the key of the one model it concerns (capitalised tags are
+    left out of error locations by :func:`nsm_continuation.cases.validate`)."""
+    return TypeAdapter(Annotated[
+        Annotated[spec, Tag("One")] | Annotated[list[spec], Tag("Many")],  # type: ignore[valid-type]
+        Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])
 
 
 def exactly(*allowed: Any) -> BeforeValidator:
@@ -139,5 +148,5 @@ def as_list(specs: Any) -> list[tuple[int | None, Any]]:
     return [(None, specs)]
 
 
-__all__ = ["STRICT", "as_list", "check_budget", "check_gap", "exactly",
+__all__ = ["STRICT", "one_or_many", "as_list", "check_budget", "check_gap", "exactly",
            "memory_limit_gb", "start_key", "time_limit_hours"]

@@ -402,3 +402,24 @@ def test_monitor_names_are_the_derived_keys(pendulum: DoublePendulumProblem) -> 
     assert set(wb.lattice_point(seed.solution)[2]) <= set(wb.monitor_names())
     y = np.array([PENDULUM_GUESS[n] for n in ("q2", "q1dot", "q2dot")] + [0.89])
     assert set(pendulum.derived(y)) == set(pendulum.monitor_names())
+
+
+@pytest.mark.parametrize("key, value", [("min", -1.0), ("min", 0.0), ("max", -2.0)])
+def test_chain_frequency_window_must_be_positive(key, value):
+    """omega = 2 pi / T: a non-positive bound maps to no period at all (it was accepted and
+    shown as a window ['6.98', '-'] in the report)."""
+    pr = NDofImpactProblem({"chain": {"n": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
+    lo, hi = (value, None) if key == "min" else (None, value)
+    with pytest.raises(ValueError, match=rf"^continuation\.{key}: omega"):
+        pr.parameter_bounds("omega", lo, hi)
+    assert pr.parameter_bounds("omega", 0.5, 2.0) == pytest.approx((np.pi, 4 * np.pi))
+
+
+def test_hybrid_start_state_of_absurd_size_is_refused():
+    """A guess q2 = 1e300 was "corrected" to an orbit with residual 44 (Newton's tolerance is
+    relative to 1 + |y|) and reported as an admissible point."""
+    root = Path(__file__).resolve().parents[1] / "yaml_cases"
+    case = root / "pendulum_sec6_1_complete_to_incomplete.yaml"
+    with pytest.raises(cases.CaseError, match=r"^start\.guess: a state component of 1e\+300"):
+        cases.load(case, ["start.guess.q2=1.0e300"])
+    cases.load(case, ["start.guess.q2=1.0"])  # an ordinary guess passes

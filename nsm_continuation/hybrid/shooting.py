@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 
+from ..preflight import one_or_many
 from ..protocol import EvaluationError, FloquetData, Problem
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
 from .system import CompiledHybrid
@@ -266,9 +267,9 @@ class HybridShootingProblem(Problem):
 
 # ---------------------------------------------------------------------- YAML-facing base class
 from abc import abstractmethod  # noqa: E402
-from typing import Annotated, Literal  # noqa: E402
+from typing import Literal  # noqa: E402
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, TypeAdapter  # noqa: E402
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter  # noqa: E402
 
 from ..protocol import StartPoint  # noqa: E402
 from .system import HybridDeclarationError, HybridSystem  # noqa: E402
@@ -314,11 +315,8 @@ class HybridStartSpec(BaseModel):
     label: str | None = None
 
 
-#: one start mapping or a list of them (tagged by type, so an error names the key of the one
-#: model it concerns; capitalised tags are left out of error locations)
-START_ADAPTER = TypeAdapter(Annotated[
-    Annotated[HybridStartSpec, Tag("One")] | Annotated[list[HybridStartSpec], Tag("Many")],
-    Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])
+#: one start mapping or a list of them
+START_ADAPTER = one_or_many(HybridStartSpec)
 
 
 class HybridCaseProblem(HybridShootingProblem):
@@ -379,6 +377,9 @@ class HybridCaseProblem(HybridShootingProblem):
     #: ``dF/dx``, ``T`` the return time) at ``SECONDS_PER_STEP`` each, and a continuation point
     #: costs about ``RETURNS_PER_POINT`` returns with sensitivities. Measured on the two-mass
     #: chain, k2 = 1e4 and 1e6 (2.2 steps per unit of rho T, 0.75-1.5e-4 s per step).
+    #: largest magnitude of a start state's component (|x| beyond it: a Newton step relative to
+    #: 1 + |y| no longer resolves the orbit; 1e300 was "converged" with a residual of 44)
+    MAX_STATE: ClassVar[float] = 1e12
     STEPS_PER_STIFFNESS: ClassVar[float] = 2.2
     SECONDS_PER_STEP: ClassVar[float] = 1e-4
     RETURNS_PER_POINT: ClassVar[float] = 15.0
@@ -441,6 +442,11 @@ class HybridCaseProblem(HybridShootingProblem):
         c = self.shooting.c
         if not np.all(np.isfinite(X)):
             raise ValueError(f"{key}: the state is not finite")
+        big = float(np.max(np.abs(X[: c.n])))
+        if big > self.MAX_STATE:
+            raise ValueError(f"{key}: a state component of {big:.3g} is beyond "
+                             f"{self.MAX_STATE:g}: the corrector's relative tolerance would "
+                             "accept any orbit there; rescale the model")
         H = float(np.asarray(c.probe(X), dtype=float).ravel()[0])
         if H < -1e-12 * (1.0 + float(np.linalg.norm(X))):
             raise ValueError(f"{key}: the state is on the inadmissible side of the impact "

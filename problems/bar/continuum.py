@@ -87,8 +87,17 @@ from pydantic import (
     field_validator,
 )
 
-from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, start_key
+from nsm_continuation.preflight import (
+    STRICT,
+    as_list,
+    check_budget,
+    check_gap,
+    one_or_many,
+    start_key,
+)
 from nsm_continuation.protocol import Problem, StartPoint
+
+from .presentation import BarFrequencyEnergy
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 #: coincidence tolerance on the ring (jump points closer than this cancel) and grazing tolerance
@@ -383,26 +392,16 @@ StartSpec = Annotated[Annotated[MainStart, Tag("Main")]
                       | Annotated[SubharmonicStart, Tag("Subharmonic")]
                       | Annotated[SignatureStart, Tag("Signature")], Discriminator(_start_kind)]
 #: ``start:`` is one start mapping or a list of them
-START_ADAPTER = TypeAdapter(Annotated[
-    Annotated[StartSpec, Tag("One")] | Annotated[list[StartSpec], Tag("Many")],
-    Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])
+START_ADAPTER = one_or_many(StartSpec)
 
 
 # -- the problem -----------------------------------------------------------------------------------
-class BarContinuumProblem(Problem):
+class BarContinuumProblem(BarFrequencyEnergy, Problem):
     """Continuum nonsmooth modes of the bar: straight branches ``t_f = a T + b`` (module doc)."""
 
     name: ClassVar[str] = "bar_continuum"
     Parameters: ClassVar[type[BaseModel]] = BarContinuumParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
-    energy_quantity = "energy_ratio"
-    # presentation: the frequency-energy plot of the paper's figures
-    fep_axes = ("omega_ratio", "energy_ratio")
-    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
-    diagram_title: ClassVar[str] = "Frequency-energy plot"
-    diagram_yscale: ClassVar[str] = "log"
-    csv_head = ["T", "omega", "energy"]
-    event_columns = ["omega", "T", "energy"]
 
     def __init__(self, params: BarContinuumParameters | dict[str, Any]) -> None:
         if isinstance(params, dict):

@@ -27,11 +27,20 @@ from math import ceil
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, Discriminator, Field, Tag, TypeAdapter, field_validator
+from pydantic import BaseModel, Discriminator, Field, Tag, field_validator
 
 from nsm_continuation.lattice import LatticeProblem, LatticeSeed
-from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, exactly, start_key
+from nsm_continuation.preflight import (
+    STRICT,
+    as_list,
+    check_budget,
+    check_gap,
+    exactly,
+    one_or_many,
+    start_key,
+)
 
+from .presentation import BarFrequencyEnergy
 from .wfem_lattice import (
     BarModel,
     LatticeSolution,
@@ -117,8 +126,6 @@ OneStart = Annotated[Annotated[MainStart, Tag("Main")]
                      | Annotated[SubharmonicStart, Tag("Subharmonic")]
                      | Annotated[ScanStart, Tag("Scan")] | Annotated[NodeStart, Tag("Node")],
                      Discriminator(_start_kind)]
-StartSpec = Annotated[Annotated[OneStart, Tag("One")] | Annotated[list[OneStart], Tag("Many")],
-                      Discriminator(lambda v: "Many" if isinstance(v, list) else "One")]
 
 
 def main_asymptote(k: int) -> float:
@@ -143,20 +150,12 @@ def internal_resonance(k: int) -> float:
     return 2 * k / (2 * k - 1)
 
 
-class WfemBarProblem(LatticeProblem):
+class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     name = "wfem_bar"
     Parameters = WfemBarParameters
-    start_adapter = TypeAdapter(StartSpec)
-    energy_quantity = "energy_ratio"
+    start_adapter = one_or_many(OneStart)
     #: a change of the number of grazing instants is a grazing event
     character_kinds: ClassVar[dict[str, str]] = {"grazing_instants": "grazing"}
-    # presentation: the frequency-energy plot of the paper's figures
-    fep_axes = ("omega_ratio", "energy_ratio")
-    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
-    diagram_title: ClassVar[str] = "Frequency-energy plot"
-    diagram_yscale: ClassVar[str] = "log"
-    csv_head = ["T", "omega", "energy"]
-    event_columns = ["omega", "T", "energy"]
 
     def __init__(self, params: WfemBarParameters) -> None:
         super().__init__(params)

@@ -68,7 +68,15 @@ from pydantic import (
 )
 
 from nsm_continuation.floquet import deflate_known_eigenvector, restrict_to_section
-from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, exactly, start_key
+from nsm_continuation.preflight import (
+    STRICT,
+    as_list,
+    check_budget,
+    check_gap,
+    exactly,
+    one_or_many,
+    start_key,
+)
 from nsm_continuation.protocol import FloquetData, Problem, StartPoint
 
 from .trig_sum import TrigSum
@@ -200,9 +208,7 @@ def _start_kind(v: Any) -> str:
 #: capitalised tags are left out of error locations (cases._format)
 StartSpec = Annotated[Annotated[ModeStart, Tag("Mode")] | Annotated[PeriodStart, Tag("Period")]
                       | Annotated[AllStart, Tag("All")], Discriminator(_start_kind)]
-START_ADAPTER = TypeAdapter(Annotated[
-    Annotated[StartSpec, Tag("One")] | Annotated[list[StartSpec], Tag("Many")],
-    Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])
+START_ADAPTER = one_or_many(StartSpec)
 
 
 class NDofImpactProblem(Problem):
@@ -600,12 +606,17 @@ class NDofImpactProblem(Problem):
     # ------------------------------------------------------------------ starts and bounds
     def parameter_bounds(self, name: str, lo: float | None, hi: float | None
                          ) -> tuple[float | None, float | None]:
-        """User bounds on ``omega`` or ``T`` -> bounds on ``T``."""
+        """User bounds on ``omega`` or ``T`` -> bounds on ``T`` (both are positive: a bound
+        at or below zero has no meaning and is refused)."""
+        for key, v in (("min", lo), ("max", hi)):
+            if v is not None and v <= 0:
+                raise ValueError(f"continuation.{key}: {name} = {v:g} is not positive (a "
+                                 f"{'frequency' if name == 'omega' else 'period'} bound)")
         if name == "T":
             return lo, hi
         if name == "omega":
             return (None if hi is None else 2 * np.pi / hi,
-                    None if lo is None or lo <= 0 else 2 * np.pi / lo)
+                    None if lo is None else 2 * np.pi / lo)
         raise ValueError(f"continuation.parameter: {name!r} is not one of 'omega', 'T'")
 
     def grazing_start(self, j: int, k: int) -> np.ndarray:
