@@ -22,6 +22,11 @@ Model choices (the paper gives no values):
   transient, then blocks of 8 forcing periods until the period-averaged energies repeat to
   2e-3 (period 1..4) or 12 decay times have been simulated; ``switching="subcell"``.
 
+The same sweeps run from YAML, one case per panel, with the common runner (CSV, report,
+figures): ``nsm-continuation run yaml_cases/wfem_fig2{0,1,2}_{wall,force}_*_gap.yaml``
+(``problem: wfem_forced_bar``, ``sweep`` algorithm); this script puts the 18 sweeps on one
+figure and measures their cost.
+
 Backbones: ``--backbones FILE.npz`` with arrays ``<gap>__<name>__omega`` and
 ``<gap>__<name>__energy`` (gap in pos, zero, neg; normalised like the plot), or from Python
 ``make_figure(sweeps, backbones={"pos": [(omega_ratio, energy_ratio, label), ...]})``.

@@ -16,6 +16,11 @@ things for all (branches, points, time per branch, the algorithm's own counters)
   multipliers, derived quantities). Events other than the branch ends are not located
   (pycont-lite's fold/branch-point detection works on ``G_u``, not on the hooks), and bounds on
   derived quantities cut the branch at the last point inside them.
+* :class:`Sweep` (``sweep``): no continuation of a solution curve but the solution at each
+  value of a grid of the parameter, in order, each warm-started from the previous one (a
+  frequency sweep of a forced response, :class:`SweepProblem`): the grid is
+  ``continuation.max_points`` values from ``continuation.min`` to ``max``, swept upwards, downwards
+  or both (``continuation.direction``).
 
 A problem declares the algorithms it supports (``Problem.algorithms``, the first is the
 default); YAML ``continuation.algorithm`` picks one of them.
@@ -25,6 +30,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -293,11 +299,165 @@ def _pycont_terminations(result: Any) -> dict[str, str]:
     return out
 
 
+@dataclass
+class SweepSeed:
+    """One sweep: its label, the state the first grid value starts from (the problem's own
+    object, e.g. a state of a time stepper), and its direction (+1: increasing parameter, -1:
+    decreasing, 0: as ``continuation.direction``, both giving two sweeps)."""
+
+    label: str
+    state: Any = None
+    direction: int = 0
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class SweepProblem(Problem):
+    """A problem solved at each value of a grid of its parameter (:class:`Sweep`): e.g. the
+    steady state of a forced response at each forcing frequency, found by time stepping from
+    the steady state at the previous frequency. No residual, no continuation. Implement
+    :meth:`sweep_seeds` and :meth:`sweep_point`; a declared ``signature_kind`` raises an event
+    where the points' ``signature`` changes between two consecutive grid values."""
+
+    algorithms: ClassVar[tuple[str, ...]] = ("sweep",)
+
+    def residual(self, y: Any) -> Any:  # pragma: no cover - never called by the sweep
+        raise TypeError(f"problem {self.name!r} is a sweep problem: it has no residual")
+
+    @abstractmethod
+    def sweep_seeds(self, start: Any, window: Window) -> list[SweepSeed]:
+        """The sweeps of the YAML ``start:`` block (``window``: the parameter's bounds)."""
+
+    @abstractmethod
+    def sweep_point(self, seed: SweepSeed, value: float, state: Any) -> tuple[Point, Any]:
+        """The solution at the parameter ``value`` of the sweep ``seed``, from ``state`` (the
+        seed's at the first value, then what the previous call returned): the point (its
+        ``y[parameter_index]`` is ``value``) and the state the next value starts from. Raises
+        :class:`~nsm_continuation.protocol.EvaluationError` (or a numerical error) if the
+        solution cannot be computed: the sweep then ends there with that reason."""
+
+
+def sweep_point_record(y: np.ndarray, derived: dict[str, float], direction: int,
+                       parameter_index: int, signature: str | None = None) -> Point:
+    """A sweep's :class:`~nsm_continuation.records.Point`: no tests, no multipliers; the
+    tangent is the unit vector of the parameter in the sweep's direction (read by the report
+    to tell before from after); :class:`Sweep` sets ``s``, the distance swept so far."""
+    tangent = np.zeros(len(y))
+    tangent[parameter_index] = 1.0 if direction >= 0 else -1.0
+    return Point(y=np.asarray(y, dtype=float), s=0.0, tangent=tangent, tests={}, multipliers=None,
+                 trivial_error=0.0, n_unstable=0, derived=dict(derived),
+                 bordered_det=float("nan"), signature=signature)
+
+
+class Sweep(Algorithm):
+    """The solution at each value of a parameter grid, in order (module docstring).
+
+    The grid is ``numpy.linspace(continuation.min, continuation.max, continuation.max_points)``
+    of the problem's parameter, reversed for a decreasing sweep; each value starts from the
+    state the previous one ended in (:meth:`SweepProblem.sweep_point`). A sweep ends at the
+    end of the grid, at the first value outside a bound on a derived quantity
+    (``continuation.max_energy``, ``continuation.bounds``; that value is not kept) or where a
+    value cannot be solved (the reason is the branch's termination). Events: ``endpoint`` at
+    both ends, the problem's ``signature_kind`` at the first value of a new signature.
+    """
+
+    name: ClassVar[str] = "sweep"
+    takes_start_points: ClassVar[bool] = False
+    setup_key: ClassVar[str] = "seeds_s"
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
+        if not isinstance(problem, SweepProblem):
+            raise ValueError(f"the sweep algorithm needs a sweep problem (a SweepProblem); "
+                             f"{problem.name!r} is not one")
+        super().__init__(problem, settings)
+        self.sweep_problem = problem
+        self.n_evaluations = 0
+
+    def grid(self, direction: int) -> np.ndarray:
+        """The parameter values of a sweep in ``direction`` (+1 increasing, -1 decreasing)."""
+        lo, hi = self.settings.param_min, self.settings.param_max
+        if lo is None or hi is None or not lo < hi:
+            raise ValueError("continuation.min: a sweep needs a window min < max of the "
+                             "parameter (continuation.min and continuation.max)")
+        values = np.linspace(lo, hi, self.settings.max_points)
+        return values if direction > 0 else values[::-1]
+
+    def starts(self, case_start: Any, window: Window) -> list[Any]:
+        self.grid(1)  # a window is required: refused here as a failed start
+        seeds = []
+        both = [1, -1] if self.settings.direction == 0 else [self.settings.direction]
+        for seed in self.sweep_problem.sweep_seeds(case_start, window):
+            for d in ([seed.direction] if seed.direction else both):
+                label = seed.label if seed.direction or len(both) == 1 else \
+                    f"{seed.label}, {'increasing' if d > 0 else 'decreasing'}"
+                seeds.append(SweepSeed(label, seed.state, d, dict(seed.info)))
+        return seeds
+
+    def seeds_from_points(self, points: list[StartPoint]) -> list[Any]:
+        raise ValueError("a sweep problem starts from its start: block only")
+
+    def covered(self, seed: Any, branches: list[Branch]) -> bool:
+        return False
+
+    def run_branch(self, seed: SweepSeed, branch_id: int) -> Branch:
+        """The sweep ``seed`` over the grid; never raises (a failure ends it with a reason)."""
+        points: list[Point] = []
+        events: list[Event] = []
+        key = "increase" if seed.direction > 0 else "decrease"
+        try:
+            reason = self._sweep(seed, points, events)
+        except NUMERICAL_ERRORS as exc:
+            reason = describe_error(exc)
+        except Exception as exc:  # noqa: BLE001 - recorded, never raised
+            reason = f"internal error: {type(exc).__name__}: {exc}"
+        if points:
+            events.insert(0, Event("endpoint", points[0], "sweep start: first grid value",
+                                   data={"reason": "first grid value"}))
+            events.append(Event("endpoint", points[-1], f"sweep end: {reason}",
+                                data={"reason": reason}))
+        return Branch(branch_id, seed.label, points, events, {key: reason},
+                      {**seed.info, "algorithm": "sweep", "direction": seed.direction})
+
+    def _sweep(self, seed: SweepSeed, points: list[Point], events: list[Event]) -> str:
+        """Fill ``points`` and ``events`` along the grid; returns the termination reason."""
+        pr = self.sweep_problem
+        grid = self.grid(seed.direction)
+        state = seed.state
+        kind = pr.signature_kind
+        for value in grid:
+            point, state = pr.sweep_point(seed, float(value), state)
+            self.n_evaluations += 1
+            point.s = abs(float(value) - float(grid[0]))
+            bound = self._outside_bound(point)
+            if bound is not None:
+                return f"bound: {bound} at {pr.parameter} = {value:.6g} (value not kept)"
+            if kind is not None and points and point.signature != points[-1].signature:
+                before, after = points[-1].signature, point.signature
+                events.append(Event(kind, point, f"{before} -> {after}",
+                                    data={"signature_before": before, "signature_after": after}))
+            points.append(point)
+            self._tick(1)
+        return f"end of the grid ({len(grid)} values of {pr.parameter})"
+
+    def _outside_bound(self, p: Point) -> str | None:
+        """The bound on a derived quantity ``p`` violates, or None."""
+        for name, (lo, hi) in self.settings.derived_bounds.items():
+            v = p.derived.get(name, np.nan)
+            if hi is not None and v > hi:
+                return f"{name} above {hi:g}"
+            if lo is not None and v < lo:
+                return f"{name} below {lo:g}"
+        return None
+
+    def counters(self) -> dict[str, Any]:
+        return {"sweep_points_solved": self.n_evaluations}
+
+
 #: the algorithms YAML ``continuation.algorithm`` may name
 ALGORITHMS: dict[str, type[Algorithm]] = {
     "palc": PseudoArclength,
     "lattice": Lattice,
     "pycont": PycontLite,
+    "sweep": Sweep,
 }
 
 
@@ -323,5 +483,5 @@ def make_algorithm(name: str, problem: Problem, settings: ContinuationSettings) 
     return ALGORITHMS[name](problem, settings)
 
 
-__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "PseudoArclength", "PycontLite",
-           "make_algorithm", "unsupported"]
+__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "PseudoArclength", "PycontLite", "Sweep",
+           "SweepProblem", "SweepSeed", "make_algorithm", "sweep_point_record", "unsupported"]

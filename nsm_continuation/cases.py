@@ -26,6 +26,7 @@ from pydantic import (
 
 from . import registry
 from .protocol import Problem
+from .vocabulary import canonical_keys
 
 # strict: ``true`` is not a number and ``"3"`` is not an integer (an int is a valid float)
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
@@ -91,7 +92,7 @@ class ContinuationSpec(BaseModel):
     bounds: dict[str, tuple[Finite | None, Finite | None]] = {}
     #: the continuation algorithm (:mod:`nsm_continuation.algorithms`): one of the problem's
     #: ``algorithms`` (default: its first, ``palc`` for most, ``lattice`` for ``wfem_bar``)
-    algorithm: Literal["palc", "lattice", "pycont"] | None = None
+    algorithm: Literal["palc", "lattice", "pycont", "sweep"] | None = None
 
     @model_validator(mode="after")
     def _bounds(self) -> ContinuationSpec:
@@ -341,10 +342,14 @@ def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
         raise CaseError("parameters: must be a mapping of keys")
     if isinstance(case.start, list) and not case.start:
         raise CaseError("start: an empty list starts no branch")
+    try:  # deprecated keys renamed first, so that an error names the key as it now reads
+        raw_params = canonical_keys(cls.Parameters, case.parameters)
+    except ValueError as exc:  # an old key together with its new one
+        raise CaseError(str(exc)) from None
     try:
-        params = cls.Parameters.model_validate(case.parameters)
+        params = cls.Parameters.model_validate(raw_params)
     except ValidationError as err:
-        raise CaseError(_format(err, case.parameters, "parameters")) from None
+        raise CaseError(_format(err, raw_params, "parameters")) from None
     try:
         problem = cls(params)
     except (ValueError, ArithmeticError) as exc:

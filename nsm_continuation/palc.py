@@ -10,22 +10,28 @@ The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
   problem raises :class:`~nsm_continuation.protocol.EvaluationError`) or the tangent turns by more
   than ``max_angle``; accepted steps grow or shrink ``h`` from the number of Newton iterations
   and the turning angle. A step never carries the parameter past an edge of the window (it is
-  shortened to end on the edge, corrected there), nor an admissibility test function far past a
-  zero (``TEST_STEP_FACTOR``);
+  shortened to end on the edge, corrected there), nor an admissibility test function or an
+  event function far past a zero (``TEST_STEP_FACTOR``), and the multipliers near the unit
+  circle move at most ``max_multiplier_step`` per step (:func:`multiplier_motion`);
 * termination with a recorded reason, never an exception: parameter bound, bound on a derived
   quantity, maximum number of points, step below minimum (with the problem's own message when it
   raised), step below the floating-point resolution, singular Jacobian, loss of admissibility
   (when asked), an asymptote (amplitude growing without bound, ``p*`` extrapolated), and
   ``internal error: Type: message`` for a bug, keeping the points computed so far.
 
-At each accepted point the problem's hooks give admissibility test functions and Floquet
-multipliers; sign changes of the test functions listed in :func:`_test_values` are located with
-:mod:`nsm_continuation.events`.
+At each accepted point the problem's hooks give admissibility test functions, event functions
+(:meth:`~nsm_continuation.protocol.Problem.event_functions`: located, never ending the branch),
+Floquet multipliers and a signature; their changes between two points are located on the curve
+with :mod:`nsm_continuation.events` (:meth:`ContinuationEngine._events_between`). A multiplier
+crossing is detected by the number of multipliers outside ``|lambda| = 1 + tol`` and located on
+``|lambda_c| = 1`` (:meth:`ContinuationEngine._locate_multiplier_crossings`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -155,13 +161,15 @@ class ContinuationEngine:
                 known: FloquetData | None = None) -> Point:
         """Evaluate the problem's hooks at a corrected point.
 
-        ``tests``/``floquet`` switch off the admissibility tests or the multipliers while an event
-        of the other kind is being located (the located point is then analysed in full).
+        ``tests``/``floquet`` switch off the admissibility tests (and the event functions) or the
+        multipliers while an event of the other kind is being located (the located point is then
+        analysed in full).
         Multipliers are computed only on admissible points unless
         ``settings.stability_on_phantom``: stability of a phantom orbit has no physical meaning.
         """
         pr = self.problem
         test_values = pr.admissibility(y) if tests else {}
+        event_values = pr.event_functions(y) if tests else {}
         fl = None
         if floquet and (self.settings.stability_on_phantom or not tests
                         or all(v >= 0 for v in test_values.values())):
@@ -182,6 +190,7 @@ class ContinuationEngine:
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
             circle_tol=circle_tol,
             signature=pr.signature(y) if pr.signature_kind is not None else None,
+            event_values=event_values,
         )
 
     def _floquet(self, y: np.ndarray, t: np.ndarray) -> FloquetData | None:
@@ -239,13 +248,13 @@ class ContinuationEngine:
         directions = [1] if (start.direction != 0 or self.settings.direction != 0) else [1, -1]
         if self.settings.direction != 0 and start.direction == 0:
             if np.sign(p0.tangent[self.ip]) != np.sign(self.settings.direction):
-                p0.tangent = -p0.tangent
+                # reversed with its bordered determinant: a tangent flipped alone made the
+                # first step see a sign change of det[G_y; t^T], a branch point at the start
+                p0 = _with_tangent(p0, -p0.tangent)
         halves = []
         termination: dict[str, str] = {}
         for d in directions:
-            t0 = p0.tangent * d
-            # det[G_y; t^T] is odd in t: flip it with the tangent
-            first = Point(**{**p0.__dict__, "tangent": t0, "bordered_det": p0.bordered_det * d})
+            first = _with_tangent(p0, p0.tangent * d)
             pts, evs, reason = self._continue_one_direction(first)
             if not any(ev.kind == "endpoint" and ev.point is pts[-1] for ev in evs):
                 evs.append(Event("endpoint", pts[-1], f"branch end: {reason}",
@@ -282,17 +291,19 @@ class ContinuationEngine:
 
     def _walk(self, pts: list[Point], events: list[Event]) -> str:
         """Steps from ``pts[-1]``, appending accepted points and located events in place;
-        returns the termination reason."""
+        returns the termination reason. One step: its length (:meth:`_step_length`), predictor
+        and corrector (:meth:`_predict_correct`), the turning-angle and multiplier-motion
+        checks (:meth:`_moves_multipliers_too_far`), the analysis of the new point and the
+        events of the step (:meth:`_analyse_step`), then the step adaptation
+        (:func:`_adapted_step`)."""
         st = self.settings
-        ip = self.ip
-        p0 = pts[0]
         h = st.step_initial
-        # a start outside the parameter window ends at once
-        par = p0.y[ip]
+        par = pts[0].y[self.ip]
         if (st.param_min is not None and par < st.param_min) or (
                 st.param_max is not None and par > st.param_max):
-            return "start outside parameter bounds"
+            return "start outside parameter bounds"  # a start outside the window ends at once
         motion_halvings = 0
+        kink_tried = -1
         why = ""
         self._monitor_min = {}
         while len(pts) < st.max_points:
@@ -302,66 +313,45 @@ class ContinuationEngine:
                 return (f"step_below_resolution (a step of {h:.3g} does not move a point of "
                         f"size {res / STEP_RESOLUTION - 1:.3g} in floating point"
                         + (f"; last failure: {why})" if why else ")"))
-            # the step never carries the parameter past an edge of the window: the step that
-            # would is shortened to end on the edge, corrected at the edge's parameter value
-            h_step, edge = h, None
-            cap = self._window_cap(a)
-            if cap is not None:
-                dist, value = cap
-                if abs(value - a.y[ip]) <= STEP_RESOLUTION * (1.0 + abs(value)):
-                    return self._stop_on_edge(a, events)
-                if dist <= h_step:
-                    h_step, edge = dist, value
-            # nor carries an admissibility test function far past a zero (see _test_cap)
-            tcap = max(self._test_cap(pts), st.step_min, 4 * res)
-            if tcap < h_step:
-                h_step, edge = tcap, None
-            y_pred = a.y + h_step * a.tangent
-            if edge is None:
-                y_new, it, why = self.correct(y_pred, a.tangent, a.y, h_step)
-            else:
-                y_new, it, why = self._correct_on_edge(y_pred, edge, h_step)
-            t_new = a.tangent
-            if y_new is not None:
-                try:
-                    t_new = self.tangent(y_new, a.tangent)
-                except np.linalg.LinAlgError:
-                    y_new, why = None, "singular Jacobian"
-                except NUMERICAL_ERRORS as exc:
-                    y_new, why = None, describe_error(exc)
+            length = self._step_length(pts, h, res)
+            if length is None:  # a lies on the window edge its tangent points out of
+                return self._stop_on_edge(a, events)
+            h_step, edge = length
+            y_new, t_new, it, why = self._predict_correct(a, h_step, edge)
+            if y_new is None and kink_tried != len(pts):
+                # the step may have failed on a kink of the branch ahead (e.g. a grazing
+                # approached from the side where the residual's Jacobian blows up)
+                kink_tried = len(pts)
+                ahead = self._kink_ahead(pts, h_step)
+                crossed = None if ahead is None else self._cross_kink(a, *ahead, h_step)
+                if crossed is not None:
+                    events.extend(crossed[2])
+                    pts.extend(crossed[:2])
+                    continue
             if y_new is None:
                 h = 0.5 * h_step
                 if h < st.step_min:
                     return f"step_below_minimum ({why})"
                 continue
-            cos_angle = float(np.clip(t_new @ a.tangent, -1.0, 1.0))
-            angle = float(np.arccos(cos_angle))
+            angle = float(np.arccos(float(np.clip(t_new @ a.tangent, -1.0, 1.0))))
             if angle > st.max_angle and h_step > 2 * st.step_min:
                 h = 0.5 * h_step
                 continue
-            pre = None
-            if a.multipliers is not None and h_step > 4 * st.step_min \
-                    and motion_halvings < st.max_multiplier_halvings:
-                # multipliers near the unit circle must not move too far in one step: a
-                # collision and a narrow instability window (out and back in) could hide inside
-                # it. Checked before the (costlier) admissibility tests of the new point.
-                pre = self._floquet(y_new, t_new)
-                if pre is not None and multiplier_motion(
-                        a.multipliers, np.asarray(pre.multipliers)) > st.max_multiplier_step:
-                    h = 0.5 * h_step
-                    motion_halvings += 1
-                    if motion_halvings == st.max_multiplier_halvings:
-                        self.motion_limited_steps += 1
-                    continue
+            pre, too_far = self._moves_multipliers_too_far(a, y_new, t_new, h_step,
+                                                           motion_halvings)
+            if too_far:
+                h = 0.5 * h_step
+                motion_halvings += 1
+                if motion_halvings == st.max_multiplier_halvings:
+                    self.motion_limited_steps += 1
+                continue
             s_new = a.s + (h_step if edge is None else float(a.tangent @ (y_new - a.y)))
             if not s_new > a.s:  # the corrector at the edge went backwards: not this branch
                 h, why = 0.5 * h_step, "corrector at the window edge went backwards"
                 continue
-            # an event that cannot be located on the arc of a long step: retry it shorter
-            self._retry_allowed = h_step > 4 * st.step_min
             try:
-                b = self.analyse(y_new, t_new, s_new, it, known=pre)
-                new_events, stop = self._events_between(a, b, pts)
+                b, new_events, stop = self._analyse_step(a, pts, y_new, t_new, s_new, it, pre,
+                                                         h_step)
             except _RetryStep as exc:
                 h, why = 0.5 * h_step, str(exc)
                 continue
@@ -370,8 +360,14 @@ class ContinuationEngine:
                 if h < st.step_min:
                     return f"step_below_minimum ({why})"
                 continue
-            finally:
-                self._retry_allowed = False
+            crossed = self._kink_in_step(a, new_events, stop, h_step)
+            if crossed is not None:
+                pg, p1, kink_events = crossed
+                events.extend(ev for ev in new_events if ev.point.s < pg.s - 1e-12
+                              and ev.kind != self.problem.signature_kind)
+                events.extend(kink_events)
+                pts.extend([pg, p1])
+                continue
             if stop is not None:
                 stop_point, stop_reason = stop
                 events.extend(ev for ev in new_events if ev.point.s <= stop_point.s)
@@ -386,12 +382,159 @@ class ContinuationEngine:
             if asym is not None:
                 events.append(asym)
                 return f"asymptote ({asym.detail})"
-            # step adaptation: few iterations and small turning -> grow
-            if it <= 3 and angle < 0.4 * st.max_angle:
-                h = min(h * 1.6, st.step_max)
-            elif it >= 6 or angle > 0.8 * st.max_angle:
-                h = max(h * 0.6, st.step_min)
+            h = _adapted_step(h, it, angle, st)
         return "max_points"
+
+    # ------------------------------------------------------------------ kinks
+    def _kink_in_step(self, a: Point, new_events: list[Event], stop: tuple[Point, str] | None,
+                      h_step: float) -> tuple[Point, Point, list[Event]] | None:
+        """A zero of an event function located in the step ``a -> b`` at which the problem
+        says the branch has a kink (:meth:`Problem.continue_beyond`): the branch goes on from
+        the problem's point beyond it instead of from ``b`` (which the arclength corrector may
+        have reached across the kink on another branch, or on the right one inaccurately)."""
+        zeros = [ev for ev in new_events if "function" in ev.data and "value_before" in ev.data]
+        if not zeros:
+            return None
+        ev = min(zeros, key=lambda e: e.point.s)
+        if stop is not None and stop[0].s <= ev.point.s:
+            return None
+        return self._cross_kink(a, ev.data["function"], float(ev.data["value_before"]), h_step,
+                                start=ev.point)
+
+    def _kink_ahead(self, pts: list[Point], h_step: float) -> tuple[str, float] | None:
+        """An event function approaching zero at the last point ``a`` so that the step that
+        just failed may have met its zero: ``|f(a)| <= 2 h |f'(a)|`` (``f'`` from the last two
+        points; on the side where the function is quadratic in the arclength, as a grazing
+        margin ``-v^2/(2a)`` is, the linear extrapolation reaches zero at half the distance)."""
+        if len(pts) < 2:
+            return None
+        a, prev = pts[-1], pts[-2]
+        ds = a.s - prev.s
+        for name, fa in a.event_values.items():
+            fp = prev.event_values.get(name, np.nan)
+            if not (np.isfinite(fa) and np.isfinite(fp)) or ds <= 0 or fa == 0.0:
+                continue
+            slope = (fa - fp) / ds
+            if np.sign(fa) == np.sign(fp) and abs(fa) < abs(fp) \
+                    and abs(fa) <= 2.0 * h_step * abs(slope):
+                return name, float(fa)
+        return None
+
+    def _cross_kink(self, a: Point, name: str, value: float, h_step: float,
+                    start: Point | None = None) -> tuple[Point, Point, list[Event]] | None:
+        """The zero of event function ``name`` and a first point beyond it from the problem
+        (:meth:`Problem.continue_beyond`, from ``start`` or ``a``), analysed, with the event at
+        the zero (and a ``stability_change`` there when the number of multipliers outside the
+        circle differs on the two sides: they jump at a kink, there is no crossing to
+        locate); None when the problem does not resolve it."""
+        src = start if start is not None else a
+        try:
+            out = self.problem.continue_beyond(name, src.y, src.tangent, value, h_step,
+                                               self.settings.newton_tol)
+            if out is None:
+                return None
+            yg, y1 = (np.asarray(z, dtype=float) for z in out)
+            pg = self.analyse(yg, a.tangent, a.s + float(np.linalg.norm(yg - a.y)))
+            d = y1 - yg
+            p1 = self.analyse(y1, self.tangent(y1, d / np.linalg.norm(d)),
+                              pg.s + float(np.linalg.norm(d)))
+        except (*NUMERICAL_ERRORS, EvaluationError):
+            return None
+        ip = self.ip
+        if np.sign(a.tangent[ip]) != np.sign(p1.tangent[ip]):
+            # the parameter turns at the kink (a nonsmooth fold): like a fold, the point has
+            # no direction in the parameter (its tangent is the bisector, flat in p)
+            t0 = a.tangent + p1.tangent
+            t0[ip] = 0.0
+            if np.linalg.norm(t0) > 0:
+                pg = replace(pg, tangent=t0 / np.linalg.norm(t0))
+        data: dict[str, Any] = {
+            "function": name, "value_before": value,
+            "value_after": float(p1.event_values.get(name, np.nan)), "kink": True,
+            "signature_before": a.signature, "signature_after": p1.signature}
+        kind = self.problem.event_function_kinds.get(name, "grazing")
+        found = [Event(kind, pg, f"event function '{name}' vanishes; the branch has a kink "
+                       "here and goes on beyond it (the problem's local parametrisation)",
+                       data=data, bracket=0.0)]
+        if a.multipliers is not None and p1.multipliers is not None \
+                and a.n_unstable != p1.n_unstable:
+            found += _crossing_events("stability_change", pg, 0.0, a.n_unstable,
+                                      p1.n_unstable, np.array([]), None, "kink")[1:]
+        if self.progress is not None:
+            self.progress(2)
+        return pg, p1, found
+
+    def _step_length(self, pts: list[Point], h: float, res: float
+                     ) -> tuple[float, float | None] | None:
+        """``(h_step, edge)``: the step from ``pts[-1]`` shortened so that it never carries
+        the parameter past an edge of the window (it then ends on the edge, whose parameter
+        value is ``edge``) nor a test or event function far past a zero (:meth:`_test_cap`);
+        None when the point already lies on the edge its tangent points out of."""
+        st = self.settings
+        a = pts[-1]
+        h_step, edge = h, None
+        cap = self._window_cap(a)
+        if cap is not None:
+            dist, value = cap
+            if abs(value - a.y[self.ip]) <= STEP_RESOLUTION * (1.0 + abs(value)):
+                return None
+            if dist <= h_step:
+                h_step, edge = dist, value
+        tcap = max(self._test_cap(pts), st.step_min, 4 * res)
+        if tcap < h_step:
+            h_step, edge = tcap, None
+        return h_step, edge
+
+    def _predict_correct(self, a: Point, h_step: float, edge: float | None
+                         ) -> tuple[np.ndarray | None, np.ndarray, int, str]:
+        """Tangent predictor and Newton corrector of one step (at the edge's parameter when
+        the step ends on the window edge); ``(y, tangent, iterations, why)``, ``y`` None when
+        the step failed (``why``)."""
+        y_pred = a.y + h_step * a.tangent
+        if edge is None:
+            y_new, it, why = self.correct(y_pred, a.tangent, a.y, h_step)
+        else:
+            y_new, it, why = self._correct_on_edge(y_pred, edge, h_step)
+        t_new = a.tangent
+        if y_new is not None:
+            try:
+                t_new = self.tangent(y_new, a.tangent)
+            except np.linalg.LinAlgError:
+                y_new, why = None, "singular Jacobian"
+            except NUMERICAL_ERRORS as exc:
+                y_new, why = None, describe_error(exc)
+        return y_new, t_new, it, why
+
+    def _moves_multipliers_too_far(self, a: Point, y_new: np.ndarray, t_new: np.ndarray,
+                                   h_step: float, halvings: int
+                                   ) -> tuple[FloquetData | None, bool]:
+        """``(multipliers at the trial point, whether the step must be halved)``. Multipliers
+        near the unit circle must not move too far in one step (:func:`multiplier_motion`): a
+        collision and a narrow instability window (out and back in) could hide inside it.
+        Checked before the (costlier) admissibility tests of the new point, whose analysis
+        reuses the multipliers."""
+        st = self.settings
+        if a.multipliers is None or not h_step > 4 * st.step_min \
+                or halvings >= st.max_multiplier_halvings:
+            return None, False
+        pre = self._floquet(y_new, t_new)
+        too_far = pre is not None and multiplier_motion(
+            a.multipliers, np.asarray(pre.multipliers)) > st.max_multiplier_step
+        return pre, too_far
+
+    def _analyse_step(self, a: Point, pts: list[Point], y_new: np.ndarray, t_new: np.ndarray,
+                      s_new: float, it: int, pre: FloquetData | None, h_step: float
+                      ) -> tuple[Point, list[Event], tuple[Point, str] | None]:
+        """The new point analysed and the events of the step ``a -> b``: ``(b, events,
+        stop)``. An event that cannot be located on the arc of a long step raises
+        :class:`_RetryStep` (the step is retried shorter)."""
+        self._retry_allowed = h_step > 4 * self.settings.step_min
+        try:
+            b = self.analyse(y_new, t_new, s_new, it, known=pre)
+            new_events, stop = self._events_between(a, b, pts)
+        finally:
+            self._retry_allowed = False
+        return b, new_events, stop
 
     def _window_cap(self, a: Point) -> tuple[float, float] | None:
         """``(arclength along a's tangent to the window edge ahead, that edge's parameter)``,
@@ -439,10 +582,11 @@ class ContinuationEngine:
         return kind
 
     def _test_cap(self, pts: list[Point]) -> float:
-        """Longest step that moves no admissibility test function towards zero by more than
-        ``TEST_STEP_FACTOR`` times its value, predicted from the secant of the last step. A huge
-        step could otherwise jump over a zero pair (out of admissibility and back) or land on
-        another solution beyond a grazing point, with no sign change to see."""
+        """Longest step that moves no admissibility test function and no event function
+        towards zero by more than ``TEST_STEP_FACTOR`` times its value, predicted from the
+        secant of the last step. A huge step could otherwise jump over a zero pair (out of
+        admissibility and back; an event function's two zeros) or land on another solution
+        beyond a grazing point, with no sign change to see."""
         if len(pts) < 2:
             return np.inf
         a, prev = pts[-1], pts[-2]
@@ -450,13 +594,14 @@ class ContinuationEngine:
         cap = np.inf
         if not ds > 0:
             return cap
-        for name, fa in a.tests.items():
-            fp = prev.tests.get(name)
-            if fp is None or fa == 0 or not (np.isfinite(fa) and np.isfinite(fp)):
-                continue
-            slope = (fa - fp) / ds
-            if slope * fa < 0:
-                cap = min(cap, TEST_STEP_FACTOR * abs(fa / slope))
+        for now, before in ((a.tests, prev.tests), (a.event_values, prev.event_values)):
+            for name, fa in now.items():
+                fp = before.get(name)
+                if fp is None or fa == 0 or not (np.isfinite(fa) and np.isfinite(fp)):
+                    continue
+                slope = (fa - fp) / ds
+                if slope * fa < 0:
+                    cap = min(cap, TEST_STEP_FACTOR * abs(fa / slope))
         return cap
 
     def _asymptote(self, pts: list[Point]) -> Event | None:
@@ -578,12 +723,33 @@ class ContinuationEngine:
 
     def _events_between(self, a: Point, b: Point, history: list[Point]
                         ) -> tuple[list[Event], tuple[Point, str] | None]:
+        """Every event of the step ``a -> b`` (``history[-2]`` is the point before ``a``) and
+        the earliest stop, if any: bounds (:meth:`_bound_events`), admissibility tests
+        (:meth:`_admissibility_events`), event functions (:meth:`_event_function_events`),
+        bifurcations (:meth:`_bifurcation_events`) and the signature
+        (:meth:`_signature_events`)."""
+        found, stops = self._bound_events(a, b)
+        tests, test_stops = self._admissibility_events(a, b, history)
+        found += tests
+        stops += test_stops
+        found += self._event_function_events(a, b, history)
+        if self.settings.detect_bifurcations:
+            found += self._bifurcation_events(a, b)
+        found += self._signature_events(a, b)
+        found = _merge_coincident_grazing(found, self.settings.event_tol)
+        if stops:
+            stop = min(stops, key=lambda sp: sp[0].s)
+            return found, stop
+        return found, None
+
+    def _bound_events(self, a: Point, b: Point
+                      ) -> tuple[list[Event], list[tuple[Point, str]]]:
+        """Parameter bounds and bounds on derived quantities crossed by the step: an
+        ``endpoint`` (or the quantity's ``bound_kinds`` kind) and a stop at each."""
         st = self.settings
+        ip = self.ip
         found: list[Event] = []
         stops: list[tuple[Point, str]] = []
-        ip = self.ip
-
-        # 1. parameter bounds and bounds on derived quantities -> endpoint, stop
         bound_tests: list[tuple[str, Callable[[Point], float]]] = []
         if st.param_max is not None:
             bound_tests.append((f"{self.problem.parameter} = max",
@@ -624,36 +790,63 @@ class ContinuationEngine:
                 # started outside the bound and moving further out: stop here
                 found.append(Event("endpoint", b, f"outside bound and leaving: {label}"))
                 stops.append((b, f"bound: {label} (start outside, moving away)"))
+        return found, stops
 
-        # 2. admissibility test functions -> grazing (nonsmooth) events
+    def _sign_change_brackets(self, a: Point, b: Point, history: list[Point],
+                              value: Callable[[Point], float]
+                              ) -> tuple[list[tuple[float, float, float, float]],
+                                         tuple[float, Point | None] | None]:
+        """Brackets ``(lo, f(lo), hi, f(hi))`` (arclength from ``a``) of the zeros of a
+        continuous function ``value`` (NaN where undefined; finite at ``a`` and ``b``) on the
+        step: one for a sign change, two for a double zero hidden inside the step (the vertex
+        of the parabola through the last three values, :func:`interior_extremum`, where the
+        function has the other sign). When that vertex was evaluated without finding the other
+        sign, ``(vertex, point there)`` is returned as well."""
+        fa, fb = value(a), value(b)
+        if np.sign(fa) != np.sign(fb):
+            return [(0.0, fa, b.s - a.s, fb)], None
+        if len(history) < 2:
+            return [], None
+        prev = history[-2]
+        fp = value(prev)
+        if not np.isfinite(fp):
+            return [], None
+        sv = interior_extremum(np.array([prev.s, a.s, b.s]), np.array([fp, fa, fb]))
+        if sv is None:
+            return [], None
+        pm = self._point_at(a, b, sv - a.s)
+        fm = np.nan if pm is None else value(pm)
+        if np.isfinite(fm) and np.sign(fm) != np.sign(fa):
+            return [(0.0, fa, sv - a.s, fm), (sv - a.s, fm, b.s - a.s, fb)], None
+        return [], (sv, pm)
+
+    def _admissibility_events(self, a: Point, b: Point, history: list[Point]
+                              ) -> tuple[list[Event], list[tuple[Point, str]]]:
+        """Zeros of the admissibility test functions (``grazing`` or the test's kind; a stop
+        where admissibility is lost if ``stop_on_inadmissible``) and tests that cease to be,
+        or become, defined."""
+        st = self.settings
+        found: list[Event] = []
+        stops: list[tuple[Point, str]] = []
         for name in b.tests:
             if name not in a.tests:
                 continue
             fa, fb = a.tests[name], b.tests[name]
             if not (np.isfinite(fa) and np.isfinite(fb)):
                 continue
-            brackets: list[tuple[float, float, float, float]] = []
-            if np.sign(fa) != np.sign(fb):
-                brackets.append((0.0, fa, b.s - a.s, fb))
-            elif len(history) >= 2 and name in history[-2].tests:
-                prev = history[-2]
-                sv = interior_extremum(np.array([prev.s, a.s, b.s]),
-                                       np.array([prev.tests[name], fa, fb]))
-                if sv is not None:
-                    pm = self._point_at(a, b, sv - a.s)
-                    fm = np.nan if pm is None else pm.tests.get(name, np.nan)
-                    if np.isfinite(fm) and np.sign(fm) != np.sign(fa):
-                        brackets += [(0.0, fa, sv - a.s, fm), (sv - a.s, fm, b.s - a.s, fb)]
-                    elif pm is not None and name not in pm.tests:
-                        # the test is not even defined inside the dip (the sticking time of
-                        # an orbit that loses sticking and regains it within the step)
-                        found.append(self._locate_test_presence(a, b, name, 0.0,
-                                                                sv - a.s, False))
-                        found.append(self._locate_test_presence(a, b, name, sv - a.s,
-                                                                b.s - a.s, True))
+
+            def fun(p: Point, n: str = name) -> float:
+                return p.tests.get(n, np.nan)
+
+            brackets, dip = self._sign_change_brackets(a, b, history, fun)
+            if dip is not None and dip[1] is not None and name not in dip[1].tests:
+                # the test is not even defined inside the dip (the sticking time of an orbit
+                # that loses sticking and regains it within the step)
+                sv = dip[0]
+                found.append(self._locate_test_presence(a, b, name, 0.0, sv - a.s, False))
+                found.append(self._locate_test_presence(a, b, name, sv - a.s, b.s - a.s,
+                                                        True))
             for lo, flo, hi, fhi in brackets:
-                def fun(p: Point, n: str = name) -> float:
-                    return p.tests.get(n, np.nan)
                 p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
                 if not self._on_arc(a, b, p):
                     if self._retry_allowed:
@@ -672,44 +865,76 @@ class ContinuationEngine:
                 if leaving and st.stop_on_inadmissible:
                     stops.append((p, f"grazing: admissibility lost ('{name}')"))
 
-        # 2b. a test function defined at one end of the step only: the quantity it measures
-        # ceases to exist or appears (the sticking time of an orbit that loses its sticking
-        # phase: the transition to incomplete chattering). The change is an event of the test's
-        # kind, located by bisection on the test's presence.
+        # a test function defined at one end of the step only: the quantity it measures ceases
+        # to exist or appears (the sticking time of an orbit that loses its sticking phase:
+        # the transition to incomplete chattering). The change is an event of the test's kind,
+        # located by bisection on the test's presence.
         for name in [n for n in a.tests if n not in b.tests] + \
                 [n for n in b.tests if n not in a.tests]:
             found.append(self._locate_test_presence(a, b, name, 0.0, b.s - a.s,
                                                     name in a.tests))
+        return found, stops
 
-        if st.detect_bifurcations:
-            # 3. fold: the parameter component of the tangent changes sign
-            if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]):
-                p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip])
-                found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
-                                   "along the branch", data={"test": "tangent"}, bracket=w))
-            # 4. branch point: determinant of the bordered Jacobian changes sign
-            elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
-                p, w = self._locate_continuous(a, b, lambda q: q.bordered_det)
-                if self._on_arc(a, b, p):
-                    found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
-                                       "changes sign", data={"test": "bordered_determinant"},
-                                       bracket=w))
-                else:
+    def _event_function_events(self, a: Point, b: Point, history: list[Point]) -> list[Event]:
+        """Zeros of the problem's event functions (:meth:`Problem.event_functions`) on the
+        step, each located on the curve to ``event_tol`` (Illinois) and recorded with the kind
+        ``event_function_kinds[name]`` (default ``grazing``); they never stop the branch. A
+        function missing or not finite at either end raises nothing, nor does one that is
+        exactly zero at ``a`` (that zero was recorded by the step that reached it)."""
+        found: list[Event] = []
+        kinds = self.problem.event_function_kinds
+        for name, fb in b.event_values.items():
+            fa = a.event_values.get(name, np.nan)
+            if not (np.isfinite(fa) and np.isfinite(fb)) or fa == 0.0:
+                continue
+
+            def fun(p: Point, n: str = name) -> float:
+                return p.event_values.get(n, np.nan)
+
+            brackets, _ = self._sign_change_brackets(a, b, history, fun)
+            for lo, flo, hi, fhi in brackets:
+                p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
+                if not self._on_arc(a, b, p):
+                    if self._retry_allowed:
+                        raise _RetryStep(f"event function '{name}' changes sign but its zero "
+                                         "is not on the step's arc")
                     self.unlocated_events += 1
-            # 5. multipliers crossing the unit circle
-            if a.multipliers is not None and b.multipliers is not None \
-                    and a.n_unstable != b.n_unstable:
-                found.extend(self._locate_multiplier_crossings(a, b))
+                    continue
+                found.append(Event(kinds.get(name, "grazing"), p,
+                                   f"event function '{name}' vanishes ({flo:+.3g} -> "
+                                   f"{fhi:+.3g})",
+                                   data={"function": name, "value_before": float(flo),
+                                         "value_after": float(fhi)}, bracket=w))
+        return found
 
-        # 6. the problem's discrete signature (event sequence of a hybrid orbit) changes
+    def _bifurcation_events(self, a: Point, b: Point) -> list[Event]:
+        """Folds (the parameter component of the tangent changes sign), simple branch points
+        (``det[G_y; t^T]`` changes sign, tangents oriented continuously) and multipliers
+        crossing the unit circle."""
+        ip = self.ip
+        found: list[Event] = []
+        if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]):
+            p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip])
+            found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
+                               "along the branch", data={"test": "tangent"}, bracket=w))
+        elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
+            p, w = self._locate_continuous(a, b, lambda q: q.bordered_det)
+            if self._on_arc(a, b, p):
+                found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
+                                   "changes sign", data={"test": "bordered_determinant"},
+                                   bracket=w))
+            else:
+                self.unlocated_events += 1
+        if a.multipliers is not None and b.multipliers is not None \
+                and a.n_unstable != b.n_unstable:
+            found.extend(self._locate_multiplier_crossings(a, b))
+        return found
+
+    def _signature_events(self, a: Point, b: Point) -> list[Event]:
+        """A change of the problem's discrete signature (event sequence of a hybrid orbit)."""
         if a.signature is not None and b.signature is not None and a.signature != b.signature:
-            found.extend(self._locate_signature_change(a, b))
-
-        found = _merge_coincident_grazing(found, self.settings.event_tol)
-        if stops:
-            stop = min(stops, key=lambda sp: sp[0].s)
-            return found, stop
-        return found, None
+            return self._locate_signature_change(a, b)
+        return []
 
     def _locate_test_presence(self, a: Point, b: Point, name: str, lo: float, hi: float,
                               was: bool) -> Event:
@@ -759,59 +984,207 @@ class ContinuationEngine:
                       data={"signature_before": vl, "signature_after": vr}, bracket=width)]
 
     def _locate_multiplier_crossings(self, a: Point, b: Point) -> list[Event]:
-        """Locate where the number of multipliers outside the unit circle changes."""
+        """Locate where multipliers cross the unit circle between ``a`` and ``b``.
+
+        Detector: the number of multipliers outside ``|lambda| = 1 + tol`` (``tol`` the
+        point's ``circle_tol``), bisected to ``multiplier_event_tol`` in arclength. It finds
+        each change of the count, classifies it (``classify_crossing`` of
+        :mod:`~nsm_continuation.floquet`) and names the crossing multiplier ``lambda_c`` (the
+        newly outside one closest to the circle).
+
+        Location: on the true condition ``phi(sigma) = |lambda_c(sigma)| - 1 = 0``
+        (:meth:`_locate_on_modulus`): ``phi = -lambda_c - 1`` for a real multiplier through
+        -1, ``lambda_c - 1`` through +1, the modulus of the pair for a complex pair. The count
+        alone locates ``phi = tol``, off the crossing by ``tol / |phi'|``. Where ``phi`` has
+        no usable sign change (a conservative collision: ``phi = 0`` on the whole stable side;
+        with ``phi ~ c sqrt(sigma - sigma*)`` the count's threshold lies ``(tol / c)^2`` from
+        the collision, and the location is accurate to ``multiplier_event_tol``) the count's
+        location is kept. ``data['located_on']`` says which
+        (``'multiplier_modulus'`` or ``'count'``); ``data['modulus_minus_one']`` is
+        ``|lambda_c| - 1`` at the event point, ``data['critical_multiplier']`` is
+        ``lambda_c`` there.
+        """
         tol = self.settings.unit_circle_tol
+        h = b.s - a.s
+        #: every point analysed with multipliers on the arc, by arclength from ``a``
+        seen: dict[float, Point] = {0.0: a, h: b}
 
         def f(sig: float) -> tuple[int | None, Point | None]:
             p = self._point_at(a, b, sig, tests=False)
-            return (None, None) if p is None else (p.n_unstable, p)
+            if p is None:
+                return None, None
+            if p.multipliers is not None:
+                seen[sig] = p
+            return p.n_unstable, p
 
         events: list[Event] = []
         lo, vlo, plo = 0.0, a.n_unstable, a
-        h = b.s - a.s
         for _ in range(4):  # at most a few crossings in one step
             if vlo == b.n_unstable:
                 break
             sig, p, width, vl, vr = bisect_predicate(f, lo, vlo, h, b.n_unstable,
                                                      self.settings.multiplier_event_tol)
             right = b if p is None else p  # has multipliers (analysed without tests)
-            p = b if p is None else self.full(p)
-            left = self._point_at(a, b, max(sig - width, 0.0), tests=False) or plo
+            sig_left = max(sig - width, 0.0)
+            left = self._point_at(a, b, sig_left, tests=False) or plo
             if left.multipliers is None:
-                left = plo
+                left, sig_left = plo, lo
+            else:
+                seen[sig_left] = left
             kind, leaving = classify_crossing(left.multipliers, right.multipliers,
                                               max(tol, right.circle_tol, left.circle_tol))
-            if p.multipliers is None:  # the crossing point itself is a phantom: keep them
-                p.multipliers, p.n_unstable = right.multipliers, right.n_unstable
-            stable_before, stable_after = vl == 0, vr == 0
-            data = {"n_outside_before": int(vl), "n_outside_after": int(vr),
-                    "stable_before": stable_before, "stable_after": stable_after,
-                    "leaving_multipliers": [[float(z.real), float(z.imag)] for z in leaving]}
-            detail = {
-                "fold": "a multiplier pair crosses the unit circle at +1",
-                "period_doubling": "a multiplier crosses the unit circle at -1 (flip)",
-                "neimark_sacker": "a complex pair crosses the unit circle away from +-1 "
-                                  "(Krein collision in a conservative system)",
-                "stability_change": "multipliers cross the unit circle",
-            }[kind]
-            events.append(Event(kind, p, detail, data=dict(data), bracket=width))
-            if stable_before != stable_after:
-                events.append(Event("stability_change", p,
-                                    "stable -> unstable" if stable_before else
-                                    "unstable -> stable", data=dict(data), bracket=width))
-            lo, vlo, plo = p.s - a.s, vr, p
+            located = None
+            if leaving.size:
+                # the newly outside multiplier at the outside end of the count's bracket
+                lam_out = leaving[np.argmin(np.abs(leaving))]
+                out_sig, inward = (sig, -1.0) if vr > vl else (sig_left, 1.0)
+                located = self._locate_on_modulus(a, b, seen, out_sig, lam_out, inward)
+            if located is not None:
+                p, width, lam_c = located
+                located_on = "multiplier_modulus"
+            else:
+                p = self.full(right)
+                if p.multipliers is None:  # the crossing point itself is a phantom: keep them
+                    p.multipliers, p.n_unstable = right.multipliers, right.n_unstable
+                lam_c = (None if not leaving.size else
+                         _nearest(right.multipliers, leaving[np.argmin(np.abs(leaving))]))
+                located_on = "count"
+            events += _crossing_events(kind, p, width, int(vl), int(vr), leaving, lam_c,
+                                       located_on)
+            lo, vlo, plo = right.s - a.s, vr, right
         return events
+
+    def _locate_on_modulus(self, a: Point, b: Point, seen: dict[float, Point],
+                           out_sig: float, lam_out: complex, inward: float
+                           ) -> tuple[Point, float, complex] | None:
+        """Zero of ``phi(sigma) = |lambda_c(sigma)| - 1`` on the arc from ``a`` to ``b``:
+        ``(event point, bracket width, lambda_c there)``, or None where ``phi`` gives no
+        trustworthy location (then the count's location stands).
+
+        ``lambda_c`` is ``lam_out`` at ``out_sig`` (outside: ``phi > tol``) and is tracked by
+        continuity (nearest neighbour, step by step) through the points already analysed on
+        the side ``inward`` (``-1``: smaller arclength) to the nearest one where it lies
+        inside the circle beyond the noise of the eigenvalues (``phi < -circle_tol``). On that
+        bracket the Illinois iteration (:func:`~nsm_continuation.events.illinois`) locates
+        ``phi = 0`` to ``event_tol`` in arclength; at each trial point ``lambda_c`` is the
+        multiplier nearest to the linear interpolation of the tracked values on both sides.
+        The result is kept only if the iteration converged to within
+        ``multiplier_event_tol`` and ``|phi|`` there is below ``circle_tol`` or the change of
+        a continuous ``phi`` over the final bracket (not a jump of the tracked multiplier).
+        """
+        st = self.settings
+        track: dict[float, complex] = {out_sig: complex(lam_out)}
+        lam = complex(lam_out)
+        sig_in = None
+        for k in sorted((k for k in seen if (k - out_sig) * inward > 0),
+                        key=lambda k: abs(k - out_sig)):
+            m = np.asarray(seen[k].multipliers)
+            d = np.abs(m - lam)
+            order = np.argsort(d)
+            if m.size > 1 and d[order[1]] <= 2.0 * d[order[0]]:
+                return None  # ambiguous: two multipliers equally close to the tracked one
+            lam = complex(m[order[0]])
+            track[k] = lam
+            if abs(lam) - 1.0 < -seen[k].circle_tol:
+                sig_in = k
+                break
+        if sig_in is None:
+            return None  # phi never clearly negative: no sign change to locate
+
+        def phi(sig: float) -> tuple[float, tuple[Point, complex] | None]:
+            p = self._point_at(a, b, sig, tests=False)
+            if p is None or p.multipliers is None or p.multipliers.size == 0:
+                return float("nan"), None
+            ks = sorted(track)
+            i = int(np.searchsorted(ks, sig))
+            k0, k1 = ks[max(i - 1, 0)], ks[min(i, len(ks) - 1)]
+            w = 0.0 if k1 == k0 else (sig - k0) / (k1 - k0)
+            ref = (1.0 - w) * track[k0] + w * track[k1]
+            lam_c = _nearest(p.multipliers, ref)
+            track[sig] = lam_c
+            return abs(lam_c) - 1.0, (p, lam_c)
+
+        f_in = abs(track[sig_in]) - 1.0
+        f_out = abs(track[out_sig]) - 1.0
+        sig, payload, width = illinois(phi, sig_in, f_in, out_sig, f_out, st.event_tol)
+        if payload is None or width > st.multiplier_event_tol:
+            return None
+        p, lam_c = payload
+        # a tracked multiplier that jumped (another one picked up) leaves |phi| of the size of
+        # the jump at the final iterate; a continuous phi is there within its slope times the
+        # bracket (the secant slope over the initial bracket, with a wide margin)
+        slope = abs(f_out - f_in) / abs(out_sig - sig_in)
+        if abs(abs(lam_c) - 1.0) > max(p.circle_tol, 100.0 * slope * max(width, st.event_tol)):
+            return None
+        q = self.full(p)
+        if q.multipliers is None:  # a phantom: keep the multipliers computed without tests
+            q.multipliers, q.n_unstable, q.circle_tol = p.multipliers, p.n_unstable, p.circle_tol
+        return q, width, lam_c
+
+
+#: the ``detail`` of a multiplier crossing, by kind
+_CROSSING_DETAIL = {
+    "fold": "a multiplier pair crosses the unit circle at +1",
+    "period_doubling": "a multiplier crosses the unit circle at -1 (flip)",
+    "neimark_sacker": "a complex pair crosses the unit circle away from +-1 (Krein collision "
+                      "in a conservative system)",
+    "stability_change": "multipliers cross the unit circle",
+}
+
+
+def _crossing_events(kind: str, p: Point, width: float, n_before: int, n_after: int,
+                     leaving: np.ndarray, lam_c: complex | None, located_on: str
+                     ) -> list[Event]:
+    """The event of a multiplier crossing located at ``p`` (``n_before -> n_after``
+    multipliers outside the circle), and a ``stability_change`` there if stability changes."""
+    stable_before, stable_after = n_before == 0, n_after == 0
+    data = {"n_outside_before": n_before, "n_outside_after": n_after,
+            "stable_before": stable_before, "stable_after": stable_after,
+            "leaving_multipliers": [[float(z.real), float(z.imag)] for z in leaving],
+            "located_on": located_on,
+            "critical_multiplier": (None if lam_c is None
+                                    else [float(lam_c.real), float(lam_c.imag)]),
+            "modulus_minus_one": float("nan") if lam_c is None else float(abs(lam_c) - 1.0)}
+    events = [Event(kind, p, _CROSSING_DETAIL[kind], data=dict(data), bracket=width)]
+    if stable_before != stable_after:
+        events.append(Event("stability_change", p,
+                            "stable -> unstable" if stable_before else "unstable -> stable",
+                            data=dict(data), bracket=width))
+    return events
+
+
+def _with_tangent(p: Point, t: np.ndarray) -> Point:
+    """A copy of ``p`` with the tangent ``t`` (``+-p.tangent``) and its bordered determinant
+    ``det[G_y; t^T]``, which is linear in ``t`` (expansion along the last row): it changes
+    sign with the tangent. The branch-point test compares determinants of consecutive points
+    whose tangents are oriented continuously (``t_{k+1} . t_k > 0``); a reversed tangent with
+    the determinant of the other orientation is a spurious sign change."""
+    sign = 1.0 if float(t @ p.tangent) >= 0 else -1.0
+    return replace(p, tangent=np.asarray(t, dtype=float), bordered_det=p.bordered_det * sign)
+
+
+def _adapted_step(h: float, iterations: int, angle: float, st: ContinuationSettings) -> float:
+    """Next step length after an accepted step: few Newton iterations and a small turning
+    angle grow it (x 1.6, up to ``step_max``), many iterations or a large angle shrink it
+    (x 0.6, down to ``step_min``)."""
+    if iterations <= 3 and angle < 0.4 * st.max_angle:
+        return min(h * 1.6, st.step_max)
+    if iterations >= 6 or angle > 0.8 * st.max_angle:
+        return max(h * 0.6, st.step_min)
+    return h
 
 
 def _merge_coincident_grazing(events: list[Event], tol: float) -> list[Event]:
-    """Several admissibility tests vanishing at the same point are one grazing event (for the
-    impact oscillator: zero outgoing velocity and a critical point entering at t = 0+ together
-    make a linear grazing orbit). The merged event lists every test in ``data['tests']``."""
+    """Several admissibility tests (or event functions) vanishing at the same point are one
+    grazing event (for the impact oscillator: zero outgoing velocity and a critical point
+    entering at t = 0+ together make a linear grazing orbit). The merged event lists every test
+    and event function in ``data['tests']``."""
     graz = sorted((e for e in events if e.kind == "grazing"), key=lambda e: e.point.s)
     others = [e for e in events if e.kind != "grazing"]
     merged: list[Event] = []
     for ev in graz:
-        ev.data.setdefault("tests", [ev.data.get("test")])
+        name = ev.data.get("test", ev.data.get("function"))
+        ev.data.setdefault("tests", [] if name is None else [name])
         # 1e-7 in arclength: a test that jumps at a switching point (a critical point entering
         # the period at t = 0+) is located only to the round-off of the value it jumps to
         if merged and abs(ev.point.s - merged[-1].point.s) <= max(
@@ -824,18 +1197,39 @@ def _merge_coincident_grazing(events: list[Event], tol: float) -> list[Event]:
     return others + merged
 
 
+def _nearest(multipliers: np.ndarray, ref: complex) -> complex:
+    """The multiplier nearest to ``ref``."""
+    m = np.asarray(multipliers)
+    return complex(m[int(np.argmin(np.abs(m - ref)))])
+
+
 def multiplier_motion(a: np.ndarray, b: np.ndarray, lo: float = 0.5, hi: float = 2.0) -> float:
-    """Hausdorff distance between the multipliers of two points, restricted to the annulus
-    ``lo < |lambda| < hi`` around the unit circle.
+    """How far the multipliers near the unit circle move between two points: the largest
+    distance from a multiplier of either point lying in the annulus ``lo < |lambda| < hi`` to
+    the nearest multiplier of the other point, over the *whole* other set,
+
+    ``max( max_{alpha in A, lo<|alpha|<hi} min_{beta in B} |alpha - beta|,
+    max_{beta in B, lo<|beta|<hi} min_{alpha in A} |alpha - beta| )``.
 
     Instability windows of conservative systems open and close where two multipliers collide on
     the unit circle; if a step moves multipliers by more than the width of such a window, the
     window (out and back in) hides inside the step with the same count at both ends. Bounding
-    this motion per step keeps the count test honest.
+    this motion per step keeps the count test honest. Only the multipliers in the annulus are
+    watched, but each is matched against the full other set, so a multiplier entering or
+    leaving the annulus (``|lambda|`` through 0.5 or 2) moves by its true displacement, not by
+    the distance to another multiplier (the Hausdorff distance of the two restricted sets
+    jumped there and collapsed the step for tens of points).
     """
-    a = a[(np.abs(a) > lo) & (np.abs(a) < hi)]
-    b = b[(np.abs(b) > lo) & (np.abs(b) < hi)]
+    a = np.asarray(a)
+    b = np.asarray(b)
     if a.size == 0 or b.size == 0:
         return 0.0
     d = np.abs(a[:, None] - b[None, :])
-    return float(max(d.min(axis=1).max(), d.min(axis=0).max()))
+    in_a = (np.abs(a) > lo) & (np.abs(a) < hi)
+    in_b = (np.abs(b) > lo) & (np.abs(b) < hi)
+    motion = 0.0
+    if in_a.any():
+        motion = max(motion, float(d[in_a].min(axis=1).max()))
+    if in_b.any():
+        motion = max(motion, float(d[:, in_b].min(axis=0).max()))
+    return motion

@@ -1,7 +1,10 @@
-"""Figures of a run: the branch diagram (for the chain and the bar the frequency-energy plot),
-multipliers along the branch, multipliers in the plane. Axes, labels, title and scale come from
-the problem's declared presentation members (``fep_axes``, ``fep_labels``, ``diagram_title``,
-``diagram_yscale``, :meth:`~nsm_continuation.protocol.Problem.plot_decorations`,
+"""Figures of a run: the branch diagram (for the chain and the bar the frequency-energy plot, for
+forced impacting systems the frequency-response curve, for autonomous ones a bifurcation
+diagram), multipliers along the branch, multipliers in the plane, and panels of quantities
+along the branches (:func:`quantity_panels`, used by problems' extra figures). Axes, labels,
+title and scale come from the problem's declared presentation members (``fep_axes``,
+``fep_labels``, ``diagram_title``, ``diagram_yscale``,
+:meth:`~nsm_continuation.protocol.Problem.plot_decorations`,
 :meth:`~nsm_continuation.protocol.Problem.legend_handles`).
 
 Conventions (as in Legrand et al. 2017, Fig. 3.2, 6.1, 6.2): admissible orbits thick, phantom
@@ -98,6 +101,10 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
                 m, c = MARKERS[ev.kind]
                 ax.plot(quantity(pr, ev.point, xk), ye, m, color=c,
                         ms=6, mec="k", mew=0.5, zorder=5)
+    if not xs and any(br.points for br in res.branches):
+        # e.g. a response quantity the simulation did not provide: say so, not a blank plot
+        ax.text(0.5, 0.5, f"no finite values of {yk} on the branches", transform=ax.transAxes,
+                ha="center", va="center", color="0.4")
     x_range = (min(xs) if xs else 0.0, max(xs) if xs else 1.0)
     if xs and log:
         ax.set_yscale("log")
@@ -122,6 +129,36 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     ax.grid(alpha=0.25, which="both")
     fig.tight_layout()
     return fig
+
+
+def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
+                    panels: list[tuple[list[str], str]], title: str, path: Path) -> None:
+    """One panel per ``(keys, ylabel)`` of ``panels``: each quantity of ``keys`` against the
+    continued parameter along every branch, styled as the branch diagram (admissible stable
+    black, unstable red, phantom thin grey; the second and later keys of a panel dashed), saved
+    to ``path``. Quantities missing at a point are NaN: a gap, never an error."""
+    xk = problem.parameter
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.3 * len(panels) + 0.8), sharex=True,
+                             squeeze=False)
+    for ax, (keys, ylabel) in zip(axes[:, 0], panels, strict=True):
+        for j, yk in enumerate(keys):
+            ls = "-" if j == 0 else (0, (4, 1.5))
+            for br in branches:
+                for (adm, stable), x, y in _segments(problem, br, xk, yk):
+                    if not adm:
+                        ax.plot(x, y, color="0.6", lw=0.8, ls=ls)
+                    else:
+                        ax.plot(x, y, color="tab:red" if stable is False else "k", lw=1.8,
+                                ls=ls)
+        ax.set_ylabel(ylabel if len(keys) == 1 else f"{ylabel}\n(" + ", ".join(
+            f"{k} {'solid' if j == 0 else 'dashed'}" for j, k in enumerate(keys)) + ")",
+                      fontsize=8)
+        ax.grid(alpha=0.25)
+    axes[-1, 0].set_xlabel(xlabel)
+    axes[0, 0].set_title(f"{title}: black stable, red unstable, grey phantom", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
 
 
 def _unstable_spans(problem: Problem, br: Branch, xk: str) -> list[tuple[float, float]]:

@@ -31,7 +31,9 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      admissible, a sign change raises the event kind ``test_kinds[name]``, default ``grazing``),
      derived quantities (:meth:`derived`, bounded by ``continuation.bounds``; a bound ends the
      branch with the event kind ``bound_kinds[name]``, default ``endpoint``), discrete
-     signatures (:meth:`signature`, a change raises ``signature_kind``), and ``event_kinds``:
+     signatures (:meth:`signature`, a change raises ``signature_kind``), event functions
+     (:meth:`event_functions`, continuous; a zero raises ``event_function_kinds[name]``,
+     default ``grazing``, and the branch goes on), and ``event_kinds``:
      the kinds the problem family adds to the core ones
      (:data:`nsm_continuation.records.CORE_EVENT_KINDS`), each with its one-line meaning for
      ``report.md``;
@@ -158,7 +160,8 @@ class Problem(ABC):
         super().__init_subclass__(**kwargs)
         register_event_kinds(cls.event_kinds, cls.__qualname__)
         known = {**CORE_EVENT_KINDS, **cls.event_kinds}
-        declared = [*cls.test_kinds.values(), *cls.bound_kinds.values()]
+        declared = [*cls.test_kinds.values(), *cls.bound_kinds.values(),
+                    *cls.event_function_kinds.values()]
         if cls.signature_kind is not None:
             declared.append(cls.signature_kind)
         for kind in declared:
@@ -247,6 +250,13 @@ class Problem(ABC):
                              f"problem continues in {self.parameter!r}")
         return lo, hi
 
+    def parameter_orientation(self, name: str) -> int:
+        """+1 if the internal parameter ``self.parameter`` grows with the continued parameter
+        ``name`` (YAML ``continuation.parameter``), -1 if it falls (the chain continued in
+        ``omega`` has the period ``T = 2 pi / omega`` inside): the runner turns a
+        ``direction`` meant along ``name`` into one along the internal parameter."""
+        return 1
+
     # == monitors ==============================================================================
     #: event kinds this problem family raises besides the core ones
     #: (:data:`~nsm_continuation.records.CORE_EVENT_KINDS`): kind -> one-line meaning, written
@@ -264,11 +274,42 @@ class Problem(ABC):
     #: event kind raised where the discrete :meth:`signature` changes (None: the problem has no
     #: signature and :meth:`signature` is never called)
     signature_kind: ClassVar[str | None] = None
+    #: event function name -> event kind raised at its zeros (functions not listed raise
+    #: ``grazing``); see :meth:`event_functions`
+    event_function_kinds: ClassVar[dict[str, str]] = {}
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
         """Named continuous test functions, ``>= 0`` where ``y`` is admissible (physically
         realisable); a sign change is located and raises ``test_kinds[name]``."""
         return {}
+
+    def event_functions(self, y: np.ndarray) -> dict[str, float]:
+        """Named continuous scalar functions of the point ``y`` whose zeros are events that do
+        **not** end the branch (e.g. the grazing margin of a near approach of a hybrid orbit).
+
+        Unlike :meth:`admissibility` the sign carries no meaning of admissibility. Where a
+        function changes sign between two accepted points (both values finite) the engine
+        locates the zero on the curve (Illinois, to ``event_tol`` in arclength) and records an
+        event of kind ``event_function_kinds[name]`` (default ``grazing``) with ``data``
+        ``{'function', 'value_before', 'value_after'}``; a value missing or NaN at either end
+        raises nothing. Steps are capped so that a function is not carried far past a zero
+        (as admissibility tests are). Evaluated at every analysed point; default: none."""
+        return {}
+
+    def continue_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray, value: float,
+                        ds: float, tol: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the branch has a kink at a zero of the event function ``name`` (the residual
+        is continuous but not differentiable there, e.g. a grazing of a hybrid orbit, whose
+        return map has a square-root singularity), ``(y_zero, y_beyond)``: the zero itself and
+        a first point of the branch beyond it at arclength about ``ds``, computed with the
+        problem's own local parametrisation, each converged to ``tol``.
+
+        ``y`` is a point of the branch next to the zero (the located zero, or the last accepted
+        point when the engine could not step across), ``tangent`` the direction of travel
+        there and ``value`` the function's value on the side the branch comes from. The engine
+        records the event at ``y_zero`` and goes on from ``y_beyond``. None (the default): the
+        branch is smooth through the zero, or the problem cannot resolve it there."""
+        return None
 
     def derived(self, y: np.ndarray) -> dict[str, float]:
         """Named derived quantities (period, frequency, energy, ...) written with each point."""

@@ -85,6 +85,9 @@ class Point:
     circle_tol: float = 0.0
     #: the problem's discrete signature (e.g. the event sequence of a hybrid orbit), if any
     signature: str | None = None
+    #: values of the problem's event functions (``Problem.event_functions``): a zero between
+    #: two points is located and raises an event, but never ends the branch
+    event_values: dict[str, float] = field(default_factory=dict)
 
     @property
     def admissible(self) -> bool:

@@ -1,8 +1,23 @@
-"""``report.md``: the human bifurcation report of a run (built from ``report.json``)."""
+"""``report.md``: the human bifurcation report of a run (built from ``report.json``).
+
+**Before -> after in increasing parameter.** An event records what changes across it
+(``stable_before`` / ``stable_after``, ``n_outside_*``, ``signature_*``, ``admissible_*``,
+``defined_*``, ``value_*``) in the direction the branch was continued, so on a branch continued
+towards decreasing parameter both stability changes of one orbit would read "yes -> no".
+``report.md`` reads every change in the direction of **increasing continued parameter**: the
+event record's ``parameter_direction`` (the sign of the parameter component of the branch's
+tangent at the event, :func:`parameter_direction`, written by :func:`annotate_parameter_directions`;
+``report.json`` keeps the continuation order) swaps the pairs and the change named in the
+detail text where it is -1. Where the parameter does not move at the event (0: a fold) the
+change stays in the continuation order, marked "as continued".
+"""
 
 from __future__ import annotations
 
+import re
 from typing import Any
+
+import numpy as np
 
 from .records import CORE_EVENT_KINDS
 
@@ -19,6 +34,107 @@ def _fmt(x: Any, nd: int = 6) -> str:
     if isinstance(x, float):
         return f"{x:.{nd}g}"
     return str(x)
+
+
+#: event data recorded as ``<name>_before`` / ``<name>_after`` (continuation order), in the
+#: order the ``change`` column of ``report.md`` looks for them
+PAIRED = ("stable", "n_outside", "signature", "admissible", "defined", "value")
+
+#: a tangent parameter component below this (relative to the tangent's norm) is a fold: the
+#: parameter does not move at the event, and no parameter order exists there
+FOLD_TOL = 1e-9
+
+
+def parameter_direction(point: Any, parameter_index: int, branch: Any = None) -> int:
+    """+1 / -1 if the continuation moved towards increasing / decreasing parameter at ``point``
+    (a :class:`~nsm_continuation.records.Point`), 0 at a fold or where it cannot be told.
+
+    The sign of ``point.tangent[parameter_index]`` (the unit tangent points in the direction of
+    continuation on both halves of a branch). Without a tangent (all zero, e.g. the lattice
+    engine): from the neighbouring points of ``branch`` in arclength, ``sign(dp/ds)`` times the
+    direction of ``s`` on the half the point lies on (``s < 0``: the half continued backwards,
+    whose arclength was negated when the halves were merged)."""
+    t = np.asarray(point.tangent, dtype=float).ravel()
+    norm = float(np.linalg.norm(t)) if t.size else 0.0
+    if np.isfinite(norm) and norm > 0 and parameter_index < t.size:
+        tp = float(t[parameter_index])
+        return int(np.sign(tp)) if abs(tp) > FOLD_TOL * norm else 0
+    if branch is None:
+        return 0
+    pts = sorted(branch.points, key=lambda q: q.s)
+    s = float(point.s)
+    below = [q for q in pts if q.s < s]
+    above = [q for q in pts if q.s > s]
+    lo = below[-1] if below else point
+    hi = above[0] if above else point
+    if hi.s <= lo.s:
+        return 0
+    dp = float(hi.y[parameter_index] - lo.y[parameter_index])
+    return int(np.sign(dp)) * (-1 if s < 0 else 1)
+
+
+def annotate_parameter_directions(rep: dict[str, Any], branches: list[Any],
+                                  parameter_index: int) -> None:
+    """Write ``parameter_direction`` into every event record of ``rep`` (``report.json``'s
+    ``branches[i].events[j]``, built from ``branches[i].events[j]`` in the same order)."""
+    for b, br in zip(rep["branches"], branches, strict=True):
+        for e, ev in zip(b["events"], br.events, strict=True):
+            e["parameter_direction"] = parameter_direction(ev.point, parameter_index, br)
+
+
+_SWAPPED_PHRASES = [("becomes negative: admissibility lost",
+                     "becomes positive: admissibility regained"),
+                    ("ceases to be defined", "becomes defined")]
+
+
+def reversed_detail(detail: str) -> str:
+    """An event's detail text read the other way: ``A -> B`` becomes ``B -> A`` and the paired
+    phrases of the engine (admissibility lost / regained, ceases to be / becomes defined) are
+    exchanged; anything else is kept."""
+    out = re.sub(r"(\S+) -> (\S+)", lambda m: f"{m.group(2)} -> {m.group(1)}", detail, count=1)
+    for a, b in _SWAPPED_PHRASES:
+        if a in out:
+            return out.replace(a, b)
+        if b in out:
+            return out.replace(b, a)
+    return out
+
+
+def in_parameter_order(e: dict[str, Any]) -> dict[str, Any]:
+    """The event record ``e`` with its before/after pairs and its detail in the direction of
+    increasing parameter (swapped where ``parameter_direction`` is -1; unchanged otherwise)."""
+    if e.get("parameter_direction") != -1:
+        return e
+    out = dict(e)
+    for k in PAIRED:
+        if f"{k}_before" in e or f"{k}_after" in e:
+            out[f"{k}_before"], out[f"{k}_after"] = e.get(f"{k}_after"), e.get(f"{k}_before")
+    out["detail"] = reversed_detail(str(e.get("detail", "")))
+    return out
+
+
+def change_text(e: dict[str, Any]) -> str:
+    """The ``change`` cell of an event (already in parameter order): the first pair of
+    :data:`PAIRED` it has, e.g. ``stable: yes -> no (0 -> 2 outside)``."""
+    for k in PAIRED:
+        if k == "n_outside" or (f"{k}_before" not in e and f"{k}_after" not in e):
+            continue
+        text = f"{k}: {_fmt(e.get(f'{k}_before'))} -> {_fmt(e.get(f'{k}_after'))}"
+        if k == "stable" and "n_outside_before" in e:
+            text += (f" ({_fmt(e.get('n_outside_before'))} -> "
+                     f"{_fmt(e.get('n_outside_after'))} outside)")
+        if e.get("parameter_direction") == 0:
+            text += " (as continued: fold)"
+        return text
+    return ""
+
+
+def _table(rows: list[dict[str, Any]]) -> list[str]:
+    """A markdown table of records, with the union of their keys as columns (first seen
+    first)."""
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    return (["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+            + ["| " + " | ".join(_fmt(r.get(c), 12) for c in keys) + " |" for r in rows])
 
 
 def markdown(rep: dict[str, Any]) -> str:
@@ -53,23 +169,35 @@ def markdown(rep: dict[str, Any]) -> str:
         lines.append(f"| {b['id']} | {b['label']} | {b['n_points']} | {b['admissible_points']}"
                      f" | {rng} | {b['termination']} |")
     cols = list(rep.get("event_columns") or [])
+    par = rep["continuation"]["parameter"]
+    shown = [(b["id"], e) for b in rep["branches"] for e in b["events"]
+             if e["kind"] != "endpoint"]
+    kinds = {e["kind"] for _, e in shown}
+    # oriented: every event knows the direction of the parameter (report.json written with
+    # annotate_parameter_directions); otherwise the changes stay in the continuation order
+    oriented = all("parameter_direction" in e for _, e in shown)
     lines += ["", "## Events", "",
               "| branch | kind | " + " | ".join(cols) + " | max abs multiplier | "
-              "stable before -> after | detail |",
+              + (f"change (increasing {par})" if oriented else "change (as continued)")
+              + " | detail |",
               "|---|---|" + "---|" * len(cols) + "---|---|---|"]
-    kinds = set()
-    for b in rep["branches"]:
-        for e in b["events"]:
-            if e["kind"] == "endpoint":
-                continue
-            kinds.add(e["kind"])
-            mults = e.get("multipliers") or []
-            mam = max((abs(complex(*m)) for m in mults), default=None)
-            sb = e.get("stable_before")
-            stab = f"{_fmt(sb)} -> {_fmt(e.get('stable_after'))}" if sb is not None else ""
-            vals = " | ".join(_fmt(e.get(c), 12) for c in cols)
-            lines.append(f"| {b['id']} | {e['kind']} | {vals} | {_fmt(mam)} | "
-                         f"{stab} | {e['detail']} |")
+    for bid, e in shown:
+        e = in_parameter_order(e)
+        mults = e.get("multipliers") or []
+        mam = max((abs(complex(*m)) for m in mults), default=None)
+        vals = " | ".join(_fmt(e.get(c), 12) for c in cols)
+        lines.append(f"| {bid} | {e['kind']} | {vals} | {_fmt(mam)} | "
+                     f"{change_text(e)} | {e['detail']} |")
+    if shown and oriented:
+        lines += ["", f"Every change (before -> after, in the change column and in the detail) "
+                  f"reads in the direction of increasing `{par}`, whichever way the branch was "
+                  f"continued: on a part of a branch continued towards decreasing `{par}` the "
+                  "recorded order is swapped (`report.json` keeps the continuation order, with "
+                  "`parameter_direction` -1). At a fold the parameter does not move: the change "
+                  "is then in the continuation order, marked \"as continued\"."]
+    elif shown:
+        lines += ["", "Every change (before -> after) reads in the direction the branch was "
+                  "continued."]
     lines += ["", "### What the events mean", ""]
     meaning = {**MEANING, **(rep.get("event_kinds") or {})}
     lines += [f"- **{k}**: {meaning.get(k, '(meaning not declared)')}"
@@ -78,12 +206,8 @@ def markdown(rep: dict[str, Any]) -> str:
     if extras:
         lines += ["", "## Problem-specific results", ""]
         for k, v in extras.items():
-            if isinstance(v, list) and v and isinstance(v[0], dict):
-                keys = list(v[0])
-                lines += [f"### {k}", "", "| " + " | ".join(keys) + " |",
-                          "|" + "---|" * len(keys)]
-                lines += ["| " + " | ".join(_fmt(r.get(c), 12) for c in keys) + " |" for r in v]
-                lines.append("")
+            if isinstance(v, list) and v and all(isinstance(r, dict) for r in v):
+                lines += [f"### {k}", "", *_table(v), ""]
             else:
                 lines.append(f"- **{k}**: {v}")
     if rep.get("figures"):

@@ -137,7 +137,7 @@ def build_report(res: RunResult) -> dict[str, Any]:
         if err is not None and err > 1e-6:
             warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
                             " multipliers near the unit circle are not reliable there")
-    return {
+    rep = {
         "case": {"name": res.case.name, "description": res.case.description,
                  "input": res.case.model_dump(mode="json")},
         "problem": pr.name,
@@ -155,6 +155,10 @@ def build_report(res: RunResult) -> dict[str, Any]:
         "branches": branches,
         "problem_results": pr.report_extras(res.branches),
     }
+    from .report import annotate_parameter_directions
+
+    annotate_parameter_directions(rep, res.branches, pr.parameter_index)
+    return rep
 
 
 def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:

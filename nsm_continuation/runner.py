@@ -42,7 +42,9 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
         multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
         stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
         stability_on_phantom=a.stability_on_phantom, stability=a.stability,
-        direction={"both": 0, "increase": 1, "decrease": -1}[c.direction],
+        # meant along continuation.parameter: along the internal parameter it may be reversed
+        direction=({"both": 0, "increase": 1, "decrease": -1}[c.direction]
+                   * problem.parameter_orientation(c.parameter)),
     )
     return settings, (lo, hi)
 

@@ -22,7 +22,11 @@ class ContinuationSettings:
     param_max: float | None = None
     #: bounds on derived quantities, e.g. {"energy": (None, 1e3)}
     derived_bounds: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
+    #: a multiplier counts as outside the unit circle where ``|lambda| > 1 + unit_circle_tol``
+    #: (the detector of crossings; their location does not depend on it)
     unit_circle_tol: float = 1e-7
+    #: location tolerance (arclength) of zeros of continuous test functions: admissibility
+    #: tests, event functions, folds, branch points, ``|lambda_c| - 1`` of multiplier crossings
     event_tol: float = 1e-12
     stop_on_inadmissible: bool = False
     detect_bifurcations: bool = True
@@ -30,7 +34,10 @@ class ContinuationSettings:
     #: false``): the problem's ``floquet`` is never called and points carry no multipliers
     stability: bool = True
     stability_on_phantom: bool = False
-    #: location tolerance (arclength) for multiplier crossings, found by bisection
+    #: bracket (arclength) of the bisection on the number of multipliers outside
+    #: ``|lambda| = 1 + unit_circle_tol`` that detects a crossing; the crossing is then located
+    #: on ``|lambda_c| = 1`` to ``event_tol`` (the count's location, this accurate, is kept
+    #: where ``|lambda_c| - 1`` has no usable sign change: a conservative collision)
     multiplier_event_tol: float = 1e-9
     #: largest move of a multiplier near the unit circle in one step (see multiplier_motion)
     max_multiplier_step: float = 0.02

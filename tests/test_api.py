@@ -13,7 +13,7 @@ from nsm_continuation import cli
 SMALL = {
     "name": "api",
     "problem": "ndof_impact",
-    "parameters": {"chain": {"n": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+    "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
     "start": {"mode": 1},
     "continuation": {"parameter": "omega", "min": 0.3, "max": 0.9, "max_points": 40},
     "output": {"plots": False, "progress": False},

@@ -36,7 +36,7 @@ def test_wrap_and_period_helpers() -> None:
 def test_period1_attractor_matches_shooting_orbit() -> None:
     """e = 0.89, d = 0.5, T = -31.15, from the default initial state: the attractor is the
     period-1 orbit with complete chattering found by Newton on the shooting residual."""
-    [(e, q2)] = brute_force("e", [0.89], {"d": 0.5, "torque": -31.15},
+    [(e, q2)] = brute_force("restitution", [0.89], {"d": 0.5, "torque": -31.15},
                             transient_returns=12, recorded_returns=4)
     assert e == 0.89
     assert q2.shape == (4,)
@@ -47,7 +47,7 @@ def test_period1_attractor_matches_shooting_orbit() -> None:
 def test_period2_attractor_at_d_05009() -> None:
     """e = 0.19, T = -40, d = 0.5009 (Fig. 9(a)): a period-2 orbit, two sticking intervals per
     two revolutions."""
-    [pt] = sweep("d", [0.5009], {"e": 0.19, "torque": -40.0}, transient_returns=80,
+    [pt] = sweep("d", [0.5009], {"restitution": 0.19, "torque": -40.0}, transient_returns=80,
                  recorded_returns=8)
     assert pt.q2.size == 8
     assert pt.n_distinct(1e-6) == 2
@@ -60,7 +60,7 @@ def test_failure_is_recorded_and_restarted() -> None:
     """Past the homoclinic torque (sec. 6.3) the pendulum comes to rest on the wall: no return
     to the section. The reason is recorded, the value restarted from the default state (which
     also comes to rest), the q2 array is empty, and the sweep goes on."""
-    pts = sweep("torque", [-31.001, -31.3], {"e": 0.9, "d": 0.5}, transient_returns=3,
+    pts = sweep("torque", [-31.001, -31.3], {"restitution": 0.9, "d": 0.5}, transient_returns=3,
                 recorded_returns=2, max_time=100.0)
     assert not pts[0].ok and pts[0].q2.size == 0
     assert pts[0].failures and "no return to the section" in pts[0].failures[0]

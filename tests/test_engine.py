@@ -128,9 +128,11 @@ def test_multiplier_crossings_classified_and_located(mult, kind, p_star):
     ev = [e for e in br.events if e.kind == kind]
     sc = [e for e in br.events if e.kind == "stability_change"]
     assert len(ev) == 1 and len(sc) == 1
-    tol = ContinuationSettings().unit_circle_tol
-    # the crossing is where |lambda| = 1 + tol, i.e. p = p_star + tol (to the bisection tol)
-    assert abs(ev[0].point.y[1] - (p_star + tol)) < 1e-8
+    # detected by the count outside |lambda| = 1 + tol (which sits at p_star + tol), located
+    # on |lambda_c| = 1: at p_star itself
+    assert ev[0].data["located_on"] == "multiplier_modulus"
+    assert abs(ev[0].point.y[1] - p_star) < 1e-10
+    assert abs(ev[0].data["modulus_minus_one"]) < 1e-10
     assert sc[0].data["stable_before"] is True and sc[0].data["stable_after"] is False
 
 

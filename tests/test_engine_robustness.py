@@ -265,7 +265,7 @@ def test_huge_steps_on_the_paper_chain_stop_at_the_nonlinear_grazing_point():
     and every point lies in the window."""
     from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
-    pb = NDofImpactProblem({"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
+    pb = NDofImpactProblem({"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
     lo, hi = pb.parameter_bounds("omega", 1.0, 2.0)
     (start,) = pb.start_points({"mode": 1, "subharmonic": 1}, (lo, hi))
     ends = []

@@ -64,6 +64,8 @@ BASE_SOURCES: dict[str, tuple[str, dict[str, Any]]] = {
     "wfem_bar": ("wfem_fig5_6_backbones_gap_positive.yaml",
                  {"parameters": {"cells": 40}, "start": [{"branch": "main", "mode": 1}]}),
     "bar_continuum": ("bar_continuum_main.yaml", {}),
+    "wfem_forced_bar": ("wfem_fig20_force_positive_gap.yaml",
+                        {"parameters": {"cells": 20, "damping_ratio": 0.1}}),
     "bouncing_ball": ("ball_fig1_fig4_chatter.yaml", {}),
     "impact_oscillator": ("impact_oscillator_fig2_sticking.yaml", {"start": {"transient": 5}}),
     "two_mass_chain": ("chain_two_mass_wall.yaml", {"start": {"transient": 10}}),
@@ -75,7 +77,8 @@ BASE_SOURCES: dict[str, tuple[str, dict[str, Any]]] = {
 SCHEMA_RUN = {"ndof_impact", "wfem_bar", "bar_continuum"}
 #: hypothesis examples per problem for the mutation fuzz (validate + run)
 MUTATION_EXAMPLES = {"ndof_impact": 60, "wfem_bar": 50, "bar_continuum": 50, "bouncing_ball": 30,
-                     "impact_oscillator": 25, "two_mass_chain": 25, "double_pendulum": 20}
+                     "impact_oscillator": 25, "two_mass_chain": 25, "double_pendulum": 20,
+                     "wfem_forced_bar": 15}
 SCHEMA_EXAMPLES = {"ndof_impact": 30, "wfem_bar": 30, "bar_continuum": 30}
 SCHEMA_EXAMPLES_VALIDATE_ONLY = 15
 #: parameters that set the size of a problem: kept from the base when a schema-generated
@@ -801,8 +804,8 @@ def test_duplicate_keys(where: str, tmp_path: Path, capsys: Any) -> None:
 
 
 WRONG_TYPES = [
-    ("ndof_impact", ("parameters", "chain", "n"), True),
-    ("ndof_impact", ("parameters", "chain", "n"), "3"),
+    ("ndof_impact", ("parameters", "chain", "dofs"), True),
+    ("ndof_impact", ("parameters", "chain", "dofs"), "3"),
     ("ndof_impact", ("parameters", "gap"), True),
     ("ndof_impact", ("parameters", "chain", "mass"), "0.2"),
     ("ndof_impact", ("start", "mode"), True),
@@ -817,7 +820,7 @@ WRONG_TYPES = [
     ("bouncing_ball", ("parameters", "chatter_order"), True),
     ("impact_oscillator", ("parameters", "omega"), "0.4"),
     ("impact_oscillator", ("start", "transient"), True),
-    ("two_mass_chain", ("parameters", "e"), True),
+    ("two_mass_chain", ("parameters", "restitution"), True),
     ("double_pendulum", ("start", "guess", "q2"), True),
     ("double_pendulum", ("parameters", "torque"), "-31.15"),
 ]
@@ -1052,10 +1055,10 @@ def test_process_alias_bomb_refused_fast(tmp_path: Path) -> None:
 
 def test_process_huge_chain_no_traceback(tmp_path: Path) -> None:
     """A 10^12-dof chain: refused as bad input (not a MemoryError)."""
-    path = write_case(tmp_path, apply(GOOD, ("replace", ("parameters", "chain", "n"), 10**12)))
+    path = write_case(tmp_path, apply(GOOD, ("replace", ("parameters", "chain", "dofs"), 10**12)))
     c = run_process(["validate", path], tmp_path)
     assert_sane(c, (2,))
-    assert "parameters.chain.n" in assert_one_error_line(c)
+    assert "parameters.chain.dofs" in assert_one_error_line(c)
 
 
 def test_process_good_run_and_unwritable_out(tmp_path: Path) -> None:

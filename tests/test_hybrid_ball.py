@@ -251,8 +251,8 @@ Y61 = np.array([-1.14038278, -3.66533148, 0.23345446, 0.89])
 def pendulum():
     from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
-    pb = DoublePendulumProblem({"e": 0.89, "d": 0.5, "torque": -31.15})
-    pb.set_parameter("e")
+    pb = DoublePendulumProblem({"restitution": 0.89, "d": 0.5, "torque": -31.15})
+    pb.set_parameter("restitution")
     return pb
 
 

@@ -25,7 +25,7 @@ from nsm_continuation.palc import ContinuationEngine
 from nsm_continuation.records import Branch
 from nsm_continuation.settings import ContinuationSettings
 
-PAPER_CHAIN = {"n": 5, "mass": 0.2, "stiffness": 5.0}
+PAPER_CHAIN = {"dofs": 5, "mass": 0.2, "stiffness": 5.0}
 FORMULATIONS = ("half_angle", "shooting")
 HYP = settings(max_examples=25, deadline=None)
 
@@ -168,7 +168,7 @@ def test_interaction_coefficients_of_chains(data, n: int) -> None:
     masses = data.draw(st.lists(pos, min_size=n, max_size=n), label="masses")
     stiff = data.draw(st.lists(pos, min_size=n, max_size=n), label="stiffnesses")
     c = data.draw(st.integers(1, n), label="impacting dof")
-    p = NDofImpactProblem({"chain": {"n": n, "mass": masses, "stiffness": stiff}, "gap": 1.0,
+    p = NDofImpactProblem({"chain": {"dofs": n, "mass": masses, "stiffness": stiff}, "gap": 1.0,
                            "impacting_dof": c})
     M, K = chain_matrices(masses, stiff)
     assert np.allclose(p.M, M, rtol=0, atol=0) and np.allclose(p.K, K, rtol=1e-15, atol=0)
@@ -485,7 +485,7 @@ def test_single_mass_closed_form(m: float, k: float, g: float, frac: float) -> N
     ``T in (T1/2, T1)``; for ``T in ((k - 1/2) T1, k T1)``, ``k >= 2``, ``v < 0`` but the mass
     crosses the wall at ``w (t - T/2) = pi`` (``u = g / |cos(theta)| > g``).
     """
-    p = NDofImpactProblem({"chain": {"n": 1, "mass": m, "stiffness": k}, "gap": g})
+    p = NDofImpactProblem({"chain": {"dofs": 1, "mass": m, "stiffness": k}, "gap": g})
     w = np.sqrt(k / m)
     T1 = 2 * np.pi / w
     T = frac * T1
@@ -704,7 +704,7 @@ def test_alpha_is_static_compliance_and_high_frequency_limit():
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 5, 8):
-        chain = {"n": n, "mass": rng.uniform(0.5, 2, n).tolist(),
+        chain = {"dofs": n, "mass": rng.uniform(0.5, 2, n).tolist(),
                  "stiffness": rng.uniform(0.5, 2, n).tolist()}
         pr = NDofImpactProblem({"chain": chain, "gap": 1.0})
         alpha = float(np.sum(pr.a / pr.omega**2))
@@ -712,5 +712,22 @@ def test_alpha_is_static_compliance_and_high_frequency_limit():
         assert abs(alpha - oracle) < 1e-12 * oracle
         T = 1e-4 * pr.T_lin[-1]
         assert abs(float(pr.w_N(T)) * T / (2 * alpha) - 1) < 1e-6
-    paper = NDofImpactProblem({"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
+    paper = NDofImpactProblem({"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
     assert abs(float(np.sum(paper.a / paper.omega**2)) - 0.2) < 1e-14
+
+
+@pytest.mark.parametrize("direction, sign", [("increase", 1), ("decrease", -1)])
+def test_direction_is_along_the_continued_parameter(direction: str, sign: int) -> None:
+    """``continuation.direction`` is meant along ``continuation.parameter``: continued in
+    ``omega`` (the period ``T = 2 pi / omega`` inside), ``increase`` makes omega grow."""
+    import nsm_continuation as nsm
+
+    case = {"name": "dir", "problem": "ndof_impact",
+            "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+            "start": {"T": 5.0},
+            "continuation": {"parameter": "omega", "min": 0.5, "max": 3.0, "max_points": 6,
+                             "direction": direction},
+            "analysis": {"stability": False, "bifurcations": False}}
+    res = nsm.run(case)
+    omega = res.branches[0]["omega"]
+    assert np.all(sign * np.diff(omega) > 0)

@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CASE = {
     "name": "safety",
     "problem": "ndof_impact",
-    "parameters": {"chain": {"n": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+    "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
     "start": {"mode": 1},
     "continuation": {"parameter": "omega", "min": 0.3, "max": 0.9, "max_points": 15},
     "output": {"plots": False, "progress": False},

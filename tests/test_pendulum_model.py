@@ -21,12 +21,12 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
-from nsm_continuation.problems.impacting.pendulum_equilibria import (
+from oracles.pendulum_equilibria import (
     PAPER_SADDLE,
     reduced_eigenvalues,
     sticking_equilibrium,
 )
-from nsm_continuation.problems.impacting.pendulum_lagrange import (
+from oracles.pendulum_lagrange import (
     PAPER_PARAMS,
     contact_normal,
     energy,

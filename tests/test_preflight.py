@@ -25,7 +25,7 @@ from nsm_continuation.preflight import GAP_MAX, GAP_MIN, MEMORY_ENV, TIME_ENV
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted((ROOT / "yaml_cases").glob("*.yaml"))
 
-CHAIN = {"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
+CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 #: T window of omega in [1, 2]
 T_WINDOW = (np.pi, 2 * np.pi)
 PENDULUM_GUESS = {"q2": -1.14038278, "q1dot": -3.66533148, "q2dot": 0.23345446}
@@ -129,55 +129,55 @@ def test_ndof_gap_scale_invariance() -> None:
 def test_ndof_huge_chain_refused_at_construction_without_allocating() -> None:
     t0 = time.perf_counter()
     for n in (10_000, 10**12):
-        msg = refused(NDofImpactProblem, {"chain": {"n": n, "mass": 1.0, "stiffness": 1.0},
+        msg = refused(NDofImpactProblem, {"chain": {"dofs": n, "mass": 1.0, "stiffness": 1.0},
                                           "gap": 1.0})
-        assert msg.startswith("parameters.chain.n: "), msg
+        assert msg.startswith("parameters.chain.dofs: "), msg
         assert MEMORY_ENV in msg and "GB" in msg
     assert time.perf_counter() - t0 < 1.0
-    raw = case_of("ndof_default.yaml", parameters__chain={"n": 10_000, "mass": 0.2,
+    raw = case_of("ndof_default.yaml", parameters__chain={"dofs": 10_000, "mass": 0.2,
                                                          "stiffness": 5.0})
     t0 = time.perf_counter()
-    assert refused_case(raw).startswith("parameters.chain.n: ")
+    assert refused_case(raw).startswith("parameters.chain.dofs: ")
     assert time.perf_counter() - t0 < 1.0
 
 
 def test_ndof_construction_is_lazy() -> None:
     t0 = time.perf_counter()
-    p = NDofImpactProblem({"chain": {"n": 2000, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
+    p = NDofImpactProblem({"chain": {"dofs": 2000, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
     assert time.perf_counter() - t0 < 0.5
     assert "_modal" not in p.__dict__ and "_matrices" not in p.__dict__
     assert p.dim == 2002
 
 
 def test_ndof_run_time_limit(monkeypatch: pytest.MonkeyPatch) -> None:
-    chain = {"chain": {"n": 1000, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0}
+    chain = {"chain": {"dofs": 1000, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0}
     msg = refused(NDofImpactProblem(chain).preflight, {"mode": 1}, (None, None), 400)
-    assert msg.startswith("parameters.chain.n: 1000 dofs with continuation.max_points = 400")
+    assert msg.startswith("parameters.chain.dofs: 1000 dofs with continuation.max_points = 400")
     assert TIME_ENV in msg
-    small = {"chain": {"n": 20, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0}
+    small = {"chain": {"dofs": 20, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0}
     NDofImpactProblem(small).preflight({"mode": 1}, (None, None), 400)
     monkeypatch.setenv(TIME_ENV, "1e-6")
     msg = refused(NDofImpactProblem(small).preflight, {"mode": 1}, (None, None), 400)
-    assert msg.startswith("parameters.chain.n: ") and "limit is 1e-06 h" in msg
+    assert msg.startswith("parameters.chain.dofs: ") and "limit is 1e-06 h" in msg
     monkeypatch.setenv(MEMORY_ENV, "1e-6")
     msg = refused(NDofImpactProblem, small)
-    assert msg.startswith("parameters.chain.n: ") and "limit is 1e-06 GB" in msg
+    assert msg.startswith("parameters.chain.dofs: ") and "limit is 1e-06 GB" in msg
     monkeypatch.setenv(MEMORY_ENV, "lots")
     assert refused(NDofImpactProblem, small).startswith(f"{MEMORY_ENV}: 'lots'")
 
 
 def test_ndof_unresolved_modal_analysis() -> None:
-    p = NDofImpactProblem({"chain": {"n": 3, "mass": [1.0, 1e-12, 1.0], "stiffness": 1.0},
+    p = NDofImpactProblem({"chain": {"dofs": 3, "mass": [1.0, 1e-12, 1.0], "stiffness": 1.0},
                            "gap": 1.0})
     msg = refused(p.preflight, {"mode": 1}, (None, None), 10)
     assert msg.startswith("parameters.chain: the linear frequencies span"), msg
-    p = NDofImpactProblem({"chain": {"n": 3, "mass": 0.2, "stiffness": 1e308}, "gap": 1.0})
+    p = NDofImpactProblem({"chain": {"dofs": 3, "mass": 0.2, "stiffness": 1e308}, "gap": 1.0})
     assert refused(p.preflight, {"mode": 1}, (None, None), 10).startswith("parameters.chain: ")
 
 
 @pytest.mark.parametrize("key, value, where", [
-    ("parameters__chain__n", True, "parameters.chain.n"),
-    ("parameters__chain__n", 5.0, "parameters.chain.n"),
+    ("parameters__chain__dofs", True, "parameters.chain.dofs"),
+    ("parameters__chain__dofs", 5.0, "parameters.chain.dofs"),
     ("parameters__gap", True, "parameters.gap"),
     ("parameters__impacting_dof", True, "parameters.impacting_dof"),
     ("start", {"mode": True}, "start.mode"),
@@ -299,8 +299,8 @@ def test_continuum_parameter_scales() -> None:
 # ----------------------------------------------------------------------------- hybrid problems
 @pytest.fixture(scope="module")
 def pendulum() -> DoublePendulumProblem:
-    p = DoublePendulumProblem({"e": 0.89})
-    p.parameter_bounds("e", 0.8, 0.95)
+    p = DoublePendulumProblem({"restitution": 0.89})
+    p.parameter_bounds("restitution", 0.8, 0.95)
     return p
 
 
@@ -337,15 +337,16 @@ def test_hybrid_restitution_window() -> None:
     """e = 0.999 crashed a run where the branch reached r > 1 (HybridDeclarationError): the
     window of a continued parameter must lie in its declared domain (e in [0, 1)) and be closed
     where the domain is bounded; the start value must lie in the window."""
-    p = DoublePendulumProblem({"e": 0.999})
-    for lo, hi, key in ((0.8, None, "continuation.max: continuing in e needs"),
-                        (0.8, 1.0, "continuation.max: e = 1 is outside the domain"),
-                        (None, 0.9999, "continuation.min: continuing in e needs"),
-                        (0.8, 0.95, "parameters.e: the start value 0.999 lies outside")):
-        p.parameter_bounds("e", lo, hi)
+    p = DoublePendulumProblem({"restitution": 0.999})
+    for lo, hi, key in ((0.8, None, "continuation.max: continuing in restitution needs"),
+                        (0.8, 1.0, "continuation.max: restitution = 1 is outside the domain"),
+                        (None, 0.9999, "continuation.min: continuing in restitution needs"),
+                        (0.8, 0.95, "parameters.restitution: the start value 0.999 lies "
+                                    "outside")):
+        p.parameter_bounds("restitution", lo, hi)
         msg = refused(p.preflight, {"transient": 3}, (lo, hi), 10)
         assert msg.startswith(key), msg
-    p.parameter_bounds("e", 0.8, 0.9999)
+    p.parameter_bounds("restitution", 0.8, 0.9999)
     p.preflight({"transient": 3}, (0.8, 0.9999), 10)
     q = DoublePendulumProblem({"d": 0.5})
     q.parameter_bounds("d", 0.4, 2.5)
@@ -366,14 +367,15 @@ def test_hybrid_time_limit(pendulum: DoublePendulumProblem,
 
 @pytest.mark.parametrize("source, key, value, where", [
     ("pendulum_sec6_1_complete_to_incomplete.yaml", "start__guess__q2", True, "start.guess.q2"),
-    ("pendulum_sec6_1_complete_to_incomplete.yaml", "parameters__e", True, "parameters.e"),
+    ("pendulum_sec6_1_complete_to_incomplete.yaml", "parameters__restitution", True,
+     "parameters.restitution"),
     ("pendulum_sec6_1_complete_to_incomplete.yaml", "parameters__integrator",
      {"wall_time": True}, "parameters.integrator.wall_time"),
     ("pendulum_sec6_1_complete_to_incomplete.yaml", "parameters__integrator",
      {"chatter_order": 2.0}, "parameters.integrator.chatter_order"),
     ("impact_oscillator_fig2_sticking.yaml", "start__transient", True, "start.transient"),
     ("impact_oscillator_fig2_sticking.yaml", "start__returns", 1.0, "start.returns"),
-    ("chain_two_mass_wall.yaml", "parameters__e", True, "parameters.e"),
+    ("chain_two_mass_wall.yaml", "parameters__restitution", True, "parameters.restitution"),
     ("chain_two_mass_wall.yaml", "start__label", 3, "start.label"),
     ("ball_fig1_fig4_chatter.yaml", "parameters__chatter_order", True,
      "parameters.chatter_order"),
@@ -408,7 +410,7 @@ def test_monitor_names_are_the_derived_keys(pendulum: DoublePendulumProblem) -> 
 def test_chain_frequency_window_must_be_positive(key, value):
     """omega = 2 pi / T: a non-positive bound maps to no period at all (it was accepted and
     shown as a window ['6.98', '-'] in the report)."""
-    pr = NDofImpactProblem({"chain": {"n": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
+    pr = NDofImpactProblem({"chain": {"dofs": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
     lo, hi = (value, None) if key == "min" else (None, value)
     with pytest.raises(ValueError, match=rf"^continuation\.{key}: omega"):
         pr.parameter_bounds("omega", lo, hi)

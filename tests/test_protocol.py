@@ -191,7 +191,7 @@ def test_paper_problems_keep_their_presentation() -> None:
     for cls in (NDofImpactProblem, WfemBarProblem, BarContinuumProblem):
         assert cls.diagram_title == "Frequency-energy plot"
         assert cls.diagram_yscale == "log"
-    chain = NDofImpactProblem({"chain": {"n": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
+    chain = NDofImpactProblem({"chain": {"dofs": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
     assert chain.fep_axes == ("omega", "energy")
     assert chain.fep_labels[0].startswith("frequency")
     assert chain.csv_head == ["T", "omega", "energy"]
@@ -207,7 +207,7 @@ def test_hybrid_problems_label_by_their_parameter_and_period() -> None:
     assert pr.fep_axes == ("d", "period")
     assert pr.fep_labels == ("d", "period (return time to the section)")
     assert pr.csv_head[:2] == ["d", "period"]
-    assert pr.diagram_title == "Branch diagram"
+    assert pr.diagram_title == "Bifurcation diagram"
     assert "sticking_lost" in pr.all_event_kinds()
 
 
@@ -258,7 +258,7 @@ def test_undeclared_event_kinds_are_refused() -> None:
 # ---------------------------------------------------------------------- (d) algorithms
 SMALL_CHAIN = {
     "name": "alg", "problem": "ndof_impact",
-    "parameters": {"chain": {"n": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+    "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
     "start": {"mode": 1},
     "continuation": {"parameter": "omega", "min": 0.3, "max": 0.9, "max_points": 40},
     "output": {"plots": False, "progress": False},

@@ -25,7 +25,7 @@ from nsm_continuation.palc import ContinuationEngine
 from nsm_continuation.protocol import Problem, StartPoint
 from nsm_continuation.settings import ContinuationSettings
 
-PAPER_CHAIN = {"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
+PAPER_CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 #: branch 1 window: from 0.99 T_1 down to 0.93 T_1 (smooth, no pole or zero of w_N inside)
 T_START, T_STOP = 0.99, 0.93
 TOL = 1e-10  # pycont's corrector tolerance (max norm of the extended residual)

@@ -14,15 +14,16 @@ from pydantic import ValidationError
 
 from nsm_continuation import registry
 
-BASE = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "gap": 0.5, "e": 0.8}
+BASE = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "gap": 0.5,
+        "restitution": 0.8}
 
 
 def test_registered() -> None:
     assert registry.get("two_mass_chain") is TwoMassChainProblem
 
 
-@pytest.mark.parametrize(("field", "value"), [("e", 1.2), ("e", -0.1), ("m1", -1.0),
-                                               ("m2", 0.0), ("stiffness", 1.0)])
+@pytest.mark.parametrize(("field", "value"), [("restitution", 1.2), ("restitution", -0.1),
+                                               ("m1", -1.0), ("m2", 0.0), ("stiffness", 1.0)])
 def test_declaration_errors_name_the_field(field: str, value: float) -> None:
     with pytest.raises(ValidationError) as err:
         TwoMassChainProblem({**BASE, field: value})
@@ -42,19 +43,20 @@ def energy(X: np.ndarray, p: dict[str, float]) -> float:
 
 
 def test_impact_map_conserves_energy_for_e_near_one() -> None:
-    p = {**BASE, "c": 0.0, "F0": 0.0, "e": 0.999999, "m2": 2.0}
+    p = {**BASE, "c": 0.0, "F0": 0.0, "restitution": 0.999999, "m2": 2.0}
     pb = TwoMassChainProblem(p)
     c = pb.shooting.c
     # on the wall q2 = gap, moving into it; X = state + the freed parameter (omega)
     X = np.array([0.3, p["gap"], -0.7, 1.3, 0.4, 1.0])
     R, _Rx, v, r = (np.asarray(z, dtype=float).ravel() for z in c.impact(X))
-    assert v[0] == pytest.approx(-1.3) and r[0] == pytest.approx(p["e"])
+    assert v[0] == pytest.approx(-1.3) and r[0] == pytest.approx(p["restitution"])
     assert np.array_equal(R[[0, 1, 2, 4, 5]], X[[0, 1, 2, 4, 5]])   # only q2dot jumps
-    assert R[3] == pytest.approx(-p["e"] * X[3], rel=1e-14)
+    assert R[3] == pytest.approx(-p["restitution"] * X[3], rel=1e-14)
     E0, E1 = energy(X, p), energy(R, p)
     assert abs(E1 - E0) / E0 < 2e-6
     # the loss is exactly (1 - e^2) times m2's kinetic energy
-    assert E0 - E1 == pytest.approx((1 - p["e"] ** 2) * 0.5 * p["m2"] * X[3] ** 2, rel=1e-6)
+    assert E0 - E1 == pytest.approx((1 - p["restitution"] ** 2) * 0.5 * p["m2"] * X[3] ** 2,
+                                    rel=1e-6)
 
 
 def periodic_orbit(omega: float) -> tuple[TwoMassChainProblem, np.ndarray]:
@@ -69,8 +71,8 @@ def periodic_orbit(omega: float) -> tuple[TwoMassChainProblem, np.ndarray]:
     return pb, y
 
 
-# 0.62: the impact has a > 0 (signature "I"); 0.67: a < 0 at the impact, so the flight after it
-# is integrated in the scaled extended system of sec. 4.3 (signature "IB1")
+# 0.62: the impact has a > 0; 0.67: a < 0 at the impact, so the flight after it is integrated in
+# the scaled extended system of sec. 4.3 (both have the event sequence "I")
 @pytest.fixture(scope="module", params=[0.62, 0.67])
 def orbit(request: pytest.FixtureRequest) -> tuple[TwoMassChainProblem, np.ndarray]:
     return periodic_orbit(request.param)

@@ -181,3 +181,42 @@ def test_resolve_point_grazing_bar_scales_to_energy() -> None:
     assert s.energy == pytest.approx(d["energy"], rel=1e-12)
     u = displacement_field(s).u[:, -1]
     np.testing.assert_allclose(u, integrated_end_displacement(s), atol=1e-12 * np.abs(u).max())
+
+
+# -- forced response figures (section 7, Figs. 20-22) ---------------------------------------------
+def test_frequency_response_figure_draws_curves_references_and_backbones(tmp_path: Path) -> None:
+    """The figure of a ``wfem_forced_bar`` run: one energy and one amplitude curve per sweep,
+    steady points filled and the others hollow, the linear reference dashed, the backbones
+    (a vertical line at the asymptote for g0 = 0) and the problem's extra_plots file."""
+    from nsm_continuation.problems.bar.forced_response import WfemForcedBarProblem
+    from nsm_continuation.problems.bar.plots_forced import (
+        frequency_response_figure,
+        response_curves,
+    )
+
+    pr = WfemForcedBarProblem({"cells": 20, "gap": 0.0, "force_amplitude": 4e-3,
+                               "damping_ratio": 0.1})
+    x = np.array([0.5, 1.0, 1.5, 2.0])
+    pts = [SimpleNamespace(derived={"omega_ratio": xi, "energy_ratio": 1e-6 * (1 + i),
+                                    "amplitude": 1e-3, "steady": float(i % 2)})
+           for i, xi in enumerate(x)]
+    curves = response_curves([SimpleNamespace(points=pts, label="s"),
+                              SimpleNamespace(points=[], label="empty")])
+    assert len(curves) == 1 and curves[0].steady.tolist() == [False, True, False, True]
+    xr, e, a = pr.reference_curve(pr.eta(0.1), (0.5, 2.0), n=50)
+    assert np.isfinite(e).all() and np.isfinite(a).all()
+    backbones = pr.backbones((0.5, 2.0))
+    assert [b[2] for b in backbones] == ["NSM backbone, mode 1"]  # 4/3; mode 2's 16/5 is out
+    fig = frequency_response_figure(curves, [(xr, e, a, "zeta_1 = 0.1")], backbones,
+                                    pr.fep_labels[1], pr.reference_label(), title="t")
+    ax_e, ax_a = fig.axes
+    assert ax_e.get_yscale() == "log" and "omega" in ax_e.get_xlabel()
+    assert any(ln.get_linestyle() == "--" for ln in ax_e.lines)  # the linear reference
+    assert any(np.allclose(ln.get_xdata(), 4 / 3) for ln in ax_e.lines)  # g0 = 0 backbone
+    hollow = [ln for ln in ax_a.lines if ln.get_marker() == "o" and ln.get_markerfacecolor()
+              == "none"]
+    assert len(hollow) == 1 and len(hollow[0].get_xdata()) == 2
+    br = SimpleNamespace(points=pts, label="s")
+    assert pr.extra_plots(tmp_path, [br], (0.5, 2.0)) == ["frequency_response.png"]
+    assert (tmp_path / "frequency_response.png").stat().st_size > 10_000
+    assert pr.extra_plots(tmp_path / "none", [], (0.5, 2.0)) == []

@@ -24,19 +24,24 @@ import time
 import numpy as np
 import pytest
 from nsm_continuation.problems.bar.bouncing_bar_exact import BouncingBarExact, falling_bar_exact
+from nsm_continuation.problems.bar.wfem_operators import floating_bc_contact
 from nsm_continuation.problems.bar.wfem_simulation import (
     BarParams,
     BarState,
     Loading,
+    forced_response_point,
     forced_response_sweep,
     linear_forced_end_amplitude,
+    linear_forced_energy,
     linear_forced_fields,
+    linear_wall_response,
     period_averages,
     rest_state,
     ring_displacement,
     simulate,
     state_from_fields,
     steady_multiple,
+    steady_state_rule,
 )
 
 TABLE1 = {"E": 900.0, "rho": 1.0, "L": 10.0, "g0": 5.0, "F0": 10.0}
@@ -258,6 +263,58 @@ def test_forced_sweep_linear_and_contact() -> None:
     assert np.all([pt.u_max <= p2.g0 + 2e-3 + 1e-6 for pt in sw2.points])
 
 
+@pytest.mark.parametrize("omega_ratio, eta", [(0.3, 0.0), (0.7, 0.05), (1.3, 0.3), (2.9, 0.1),
+                                             (4.6, 0.02)])
+def test_linear_forced_energy_closed_form_equals_modal_series(omega_ratio: float,
+                                                              eta: float) -> None:
+    """The closed form of the period-averaged energy (integrals of |cos|^2, |sin|^2 with a
+    complex wavenumber) against the modal series (4000 modes), undamped included."""
+    p = BarParams(N=10, g0=1.0, L=1.7, E=2.0, rho=0.5)
+    om = omega_ratio * p.omega1
+    assert linear_forced_energy(p, 0.7, om, eta) == pytest.approx(
+        modal_steady_state(p, 0.7, om, eta)[1], rel=1e-9)
+
+
+def test_permanent_contact_wall_response_matches_time_stepping() -> None:
+    """g0 < 0 and a small wall amplitude: the bar never leaves the moving wall, and the closed
+    form (fixed-fixed bar with a moving end plus the prestress) equals the steady state of the
+    time stepping (second method) to 1e-3 (measured 2.5e-4); the contact margin of the closed
+    form is positive there, and negative for a wall amplitude that does release the bar."""
+    p = BarParams(N=100, g0=-1e-3)
+    eta = 2 * p.omega1 * 0.05
+    rule = steady_state_rule(p, eta, n_periods_average=4)
+    for ratio in (0.5, 1.3, 2.6):
+        om = ratio * p.omega1
+        energy, margin = linear_wall_response(p, 1e-4, om, eta)
+        assert margin > 0
+        pt, _, _ = forced_response_point(p, Loading(w0=1e-4, eta=eta), om, rest_state(p), 0.0,
+                                         rule)
+        assert pt.contact_fraction == 1.0 and pt.steady
+        assert pt.energy_mean == pytest.approx(energy, rel=1e-3)
+    om = 1.3 * p.omega1
+    assert linear_wall_response(p, 2e-3, om, eta)[1] < 0
+    pt, _, _ = forced_response_point(p, Loading(w0=2e-3, eta=eta), om, rest_state(p), 0.0, rule)
+    assert pt.contact_fraction < 1.0
+
+
+def test_floating_bc_contact_is_algorithm_2() -> None:
+    """The one switching decision (App. B) on cases decided by hand: (in_contact, gap,
+    gap after a free step, wall stress, nearest)."""
+    f = floating_bc_contact
+    assert f(True, 0.5, 0.2, -1.0, True)  # in contact, compressive: stays
+    assert not f(True, 0.0, 0.0, 1e-12, True)  # tensile: released (B.5)
+    assert not f(False, 1.0, 0.5, -1.0, True)  # open gap that stays open: free
+    assert f(False, 0.0, 0.5, -1.0, False)  # g <= 0 (B.2) and compressive: contact
+    assert not f(False, -1e-3, 0.5, 1.0, False)  # g < 0 but tensile: free
+    # nearest grid time: a crossing in the first half of the free step closes now, one in the
+    # second half at the next step; without `nearest` only g <= gap_tol closes
+    assert f(False, 0.3, -0.7, -1.0, True) and not f(False, 0.7, -0.3, -1.0, True)
+    assert not f(False, 0.3, -0.7, -1.0, False)
+    assert f(False, 0.3, -0.7, -1.0, False, gap_tol=0.5)
+    assert f(False, 0.1, 1.0, 0.5, False, gap_tol=0.2, stress_tol=0.5)
+    assert not f(False, 0.1, 1.0, 0.6, False, gap_tol=0.2, stress_tol=0.5)
+
+
 def test_period_averages_and_steady_multiple() -> None:
     t = np.linspace(0.0, 10.0, 10001)
     y = 2.0 + np.sin(2 * np.pi * t / 1.3) ** 2
@@ -315,6 +372,10 @@ def test_simulate_validation() -> None:
         forced_response_sweep(p, [1.0, -2.0], 0.1)
     with pytest.raises(ValueError, match="max_time"):
         forced_response_sweep(p, [1.0], 0.0)
+    with pytest.raises(ValueError, match="switching"):
+        steady_state_rule(p, 0.1, switching="exact")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="n_periods_average"):
+        steady_state_rule(p, 0.1, n_periods_average=1)
     with pytest.raises(ValueError, match="g0"):
         BouncingBarExact(g0=-1.0)
     with pytest.raises(ValueError, match="fields were not stored"):

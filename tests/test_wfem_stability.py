@@ -185,3 +185,55 @@ def test_perturbations_are_admissible_and_resolved() -> None:
         assert info["size_l1"] > 0
     w, info = perturb(md, orbit[n0], "shift", 0.04)
     assert abs(info["slots"]) == 2 and np.isclose(ring_energy(w, md.dx, md.E), sol.energy)
+
+
+# -- one Algorithm 2: the O(1) ring stepper is simulate() specialised ---------------------------
+@pytest.mark.parametrize("sol,kind,eps", [(mode1(), "smooth", 0.05), (mode1(), "shift", 0.04),
+                                          (mode1(50, 127, -1e-3), "scale", 0.03),
+                                          (mode2(), "smooth", 0.05)],
+                         ids=["mode1+ smooth", "mode1+ shift", "mode1- scale", "mode2- smooth"])
+def test_floating_bc_simulation_equals_general_simulate(sol: LatticeSolution, kind: str,
+                                                        eps: float) -> None:
+    """Second method: the general time stepper (problems/bar/wfem_simulation.simulate: rotated
+    array, source terms, grid switching) and the O(1) moving-origin ring stepper
+    (floating_bc_simulation with closure="nearest" and zero tolerances), run separately on the
+    same perturbed orbit (undamped, unforced, fixed wall) over 150 periods, make the same
+    switching decision at every step (hundreds of switches, resolved perturbations that move
+    them) and carry the same states and end displacement to round-off. simulate() is called one
+    period at a time, so its contact flag is also carried across calls."""
+    from nsm_continuation.problems.bar.wfem_operators import CONTACT, FREE
+    from nsm_continuation.problems.bar.wfem_simulation import BarParams, BarState, Loading, simulate
+
+    md, P = sol.model, 150
+    orbit = orbit_states(sol)
+    w, _ = perturb(md, orbit[perturbation_step(sol, "contact", orbit)], kind, eps)
+    ring = floating_bc_simulation(md, w, P * sol.M, sample_steps=np.arange(P + 1) * sol.M,
+                                  closure="nearest", closure_tol=0.0, release_tol=0.0)
+    bar = BarParams(E=md.E, rho=md.rho, L=md.L, N=md.N, g0=md.g0)
+    st = BarState(w.copy(), float(ring.u_end[0]), 0.0, False)
+    signs, states, u_end = [], [st.w], [st.u_end]
+    for _ in range(P):
+        res = simulate(bar, Loading(), sol.M, st, switching="grid")
+        st = res.final
+        signs.append(np.where(res.contact, CONTACT, FREE))
+        states.append(st.w)
+        u_end.append(st.u_end)
+    assert len(ring.switches) >= 2 * P - 1  # the rule is exercised: 2 switches per period
+    assert np.array_equal(np.concatenate(signs), ring.signs)
+    A = np.abs(w).max()
+    assert np.abs(np.array(states) - ring.states).max() <= 1e-12 * A
+    assert np.abs(np.array(u_end) - ring.u_end[::sol.M]).max() <= 1e-12 * abs(md.g0)
+
+
+def test_tolerance_and_nearest_closure_differ_only_in_rounding() -> None:
+    """On the unperturbed +-A orbit the nearest-grid closure rule (simulate's) and the
+    default tolerance rule give the same pattern: the closure happens where u_end returns to
+    g0 exactly, where both rules agree; closure must be one of the two."""
+    sol = mode1()
+    P = 20
+    a = floating_bc_simulation(sol.model, sol.w0, P * sol.M)
+    b = floating_bc_simulation(sol.model, sol.w0, P * sol.M, closure="nearest",
+                               closure_tol=0.0, release_tol=0.0)
+    assert a.pattern() == b.pattern() == tuple(sol.pattern) * P
+    with pytest.raises(ValueError, match="closure"):
+        floating_bc_simulation(sol.model, sol.w0, 3, closure="first")  # type: ignore[arg-type]

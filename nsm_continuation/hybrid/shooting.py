@@ -28,6 +28,8 @@ import numpy as np
 
 from ..preflight import one_or_many
 from ..protocol import EvaluationError, FloquetData, Problem
+from .grazing import locate_grazing, step_beyond, tangent_beyond
+from .presentation import HybridPresentation
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
 from .system import CompiledHybrid
 
@@ -132,7 +134,7 @@ class HybridShooting:
         return float(np.linalg.norm(Phi @ F0 - FT) / max(np.linalg.norm(F0), 1e-300))
 
 
-class HybridShootingProblem(Problem):
+class HybridShootingProblem(HybridPresentation, Problem):
     """Base class of shooting problems on a hybrid system (the concrete problem builds
     ``self.shooting`` in ``__init__`` and sets ``variables`` / ``parameter``).
 
@@ -158,28 +160,14 @@ class HybridShootingProblem(Problem):
     #: the sticking time (an admissibility test of orbits with sticking) vanishes where
     #: complete chattering is lost
     test_kinds: ClassVar[dict[str, str]] = {"sticking_time": "sticking_lost"}
+    #: the signed grazing margin closest to zero (``SimResult.grazing_function``): a near
+    #: approach that becomes an impact, or an impact that vanishes
+    event_function_kinds: ClassVar[dict[str, str]] = {"grazing_margin": "grazing"}
     signature_kind: ClassVar[str | None] = "impact_sequence_change"
     #: a bound on the period ends the branch near a homoclinic orbit, one on the sticking time
     #: where sticking is lost
     bound_kinds: ClassVar[dict[str, str]] = {"period": "homoclinic_approach",
                                              "sticking_time": "sticking_lost"}
-    diagram_yscale: ClassVar[str] = "log"
-
-    @property
-    def fep_axes(self) -> tuple[str, str]:
-        """The continued parameter against the period (return time to the section)."""
-        return (self.parameter, "period")
-
-    @property
-    def fep_labels(self) -> tuple[str, str]:
-        """Labelled by the continued parameter's name and the period."""
-        return (self.parameter, "period (return time to the section)")
-
-    @property
-    def csv_head(self) -> list[str]:
-        """The parameter, the period and the chattering quantities first."""
-        return [self.parameter, "period", "sticking_time", "n_impacts_before_chatter"]
-
     def residual(self, y: Any) -> Any:  # pragma: no cover - numeric problem
         raise NotImplementedError("hybrid shooting problems evaluate numerically")
 
@@ -225,7 +213,7 @@ class HybridShootingProblem(Problem):
         if res is None:
             return {self.parameter: p, "period": np.nan, "sticking_time": np.nan,
                     "n_impacts_before_chatter": np.nan}
-        return {
+        out = {
             self.parameter: p,
             "period": float(res.t),
             "sticking_time": res.sticking_time,
@@ -239,6 +227,49 @@ class HybridShootingProblem(Problem):
             "grazing_margin": (float(res.grazing_margin) if np.isfinite(res.grazing_margin)
                                else np.nan),
         }
+        if res.extremes is not None:
+            names = self.shooting.c.system.state_names
+            for k, name in enumerate(names):
+                out[f"min_{name}"] = float(res.extremes[k, 0])
+                out[f"max_{name}"] = float(res.extremes[k, 1])
+            out.update(self.response_quantities(out))
+        return out
+
+    def event_functions(self, y: np.ndarray) -> dict[str, float]:
+        """``grazing_margin``: the signed margin (near approach ``H_min > 0``, decelerating
+        impact ``-v^2/(2a) < 0``) closest to zero; its zero is a grazing, located on this
+        smooth function (the square-root singularity is in ``v``, not in ``v^2``)."""
+        res = self.sim(y)
+        if res is None:
+            return {}
+        g = res.grazing_function()
+        return {} if not np.isfinite(g) else {"grazing_margin": g}
+
+    def continue_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray, value: float,
+                        ds: float, tol: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """At a grazing (zero of ``grazing_margin``): the grazing orbit, located on the margin
+        by margin-fixed solves from ``y`` (:func:`.grazing.locate_grazing`), and the first
+        orbit beyond it from the discontinuity-map normal form (:func:`.grazing.step_beyond`,
+        eqs. G1-G2): the impacting orbit born at the grazing, or the free one that follows an
+        impact that vanished."""
+        if name != "grazing_margin":
+            return None
+        y = np.asarray(y, dtype=float)
+        tangent = np.asarray(tangent, dtype=float)
+        yg = locate_grazing(self.shooting, y, tol)
+        if yg is None:
+            return None
+        y1 = step_beyond(self.shooting, yg, tangent, from_impacting=value < 0, ds=ds, tol=tol)
+        return None if y1 is None else (yg, y1)
+
+    def tangent_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray,
+                       value_before: float) -> np.ndarray | None:
+        """The tangent of the branch beyond the grazing point ``y`` (eq. G2), on the side the
+        branch did not come from (``value_before`` < 0: it arrived impacting)."""
+        if name != "grazing_margin":
+            return None
+        return tangent_beyond(self.shooting, np.asarray(y, dtype=float),
+                              np.asarray(tangent, dtype=float), from_impacting=value_before < 0)
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
         res = self.sim(y)
@@ -337,7 +368,8 @@ class HybridCaseProblem(HybridShootingProblem):
         super().__init__(params)
         dumped = params.model_dump()
         self.integrator: IntegratorSpec = params.integrator  # type: ignore[attr-defined]
-        self.values = {k: float(v) for k, v in dumped.items() if k != "integrator"}
+        self.values = {k: float(v) for k, v in dumped.items()
+                       if k not in self.setting_fields}
         self.check_parameters(self.values)
         self.hybrid: HybridSystem = self.system()
         self.returns = 1
@@ -346,6 +378,9 @@ class HybridCaseProblem(HybridShootingProblem):
 
     # -- to implement -----------------------------------------------------------------------
     default_parameter: ClassVar[str] = ""
+    #: fields of ``Parameters`` that set up the computation (numerics, the section) rather
+    #: than the system: not CasADi parameters, and not continued
+    setting_fields: ClassVar[tuple[str, ...]] = ("integrator",)
 
     @abstractmethod
     def system(self) -> HybridSystem:
@@ -361,8 +396,9 @@ class HybridCaseProblem(HybridShootingProblem):
 
     def check_parameters(self, values: dict[str, float]) -> None:
         """Physical checks with messages naming the field (override; call super)."""
-        if "e" in values and not 0.0 <= values["e"] < 1.0:
-            raise ValueError(f"parameters.e: restitution {values['e']} must lie in [0, 1) "
+        e = values.get("restitution")
+        if e is not None and not 0.0 <= e < 1.0:
+            raise ValueError(f"parameters.restitution: {e} must lie in [0, 1) "
                              "(complete chattering needs r = e < 1, sec. 3)")
 
     # -- preflight (issue 9) ------------------------------------------------------------------
@@ -548,8 +584,10 @@ class HybridCaseProblem(HybridShootingProblem):
 
     def monitor_names(self) -> list[str]:
         """The keys of :meth:`derived` at a simulated point."""
+        extremes = [f"{m}_{name}" for name in self.hybrid.state_names for m in ("min", "max")]
         return [self.parameter, "period", "sticking_time", "n_impacts_before_chatter",
-                "n_sticking_phases", "n_impacts", "min_impact_velocity", "grazing_margin"]
+                "n_sticking_phases", "n_impacts", "min_impact_velocity", "grazing_margin",
+                *extremes, *(f"amplitude_{c}" for c in self.configuration_names)]
 
     # -- generic ----------------------------------------------------------------------------
     def set_parameter(self, name: str, returns: int | None = None) -> None:
@@ -647,53 +685,3 @@ class HybridCaseProblem(HybridShootingProblem):
                 "section": {"coordinate": self.hybrid.state_names[sec.index],
                             "value": sec.value, "shift_per_period": sec.shift},
                 "unknowns": list(self.variables)}
-
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        """Per branch: parameter range, period range, sticking, and, for a growing period,
-        the fit ``T = -ln|p - p*| / mu + c`` of the homoclinic approach."""
-        out = []
-        for br in branches:
-            pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
-            if not pts:
-                continue
-            ps = np.array([p.y[self.parameter_index] for p in pts])
-            if not len(ps):
-                continue
-            Ts = np.array([p.derived["period"] for p in pts])
-            rec: dict[str, Any] = {"label": br.label,
-                                   "parameter_range": [float(ps.min()), float(ps.max())],
-                                   "period_range": [float(Ts.min()), float(Ts.max())]}
-            fit = homoclinic_fit(ps, Ts)
-            if fit is not None:
-                rec["homoclinic_fit"] = fit
-            out.append(rec)
-        return {"branches": out}
-
-
-def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int = 12) -> dict[str, float] | None:
-    """Fit ``T = c - ln|p - p*| / mu`` on the points of largest period (the logarithmic law of
-    the period near a homoclinic orbit to a saddle with unstable eigenvalue ``mu``); None unless
-    the period at least doubles along the branch."""
-    if len(Ts) < 6 or Ts.max() < 2 * Ts.min():
-        return None
-    order = np.argsort(Ts)[-n_last:]
-    p, T = ps[order], Ts[order]
-    side = np.sign(p[np.argmax(T)] - p[np.argmin(T)])
-    best = None
-    span = max(np.ptp(p), 1e-12)
-    pend = p[np.argmax(T)]
-    for k in np.geomspace(1e-9, 10.0, 400):
-        pstar = pend + side * k * span
-        with np.errstate(divide="ignore"):
-            A = np.column_stack([np.ones_like(p), -np.log(np.abs(p - pstar))])
-        if not np.all(np.isfinite(A)):
-            continue
-        coef, *_ = np.linalg.lstsq(A, T, rcond=None)
-        r = float(np.linalg.norm(A @ coef - T))
-        if coef[1] > 0 and (best is None or r < best[0]):
-            best = (r, pstar, coef)
-    if best is None:
-        return None
-    r, pstar, coef = best
-    return {"p_star": float(pstar), "mu_unstable": float(1.0 / coef[1]),
-            "c": float(coef[0]), "rms_residual": float(r / np.sqrt(len(T)))}

@@ -55,6 +55,7 @@ exactly on the sticking set.
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -74,6 +75,12 @@ WATCH: dict[str, list[tuple[int, int, str]]] = {
     S5: [(1, -1, "v"), (2, +1, "a")],
     S6: [(4, -1, "h"), (1, +1, "v")],
 }
+
+
+#: below this error norm a step may be far shorter than the integration needs (the flow is
+#: integrated exactly): the watched functions' interpolants are then checked (Simulator.
+#: _hermite_trustworthy) before the step is taken
+HERMITE_CHECK_BELOW = 1e-3
 
 
 class SimulationError(RuntimeError):
@@ -139,6 +146,30 @@ class SimResult:
     trajectory: list[tuple[float, np.ndarray]] | None
     n_steps: int
     ended_by: str
+    #: ``(n, 2)``: minimum and maximum of each state component over the simulated trajectory
+    #: (step ends, events and the interior extrema of each step's cubic Hermite interpolant)
+    extremes: np.ndarray | None = None
+    #: signed grazing margin of every near approach (its ``H_min > 0``) and of every impact
+    #: with ``a > 0`` (``-v^2 / (2a) < 0``: where the free flight continued through the wall
+    #: would turn), in time order; each crosses zero where that approach becomes an impact
+    grazing_margins: list[float] = field(default_factory=list)
+
+    def grazing_function(self, separation: float = 4.0) -> float:
+        """The signed grazing margin closest to zero, a continuous function of the orbit that
+        vanishes at a grazing (smooth in the parameter: ``-v^2/(2a)`` is linear in the depth
+        where ``v`` has the square-root singularity). NaN if there is none, or if a margin of
+        the opposite sign lies within ``separation`` times its distance to zero (the closest
+        one could then switch sides without any grazing: no event is raised on it)."""
+        m = np.asarray(self.grazing_margins, dtype=float)
+        m = m[np.isfinite(m)]
+        if not m.size:
+            return float("nan")
+        k = int(np.argmin(np.abs(m)))
+        g = float(m[k])
+        rivals = m[np.sign(m) != np.sign(g)]
+        if rivals.size and np.min(np.abs(rivals)) < separation * abs(g):
+            return float("nan")
+        return g
 
     @property
     def sticking_time(self) -> float:
@@ -150,20 +181,30 @@ class SimResult:
 
     @property
     def signature(self) -> str:
-        """Sequence of events: ``I`` impact outside chattering, ``C<k>`` chattering completed by
-        the map after ``k`` impacts, ``B<k>`` chattering broken off after ``k`` impacts, ``S``
-        release from sticking."""
+        """The sequence of events over the simulated time, in a structural notation that does
+        not depend on tolerances: ``I`` an impact (each impact of a chattering sequence that
+        breaks off counts), ``C`` a chattering sequence completed by the chatter map (an
+        accumulation of impacts ending in sticking: how many impacts were resolved before the
+        map is a numerical choice, ``chatter_counts``), ``S`` a release from sticking.
+
+        Impacts just before a completed sequence are part of it (``IIC`` is ``C``).
+        E.g. ``I``: one impact per period; ``II``: two; ``CS``: complete chattering, sticking
+        and release (Fig. 2); ``-``: no event (a free orbit)."""
         out: list[str] = []
         for ev in self.events:
             if ev.kind == "impact":
                 out.append("I")
-            elif ev.kind == "chatter":
-                out.append(f"C{ev.info['impacts']}")
-            elif ev.kind == "chatter_broken":
-                out.append(f"B{ev.info['impacts']}")
+            elif ev.kind in ("chatter", "chatter_broken"):
+                # the sequence began with the impact recorded last
+                if out and out[-1] == "I":
+                    out.pop()
+                out.append("C" if ev.kind == "chatter" else "I" * int(ev.info["impacts"]))
             elif ev.kind == "release":
                 out.append("S")
-        return "".join(out)
+        # impacts resolved one by one just before an accumulation belong to it: whether the
+        # first of them already starts the geometric sequence (a < 0 at it) or bounces once
+        # more (a > 0) is no structural change of the orbit (it happens smoothly, at a = 0)
+        return re.sub(r"I+C", "C", "".join(out)) or "-"
 
 
 def initial_state(c: CompiledHybrid, X: np.ndarray) -> str:
@@ -231,6 +272,45 @@ def _hermite_first_root(g0: float, d0: float, g1: float, d1: float, dt: float,
     return None
 
 
+@dataclass
+class _Walk:
+    """Mutable state of one simulation (:meth:`Simulator.run`): the discrete state ``mode``,
+    the (extended) state ``Y`` with its sensitivities ``J = dY/dX0`` and ``Jt = dt/dX0``, the
+    time, the next step size, the probe and field at ``Y``, and what the result reports."""
+
+    mode: str
+    Y: np.ndarray
+    J: np.ndarray | None
+    Jt: np.ndarray | None
+    h: float
+    pr: np.ndarray
+    F: np.ndarray
+    #: running extremes of the state components (Simulator._extend_extremes)
+    lo: np.ndarray
+    hi: np.ndarray
+    traj: list[tuple[float, np.ndarray]] | None
+    stick_start: float | None
+    t: float = 0.0
+    #: the watched function that fired last (exactly zero at the step start)
+    just: str | None = None
+    n_steps: int = 0
+    n_imp: int = 0
+    vmin: float = np.inf
+    graze: float = np.inf
+    events: list[SimEvent] = field(default_factory=list)
+    stick_iv: list[tuple[float, float]] = field(default_factory=list)
+    chatter_counts: list[int] = field(default_factory=list)
+    chatter_errors: list[float] = field(default_factory=list)
+    #: first-order chatter estimates of the current chattering sequence
+    seq: list[Any] = field(default_factory=list)
+    #: signed grazing margins of the near approaches and decelerating impacts, in time order
+    margins: list[float] = field(default_factory=list)
+
+    def record(self) -> None:
+        if self.traj is not None:
+            self.traj.append((self.t, self.Y[: self.lo.size].copy()))
+
+
 class Simulator:
     """Event-driven simulator for one compiled system (see the module docstring)."""
 
@@ -284,197 +364,279 @@ class Simulator:
             max_time: float | None = None) -> SimResult:
         """Simulate from ``X0`` (state followed by freed parameters) until ``t_end`` or until
         component ``section[0]`` crosses ``section[1]`` in direction ``section[2]`` (after time
-        ``t_min_section``). Raises :class:`SimulationError` with a reason on failure."""
+        ``t_min_section``). Raises :class:`SimulationError` with a reason on failure.
+
+        Each pass of the loop tries one Runge-Kutta step (:meth:`_attempt`), looks for the first
+        watched crossing inside it (:meth:`_first_crossing`), and either accepts the whole step
+        (:meth:`_accept`) or advances to the crossing and applies the transition
+        (:meth:`_fire`)."""
+        w = self._begin(X0)
+        t_stop = t_end if t_end is not None else max_time
+        clock0 = time.perf_counter()
+        while True:
+            self._guard(w, clock0)
+            dt = min(w.h, self.o.h_max)
+            last = False
+            if t_stop is not None and w.t + dt >= t_stop:
+                dt, last = t_stop - w.t, True
+            if dt <= 0.0:
+                break
+            outs = self._attempt(w, dt)
+            if outs is None:
+                continue
+            hit = self._first_crossing(w, dt, outs, section, t_min_section)
+            if hit is None:
+                self._accept(w, dt, outs, last)
+                if last:
+                    break
+                continue
+            if self._fire(w, dt, hit, section):
+                return self._result(w, "section")
+        if w.mode == S4 and w.stick_start is not None:
+            w.stick_iv.append((w.stick_start, w.t))
+        if w.J is not None and t_end is not None:
+            # fixed end time: t_end - t_k(X0) is the last flow time
+            w.J = w.J - np.outer(self._field(w.mode, w.Y), w.Jt)
+        return self._result(w, "time" if t_end is not None else "max_time")
+
+    def _begin(self, X0: np.ndarray) -> _Walk:
+        """The walk state at ``t = 0`` (an impact at ``t = 0`` applied if ``X0`` lies on the
+        surface moving inwards)."""
         c, o = self.c, self.o
-        N = c.N
         X0 = np.asarray(X0, dtype=float).ravel()
-        if X0.size != N:
-            raise ValueError(f"initial state has {X0.size} components, expected {N}")
+        if X0.size != c.N:
+            raise ValueError(f"initial state has {X0.size} components, expected {c.N}")
         if not np.all(np.isfinite(X0)):
             raise SimulationError("initial state is not finite")
         mode = initial_state(c, X0)
         c.mass_check(X0)
-        Y = X0.copy()
         sens = o.sensitivities
-        J = np.eye(N) if sens else None
-        Jt = np.zeros(N) if sens else None
-        t = 0.0
-        h = o.h_init
-        events: list[SimEvent] = []
-        stick_iv: list[tuple[float, float]] = []
-        chatter_counts: list[int] = []
-        chatter_errors: list[float] = []
-        traj: list[tuple[float, np.ndarray]] | None = [] if o.record else None
-        n_imp = 0
-        vmin = np.inf
-        graze = np.inf
-        seq: list[tuple[np.ndarray, np.ndarray | None, float, np.ndarray | None]] = []
-        stick_start = 0.0 if mode == S4 else None
-        clock0 = time.perf_counter()
-        n_steps = 0
-        pr = self._probe(mode, Y)
-        F0 = self._field(mode, Y)
-        t_stop = t_end if t_end is not None else max_time
-        just: str | None = None
-        if traj is not None:
-            traj.append((t, Y[: c.n].copy()))
-        if mode == S2 and abs(pr[0]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
+        w = _Walk(mode=mode, Y=X0.copy(), J=np.eye(c.N) if sens else None,
+                  Jt=np.zeros(c.N) if sens else None, h=o.h_init,
+                  pr=self._probe(mode, X0), F=self._field(mode, X0),
+                  lo=X0[: c.n].copy(), hi=X0[: c.n].copy(),
+                  traj=[] if o.record else None,
+                  stick_start=0.0 if mode == S4 else None)
+        w.record()
+        if mode in (S1, S2) and abs(w.pr[1]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
+            # a start at a turning point of H (v = 0 to round-off, e.g. a maximum on a
+            # stroboscopic section): v is "just fired", so its sign cannot hide the turn
+            # (the floor of the v watch would not see v falling from +1e-14); a decides
+            w.mode = mode = S2 if w.pr[2] < 0 else S1
+            w.just = "v"
+        if mode == S2 and abs(w.pr[0]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
             # a start on the surface moving inwards: the impact happens at t = 0
-            mode, Y, J, Jt, t, info = self._transition(
-                S2, "H", Y, J, Jt, t, pr, seq, events, chatter_errors)
-            n_imp += 1
-            if mode == S4:
-                stick_start = t
-            pr = self._probe(mode, Y)
-            F0 = self._field(mode, Y)
-            just = "H"
-        while True:
-            n_steps += 1
-            if n_steps % 256 == 0 and time.perf_counter() - clock0 > o.wall_time:
-                raise SimulationError(f"wall-clock guard: {o.wall_time:g} s exceeded at t = "
-                                      f"{t:.6g} after {len(events)} events")
-            if o.max_time is not None and t > o.max_time:
-                raise SimulationError(f"time limit: no end condition (section or end time) "
-                                      f"reached by t = {o.max_time:g} (state {mode})")
-            if len(events) > o.max_events:
-                raise SimulationError(f"more than {o.max_events} events (t = {t:.6g})")
-            dt = min(h, o.h_max)
-            last = False
-            if t_stop is not None and t + dt >= t_stop:
-                dt = t_stop - t
-                last = True
-            if dt <= 0.0:
-                last = True
-                dt = 0.0
-            if dt > 0.0:
-                outs = self._step(mode, Y, dt, sens)
-                Yn = outs[0].ravel()
-                en = self._err_norm(Y, Yn, outs[1], outs[2], dt)
-                if not np.isfinite(en) or not np.all(np.isfinite(Yn)):
-                    h = dt * 0.2
-                    if h < 1e-15 * (1 + abs(t)):
-                        raise SimulationError(f"non-finite state at t = {t:.6g}")
-                    continue
-                if en > 1.0:
-                    h = dt * max(0.2, 0.9 * en ** (-1.0 / (c.order + 1)))
-                    if h < 1e-14 * (1 + abs(t)):
-                        raise SimulationError(f"step size underflow at t = {t:.6g}")
-                    continue
-                prn = outs[3].ravel()
-                Fn = outs[4].ravel()
-                # watched functions: first crossing in the step (Hermite, both roots of a dip)
-                best: tuple[float, str, int, int] | None = None
-                for idx, direction, name in WATCH[mode]:
-                    # the function that just fired is exactly zero at the step start (its
-                    # round-off sign must not fire it again): its derivative decides
-                    g0 = 0.0 if name == just else pr[idx]
-                    floor = 0.0 if name in ("H", "h") else 1e-13 * (
-                        1.0 + abs(pr[idx]) + abs(prn[idx])
-                        + dt * (abs(pr[idx + 1]) + abs(prn[idx + 1])))
-                    def verify(sx: float, d: int, idx: int = idx, mode: str = mode,
-                               Y: np.ndarray = Y, dt: float = dt) -> bool:
-                        gv = self._step(mode, Y, sx * dt, False)[3].ravel()[idx]
-                        return gv < 0 if d < 0 else gv > 0
+            self._apply_transition(w, "H", w.pr)
+        return w
 
-                    s = _hermite_first_root(g0, pr[idx + 1], prn[idx], prn[idx + 1], dt,
-                                            direction, floor, verify)
-                    if s is not None and (best is None or s < best[0]):
-                        best = (s, name, idx, direction)
-                if section is not None and t + dt > t_min_section:
-                    k, val, sd = section
-                    s = _hermite_first_root(Y[k] - val, F0[k], Yn[k] - val, Fn[k], dt, sd)
-                    if s is not None and (best is None or s < best[0]):
-                        best = (s, "section", k, sd)
-                if best is None:
-                    just = None
-                    if sens:
-                        J = outs[5] @ J
-                    Y, pr, F0 = Yn, prn, Fn
-                    t += dt
-                    if traj is not None:
-                        traj.append((t, Y[: c.n].copy()))
-                    fac = 5.0 if en == 0 else min(5.0, max(0.2, 0.9 * en ** (-1.0 / (c.order + 1))))
-                    if not last:
-                        h = dt * fac
-                    if last:
-                        break
-                    continue
-                s, name, idx, direction = best
-                tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, dt, s * dt, name, idx, section)
-                if name == "v" and mode in (S2, S6):
-                    # the turn of v came after the impact function went negative: an impact
-                    # inside a dip the interpolant of H (or h) did not resolve. H (h) is
-                    # monotone before the turn, so [0, tau] brackets exactly one impact.
-                    hi_, hn = (0, "H") if mode == S2 else (4, "h")
-                    if pre[hi_] < 0 <= pr[hi_]:
-                        tau_i = tau * pr[hi_] / (pr[hi_] - pre[hi_])
-                        name, idx = hn, hi_
-                        tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, tau, tau_i, name, idx,
-                                                               section)
-                if sens:
-                    Je = Jstep @ J
-                    gx = self._gx(mode, name, idx, Ye)
-                    dtau = -(gx @ Je) / (gx @ Fe)
-                    Je = Je + np.outer(Fe, dtau)
-                    Jt = Jt + dtau
-                    J = Je
-                Y, t = Ye, t + tau
-                if traj is not None:
-                    traj.append((t, Y[: c.n].copy()))
-                if name == "section":
-                    events.append(SimEvent("section", t, Y[: c.n].copy()))
-                    return self._result(Y, t, J, Jt, events, mode, stick_iv, chatter_counts,
-                                        n_imp, vmin, graze, chatter_errors, traj, n_steps,
-                                        "section")
-                # ---------------------------------------------------------- transitions
-                newmode, Y, J, Jt, t, info = self._transition(
-                    mode, name, Y, J, Jt, t, pre, seq, events, chatter_errors)
-                if info.get("impact_velocity") is not None:
-                    n_imp += 1
-                    vmin = min(vmin, info["impact_velocity"])
-                if info.get("near_approach") is not None:
-                    graze = min(graze, info["near_approach"])
-                if info.get("chatter_count") is not None:
-                    chatter_counts.append(info["chatter_count"])
-                if mode == S4 and newmode != S4 and stick_start is not None:
-                    stick_iv.append((stick_start, t))
-                    stick_start = None
-                if newmode == S4 and mode != S4:
-                    stick_start = t
-                if traj is not None:
-                    traj.append((t, Y[: c.n].copy()))
-                mode = newmode
-                just = name
-                pr = self._probe(mode, Y)
-                F0 = self._field(mode, Y)
-                if mode in EXTENDED and name in ("H", "h"):
-                    # next flight lasts about 2u/|a| (constant acceleration)
-                    u, a = Y[N + 1], pr[2]
-                    h = min(max(2.0 * u / max(abs(a), 1e-300), 1e-300), max(h, 1e-300)) * 1.05
-                continue
-            break
-        if mode == S4 and stick_start is not None:
-            stick_iv.append((stick_start, t))
-        if sens and t_end is not None:
-            # fixed end time: t_end - t_k(X0) is the last flow time
-            F = self._field(mode, Y)
-            J = J - np.outer(F, Jt)
-        return self._result(Y, t, J, Jt, events, mode, stick_iv, chatter_counts, n_imp, vmin,
-                            graze, chatter_errors, traj, n_steps,
-                            "time" if t_end is not None else "max_time")
+    def _guard(self, w: _Walk, clock0: float) -> None:
+        """The wall-clock, simulated-time and event-count guards (never a hang)."""
+        o = self.o
+        w.n_steps += 1
+        if w.n_steps % 256 == 0 and time.perf_counter() - clock0 > o.wall_time:
+            raise SimulationError(f"wall-clock guard: {o.wall_time:g} s exceeded at t = "
+                                  f"{w.t:.6g} after {len(w.events)} events")
+        if o.max_time is not None and w.t > o.max_time:
+            raise SimulationError(f"time limit: no end condition (section or end time) "
+                                  f"reached by t = {o.max_time:g} (state {w.mode})")
+        if len(w.events) > o.max_events:
+            raise SimulationError(f"more than {o.max_events} events (t = {w.t:.6g})")
 
-    def _result(self, Y: np.ndarray, t: float, J: np.ndarray | None, Jt: np.ndarray | None,
-                events: list[SimEvent], mode: str, stick_iv: list[tuple[float, float]],
-                chatter_counts: list[int], n_imp: int, vmin: float, graze: float,
-                chatter_errors: list[float], traj: Any, n_steps: int,
-                ended_by: str) -> SimResult:
+    def _attempt(self, w: _Walk, dt: float) -> tuple[Any, ...] | None:
+        """One Runge-Kutta step of length ``dt`` under error control: its outputs, or None
+        (rejected; ``w.h`` shrunk)."""
+        outs = self._step(w.mode, w.Y, dt, w.J is not None)
+        Yn = outs[0].ravel()
+        en = self._err_norm(w.Y, Yn, outs[1], outs[2], dt)
+        if not np.isfinite(en) or not np.all(np.isfinite(Yn)):
+            w.h = dt * 0.2
+            if w.h < 1e-15 * (1 + abs(w.t)):
+                raise SimulationError(f"non-finite state at t = {w.t:.6g}")
+            return None
+        if en > 1.0:
+            w.h = dt * max(0.2, 0.9 * en ** (-1.0 / (self.c.order + 1)))
+            if w.h < 1e-14 * (1 + abs(w.t)):
+                raise SimulationError(f"step size underflow at t = {w.t:.6g}")
+            return None
+        if en < HERMITE_CHECK_BELOW and not self._hermite_trustworthy(w, dt, outs):
+            w.h = dt * 0.25
+            return None
+        return (*outs, en)
+
+    def _hermite_trustworthy(self, w: _Walk, dt: float, outs: tuple[Any, ...]) -> bool:
+        """Whether the cubic Hermite interpolants of the watched functions over a step whose
+        error estimate is tiny still describe them: checked against the true flow at the
+        midpoint. The error estimate controls the state, not the functions of it that are
+        watched: where the flow is integrated exactly (sticking on a wall while only the
+        forcing clock moves, ``a = cos(phase)``) it is zero, the step grows fivefold per step,
+        and a step spanning a whole oscillation of ``a`` would hide the release (the
+        stroboscopic oscillator at omega ~ 0.357 then stuck to the wall for ever)."""
+        mid = np.asarray(self._step(w.mode, w.Y, 0.5 * dt, False)[3], dtype=float).ravel()
+        prn = outs[3].ravel()
+        for idx, _direction, _name in WATCH[w.mode]:
+            g0, d0, g1, d1 = w.pr[idx], w.pr[idx + 1] * dt, prn[idx], prn[idx + 1] * dt
+            p_mid = 0.5 * (g0 + g1) + 0.125 * (d0 - d1)
+            scale = abs(g0) + abs(g1) + 0.25 * (abs(d0) + abs(d1))
+            if abs(mid[idx] - p_mid) > 0.05 * scale + 1e-14:
+                return False
+        return True
+
+    def _first_crossing(self, w: _Walk, dt: float, outs: tuple[Any, ...],
+                        section: tuple[int, float, int] | None, t_min_section: float
+                        ) -> tuple[float, str, int, int] | None:
+        """First watched crossing in the step (cubic Hermite, both roots of a dip):
+        ``(s, name, index, direction)`` with ``s`` the fraction of the step, or None."""
+        mode, Y, pr = w.mode, w.Y, w.pr
+        prn, Fn, Yn = outs[3].ravel(), outs[4].ravel(), outs[0].ravel()
+        best: tuple[float, str, int, int] | None = None
+        for idx, direction, name in WATCH[mode]:
+            # the function that just fired is exactly zero at the step start (its round-off
+            # sign must not fire it again): its derivative decides
+            g0 = 0.0 if name == w.just else pr[idx]
+            floor = 0.0 if name in ("H", "h") else 1e-13 * (
+                1.0 + abs(pr[idx]) + abs(prn[idx]) + dt * (abs(pr[idx + 1]) + abs(prn[idx + 1])))
+
+            def verify(sx: float, d: int, idx: int = idx) -> bool:
+                gv = self._step(mode, Y, sx * dt, False)[3].ravel()[idx]
+                return gv < 0 if d < 0 else gv > 0
+
+            s = _hermite_first_root(g0, pr[idx + 1], prn[idx], prn[idx + 1], dt, direction,
+                                    floor, verify)
+            if s is not None and (best is None or s < best[0]):
+                best = (s, name, idx, direction)
+        if section is not None and w.t + dt > t_min_section:
+            k, val, sd = section
+            s = _hermite_first_root(Y[k] - val, w.F[k], Yn[k] - val, Fn[k], dt, sd)
+            if s is not None and (best is None or s < best[0]):
+                best = (s, "section", k, sd)
+        return best
+
+    def _accept(self, w: _Walk, dt: float, outs: tuple[Any, ...], last: bool) -> None:
+        """Take the whole step (no crossing inside it) and choose the next step size."""
+        Yn, prn, Fn, en = outs[0].ravel(), outs[3].ravel(), outs[4].ravel(), outs[-1]
+        w.just = None
+        if w.J is not None:
+            w.J = outs[5] @ w.J
+        self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
+        w.Y, w.pr, w.F = Yn, prn, Fn
+        w.t += dt
+        w.record()
+        if not last:
+            w.h = dt * (5.0 if en == 0 else
+                        min(5.0, max(0.2, 0.9 * en ** (-1.0 / (self.c.order + 1)))))
+
+    def _extend_extremes(self, w: _Walk, Y0: np.ndarray, F0: np.ndarray, Y1: np.ndarray,
+                         F1: np.ndarray, dt: float) -> None:
+        """Extremes of each state component over the flow step from ``Y0`` to ``Y1`` (mode
+        ``w.mode``): the ends, and where a component's slope changes sign inside the step, its
+        value on the true flow at the extremum of the cubic Hermite interpolant (ends and
+        slopes ``F``). The location error ``ds`` of the interpolant costs ``O(ds^2)`` in the
+        value: the extremes are exact to about the integration tolerance."""
+        n = self.c.n
+        a, b = Y0[:n], Y1[:n]
+        np.minimum(w.lo, np.minimum(a, b), out=w.lo)
+        np.maximum(w.hi, np.maximum(a, b), out=w.hi)
+        m0, m1 = F0[:n] * dt, F1[:n] * dt
+        for i in np.nonzero(m0 * m1 < 0)[0]:
+            # p(s) = a + m0 s + c2 s^2 + c3 s^3 on [0, 1]; p'(s) = 0 between the ends
+            c2 = -3 * a[i] - 2 * m0[i] + 3 * b[i] - m1[i]
+            c3 = 2 * a[i] + m0[i] - 2 * b[i] + m1[i]
+            roots = np.roots([3 * c3, 2 * c2, m0[i]]) if c3 != 0 else np.array(
+                [-m0[i] / (2 * c2)] if c2 != 0 else [])
+            for r in roots:
+                if abs(r.imag) < 1e-14 and 0.0 < r.real < 1.0:
+                    sr = r.real
+                    out = self._step(w.mode, Y0, sr * dt, False)
+                    curv = 2 * c2 + 6 * c3 * sr
+                    if curv != 0.0:
+                        # one Newton step on the true slope: the value is then exact to
+                        # O(ds^4) instead of O(ds^2)
+                        s1 = sr - float(out[4][i]) * dt / curv
+                        if 0.0 < s1 < 1.0:
+                            out = self._step(w.mode, Y0, s1 * dt, False)
+                    v = float(out[0][i])
+                    w.lo[i] = min(w.lo[i], v)
+                    w.hi[i] = max(w.hi[i], v)
+
+    def _fire(self, w: _Walk, dt: float, hit: tuple[float, str, int, int],
+              section: tuple[int, float, int] | None) -> bool:
+        """Advance to the crossing ``hit`` located on the true flow, chain its saltation into
+        the sensitivities and apply its transition; True when it is the section (the end)."""
+        mode, Y, pr = w.mode, w.Y, w.pr
+        s, name, idx, _direction = hit
+        tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, dt, s * dt, name, idx, section)
+        if name == "v" and mode in (S2, S6):
+            # the turn of v came after the impact function went negative: an impact inside a
+            # dip the interpolant of H (or h) did not resolve. H (h) is monotone before the
+            # turn, so [0, tau] brackets exactly one impact.
+            hi_, hn = (0, "H") if mode == S2 else (4, "h")
+            if pre[hi_] < 0 <= pr[hi_]:
+                name, idx = hn, hi_
+                tau, Ye, pre, Fe, Jstep = self._refine(
+                    mode, Y, tau, tau * pr[hi_] / (pr[hi_] - pre[hi_]), name, idx, section)
+        if section is not None and name != "section":
+            # the refined crossing may lie past the section (an event within round-off of
+            # it, e.g. a turning point of q on a stroboscopic section): the section comes first
+            k, val, sd = section
+            a0, a1 = sd * (Y[k] - val), sd * (Ye[k] - val)
+            if a0 < 0 <= a1:
+                name, idx = "section", k
+                tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, tau, tau * a0 / (a0 - a1),
+                                                       name, idx, section)
+        if w.J is not None:
+            Je = Jstep @ w.J
+            gx = self._gx(mode, name, idx, Ye)
+            dtau = -(gx @ Je) / (gx @ Fe)
+            w.J = Je + np.outer(Fe, dtau)
+            w.Jt = w.Jt + dtau
+        self._extend_extremes(w, Y, w.F, Ye, Fe, tau)
+        w.Y, w.t = Ye, w.t + tau
+        w.record()
+        if name == "section":
+            w.events.append(SimEvent("section", w.t, w.Y[: self.c.n].copy()))
+            return True
+        self._apply_transition(w, name, pre)
+        return False
+
+    def _apply_transition(self, w: _Walk, name: str, pre: np.ndarray) -> None:
+        """Apply the transition of ``name`` in the current state (:meth:`_transition`) and
+        keep the walk's bookkeeping (impacts, sticking intervals, next step size)."""
+        mode = w.mode
+        newmode, w.Y, w.J, w.Jt, w.t, info = self._transition(
+            mode, name, w.Y, w.J, w.Jt, w.t, pre, w.seq, w.events, w.chatter_errors)
+        if info.get("impact_velocity") is not None:
+            w.n_imp += 1
+            w.vmin = min(w.vmin, info["impact_velocity"])
+        if info.get("near_approach") is not None:
+            w.graze = min(w.graze, info["near_approach"])
+            w.margins.append(info["near_approach"])
+        if info.get("chatter_count") is not None:
+            w.chatter_counts.append(info["chatter_count"])
+        if mode == S4 and newmode != S4 and w.stick_start is not None:
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
+        if newmode == S4 and mode != S4:
+            w.stick_start = w.t
+        w.record()
+        w.mode = newmode
+        w.just = name
+        w.pr = self._probe(newmode, w.Y)
+        w.F = self._field(newmode, w.Y)
+        if newmode in EXTENDED and name in ("H", "h"):
+            # next flight lasts about 2u/|a| (constant acceleration)
+            u, a = w.Y[self.c.N + 1], w.pr[2]
+            w.h = min(max(2.0 * u / max(abs(a), 1e-300), 1e-300), max(w.h, 1e-300)) * 1.05
+
+    def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
         return SimResult(
-            X=Y[:N].copy(), t=t, J=None if J is None else J[:N].copy(),
-            Jt=None if Jt is None else Jt.copy(), events=events, state=mode,
-            sticking_intervals=stick_iv, chatter_counts=chatter_counts, n_impacts=n_imp,
-            min_impact_velocity=float(vmin), grazing_margin=float(graze),
-            chatter_errors=chatter_errors, trajectory=traj, n_steps=n_steps, ended_by=ended_by)
+            X=w.Y[:N].copy(), t=w.t, J=None if w.J is None else w.J[:N].copy(),
+            Jt=None if w.Jt is None else w.Jt.copy(), events=w.events, state=w.mode,
+            sticking_intervals=w.stick_iv, chatter_counts=w.chatter_counts, n_impacts=w.n_imp,
+            min_impact_velocity=float(w.vmin), grazing_margin=float(w.graze),
+            chatter_errors=w.chatter_errors, trajectory=w.traj, n_steps=w.n_steps,
+            ended_by=ended_by, extremes=np.column_stack([w.lo, w.hi]),
+            grazing_margins=list(w.margins))
 
     def _gx(self, mode: str, name: str, idx: int, Y: np.ndarray) -> np.ndarray:
         """Gradient of the event function ``name`` with respect to the (extended) state."""
@@ -534,7 +696,10 @@ class Simulator:
             return S2, Y, J, Jt, t, info
         if mode == S2 and name == "v":                                  # II: local minimum of H
             info["near_approach"] = float(pr[0])
-            events.append(SimEvent("near_approach", t, Y[: c.n].copy(), {"H": float(pr[0])}))
+            # J at the turn: the grazing normal form (shooting.grazing_tangent) needs the
+            # gradient of H_min = H(x(t_turn)) (dH/dt = v = 0 there) and the tail sensitivity
+            events.append(SimEvent("near_approach", t, Y[: c.n].copy(),
+                                   {"H": float(pr[0]), "J": None if J is None else J.copy()}))
             return S1, Y, J, Jt, t, info
         if mode == S3 and name == "a":                                  # XII
             return S1, Y, J, Jt, t, info
@@ -552,7 +717,10 @@ class Simulator:
             count = len(seq)
             seq.clear()
             info["near_approach"] = float(pr[0])
-            events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(), {"impacts": count}))
+            # a near approach too (H_min = H at the turn): J for the grazing normal form
+            events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(),
+                                   {"impacts": count, "H": float(pr[0]),
+                                    "J": None if J is None else J[:N].copy()}))
             return S1, Y[:N].copy(), None if J is None else J[:N].copy(), Jt, t, info
         # ---------------------------------------------------------------- impacts
         X = Y[:N].copy()
@@ -581,7 +749,16 @@ class Simulator:
         Jp = None if JX is None else Rx @ JX
         vplus = np.asarray(c.vgrad(Xp)[0], dtype=float).item()
         if mode == S2:
-            events.append(SimEvent("impact", t, X[: c.n].copy(), {"v": q["v"], "a": a}))
+            events.append(SimEvent("impact", t, X[: c.n].copy(),
+                                   {"v": q["v"], "a": a,
+                                    "J": None if JX is None else JX.copy()}))
+        if mode in EXTENDED and not a < 0:
+            # an impact of a chattering sequence after which the flight leaves the wall:
+            # the sequence breaks off (this impact is not in ``seq``, which holds a < 0 only)
+            events.append(SimEvent("chatter_broken", t, X[: c.n].copy(),
+                                   {"impacts": len(seq) + 1, "v": q["v"], "a": a,
+                                    "J": None if JX is None else JX.copy()}))
+            seq.clear()
         if vplus <= 1e-14 * (1.0 + abs(q["v"])):                          # r = 0 (IV, V)
             seq.clear()
             if a < 0:

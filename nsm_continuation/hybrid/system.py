@@ -102,6 +102,12 @@ class HybridSystem:
     #: indices of the position coordinates moved when the chatter map's end point is projected
     #: onto the sticking set (default: every state component ``H`` depends on)
     position: list[int] | None = None
+    #: number of configuration coordinates (positions) at the head of the state of a mechanical
+    #: system (its response quantities are their extremes); None: every state component
+    n_config: int | None = None
+    #: the parameter that is the rate of the clock of a forced system (``x_3' = omega``), so
+    #: that its orbits are presented as frequency responses; None for autonomous systems
+    forcing_frequency: str | None = None
 
     def __post_init__(self) -> None:
         n = self.x.numel()
@@ -157,8 +163,10 @@ class HybridSystem:
         names = list(state_names) if state_names is not None else [
             *(f"q{i + 1}" for i in range(nq)), *(f"q{i + 1}dot" for i in range(nq)),
             *(["phase"] if clock is not None else [])]
+        forcing = None if clock_rate is None else next(
+            (k for k, sym in params.items() if ca.is_equal(ca.SX(clock_rate), sym)), None)
         sys = cls(name, x, params, ca.vertcat(*parts_F), H, ca.vertcat(*parts_W), names,
-                  dict(periodic or {}))
+                  dict(periodic or {}), n_config=nq, forcing_frequency=forcing)
         sys._mass = ca.Function("M", [q, *params.values()], [M])  # type: ignore[attr-defined]
         sys._nq = nq  # type: ignore[attr-defined]
         return sys
@@ -260,6 +268,7 @@ class HybridSystem:
             quantities=ca.Function("quantities", [X], [ca.vertcat(H, v, a, r, lam, LWH)]),
             impact=ca.Function("impact", [X], [R, ca.jacobian(R, X), v, r]),
             vgrad=ca.Function("vgrad", [X], [v, ca.jacobian(v, X)]),
+            jump=ca.Function("jump", [X], [W]),
             chatter=ca.Function("chatter", [X], [Q1, q1, ca.jacobian(Q1, X),
                                                  ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
             project=ca.Function("project", [X], [P, ca.jacobian(P, X)]),
@@ -289,6 +298,9 @@ class CompiledHybrid:
     quantities: ca.Function
     impact: ca.Function
     vgrad: ca.Function
+    #: ``W(x)`` of the impact law ``R = x + W v`` (eq. 5): the state jump per unit of the
+    #: (negative) normal velocity ``v``, used for the grazing normal form
+    jump: ca.Function
     chatter: ca.Function
     project: ca.Function
     steps: dict[str, tuple[ca.Function, ca.Function]]

@@ -96,6 +96,7 @@ from nsm_continuation.preflight import (
     start_key,
 )
 from nsm_continuation.protocol import Problem, StartPoint
+from nsm_continuation.vocabulary import CanonicalNames, as_parameters
 
 from .presentation import BarFrequencyEnergy
 
@@ -324,8 +325,9 @@ def continuum_orbit(sig: Signature, T: float) -> ContinuumOrbit:
 
 
 # -- YAML ------------------------------------------------------------------------------------------
-class BarContinuumParameters(BaseModel):
-    """YAML ``parameters`` of ``problem: bar_continuum`` (cross-section S = 1, as the lattice)."""
+class BarContinuumParameters(CanonicalNames):
+    """YAML ``parameters`` of ``problem: bar_continuum`` (cross-section S = 1, as the lattice);
+    ``gap`` is the paper's ``g0``."""
 
     model_config = STRICT
     E: PosFloat = 1.0
@@ -404,8 +406,7 @@ class BarContinuumProblem(BarFrequencyEnergy, Problem):
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
 
     def __init__(self, params: BarContinuumParameters | dict[str, Any]) -> None:
-        if isinstance(params, dict):
-            params = BarContinuumParameters.model_validate(params)
+        params = as_parameters(BarContinuumParameters, params)
         super().__init__(params)
         self.E, self.rho, self.L, self.g0 = params.E, params.rho, params.L, params.gap
         self.c = float(np.sqrt(self.E / self.rho))

@@ -39,6 +39,7 @@ from nsm_continuation.preflight import (
     one_or_many,
     start_key,
 )
+from nsm_continuation.vocabulary import CanonicalNames, as_parameters
 
 from .presentation import BarFrequencyEnergy
 from .wfem_lattice import (
@@ -54,7 +55,10 @@ from .wfem_operators import kernel_dimensions_at_period
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
-class WfemBarParameters(BaseModel):
+class WfemBarParameters(CanonicalNames):
+    """YAML ``parameters`` of ``problem: wfem_bar``: ``cells`` is the paper's ``N``, ``gap`` its
+    ``g0`` (contact at ``u(L) = gap``)."""
+
     model_config = STRICT
     E: PosFloat = 1.0
     rho: PosFloat = 1.0
@@ -157,7 +161,8 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     #: a change of the number of grazing instants is a grazing event
     character_kinds: ClassVar[dict[str, str]] = {"grazing_instants": "grazing"}
 
-    def __init__(self, params: WfemBarParameters) -> None:
+    def __init__(self, params: WfemBarParameters | dict[str, Any]) -> None:
+        params = as_parameters(WfemBarParameters, params)
         super().__init__(params)
         self.model = BarModel(params.E, params.rho, params.L, params.cells, params.gap)
         self.variables = ["omega_ratio", "contact_fraction"]

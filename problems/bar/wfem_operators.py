@@ -226,8 +226,34 @@ def end_series(w0: np.ndarray, pattern: Pattern, left_sign: int = 1) -> np.ndarr
     return J
 
 
+def floating_bc_contact(in_contact: bool, gap: float, gap_free_next: float,
+                        wall_stress: float, nearest: bool, gap_tol: float = 0.0,
+                        stress_tol: float = 0.0) -> bool:
+    """The switching decision of Algorithm 2 (App. B): is step n a CONTACT step?
+
+    The one rule of every time stepper of the bar (:func:`problems.bar.wfem_simulation.simulate`
+    and :func:`problems.bar.wfem_stability.floating_bc_simulation`; :func:`ring_step` and
+    :func:`simulate_ring` apply a *given* phase pattern and decide nothing). Contact is a
+    *candidate* if the end was in contact over step n - 1, or the gap (B.2)
+    ``g_n = g0 + w(t_n) - u_end`` is ``<= gap_tol``, or (``nearest``) the free step would make
+    the gap negative with the crossing in the first half of the step
+    (``g_(n+1)^free < 0`` and ``g_n < -g_(n+1)^free``: the closure goes to the nearest grid
+    time). A candidate is kept if the stress the wall would carry over the step is compressive,
+    ``wall_stress <= stress_tol`` (B.5 with the compressive sign: ``lambda = -S sigma >= 0``;
+    ``wall_stress`` is the arriving characteristic ``b_N`` plus ``Z w_t`` for a moving wall);
+    otherwise the end is released (free step, B.4).
+    """
+    if in_contact or gap <= gap_tol or (nearest and gap_free_next < 0.0
+                                        and gap < -gap_free_next):
+        return bool(wall_stress <= stress_tol)
+    return False
+
+
 def simulate_ring(w0: np.ndarray, pattern: Pattern, left_sign: int = 1) -> np.ndarray:
-    """All states ``w^(0..M)`` (rows) under the phase pattern; O(N M) memory, for plots/tests."""
+    """All states ``w^(0..M)`` (rows) under the phase pattern; O(N M) memory, for plots/tests.
+
+    The pattern is given (e.g. a lattice orbit's ``((m, FREE), (p, CONTACT))``): no switching
+    decision is made here (the decision is :func:`floating_bc_contact`)."""
     N = len(w0) // 2
     signs = [s for steps, s in pattern for _ in range(steps)]
     out = np.empty((len(signs) + 1, len(w0)))

@@ -77,7 +77,7 @@ from typing import Literal
 
 import numpy as np
 
-from .wfem_operators import BarConstants, from_ring, to_ring
+from .wfem_operators import BarConstants, floating_bc_contact, from_ring, to_ring
 
 ForceField = Callable[[np.ndarray, float], np.ndarray]
 
@@ -307,6 +307,190 @@ def step_source_terms(params: BarParams, loading: Loading, t0: float, n0: int,
 
 
 # -- the time loop -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _StepConstants:
+    """What every step of one :func:`simulate` call reads (module docstring for the symbols)."""
+
+    N: int
+    dt: float
+    c: float
+    Z: float
+    S: float
+    g0: float
+    s0: float  # left-end reflection sign: +1 clamped, -1 free
+    t0: float
+    subcell: bool
+    wall: bool  # the wall moves
+    w0: float
+    omega: float
+    field_force: ForceField | None
+    x_if: np.ndarray  # interfaces x_(i+1/2), i = 0..N
+
+
+@dataclass(frozen=True)
+class _StepSource:
+    """Source terms of one step: ``c F(dt)`` of the uniform force (``uniform``, added along
+    every characteristic), ``c F(dt)`` and ``c Fbar`` of the content reflecting at x = L
+    (``d_L``, ``bar_L``) and at x = 0 (``d_0``, ``bar_0``), field force included; ``phi`` the
+    field force's ``c dt f(x_(i+1/2), t_n + dt/2)`` (None without one)."""
+
+    uniform: float
+    d_L: float
+    bar_L: float
+    d_0: float
+    bar_0: float
+    phi: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class _EndStep:
+    """The contact end over one step (floating boundary condition, App. B)."""
+
+    a_new: float  # characteristic a_N leaving x = L at t_(n+1)
+    v_end: float  # mean end velocity over the step
+    u: float  # end displacement at t_(n+1) (exact time integral of the interface velocity)
+    force: float  # mean contact force over the step (compressive >= 0)
+    contact: bool  # boundary condition at the end of the step
+
+
+def _check_state(params: BarParams, state: BarState | None) -> tuple[np.ndarray, float, float,
+                                                                      bool]:
+    """``(w, u_end, t, contact)`` of the initial state (default :func:`rest_state`), validated;
+    ``w`` is a copy."""
+    st = rest_state(params) if state is None else state
+    w = np.array(st.w, dtype=float)
+    if w.shape != (2 * params.N,):
+        raise ValueError(f"state.w must have shape ({2 * params.N},), got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError("state.w must be finite")
+    return (w, _check_finite("state.u_end", st.u_end), _check_finite("state.t", st.t),
+            bool(st.contact))
+
+
+def _chunk_terms(params: BarParams, loading: Loading, k: _StepConstants, n: int,
+                 mc: int) -> tuple[list[float], ...]:
+    """Per-step source terms of steps ``n..n+mc-1`` as lists (fast scalar access):
+    ``c F(dt)``, ``c Fbar``, ``<w_t>``, ``w(t_n+1) - w(t_n)`` (:func:`step_source_terms`) and
+    the wall position and velocity at ``t_n..t_n+mc``."""
+    terms = [a.tolist() for a in step_source_terms(params, loading, k.t0, n, mc)]
+    t_blk = k.t0 + (n + np.arange(mc + 1)) * k.dt
+    wall_n = loading.wall(t_blk).tolist() if k.wall else [0.0] * (mc + 1)
+    wdp = (k.w0 * k.omega * np.cos(k.omega * t_blk)).tolist() if k.wall else [0.0] * (mc + 1)
+    return (*terms, wall_n, wdp)
+
+
+def _step_source(k: _StepConstants, cFdt: float, cFbar: float, i: int) -> _StepSource:
+    """The source terms of step ``i`` (module docstring: exact for the uniform force, midpoint
+    along each characteristic for a field force)."""
+    fb = fb0 = cFbar
+    fd = fd0 = cFdt
+    phi = None
+    if k.field_force is not None:
+        phi = k.c * k.dt * np.asarray(k.field_force(k.x_if, k.t0 + (i + 0.5) * k.dt),
+                                      dtype=float)
+        fd += phi[k.N]
+        fb += 0.5 * phi[k.N]
+        fd0 += phi[0]
+        fb0 += 0.5 * phi[0]
+    return _StepSource(cFdt, fd, fb, fd0, fb0, phi)
+
+
+def _damp_half_step(aview: np.ndarray, bview: np.ndarray, q_half: float) -> None:
+    """Half a step of the exact damping ``rho v_t = -eta v`` on ``(a_i, b_i)`` (Strang
+    splitting, module docstring): ``v`` decays, ``sigma = (a + b)/2`` is unchanged."""
+    d = aview - bview
+    d *= q_half
+    bview += d
+    aview -= d
+
+
+def _subcell_theta(k: _StepConstants, contact: bool, J: float, src: _StepSource, g_n: float,
+                   g_next: float, wdp_a: float, wdp_b: float) -> float:
+    """Fraction ``theta`` of the step where the boundary condition would switch
+    (``switching="subcell"``), -1 if none: in contact, where the wall stress ``b + Z w_t``
+    (linear over the step) turns tensile; free, at the root of the linearly interpolated gap."""
+    if contact:
+        sg0 = J + k.Z * wdp_a  # wall stress at t_n+ and at t_n+1-
+        sg1 = J - src.d_L + k.Z * wdp_b
+        return sg0 / (sg0 - sg1) if sg0 <= 0.0 < sg1 else -1.0
+    return g_n / (g_n - g_next) if g_n > 0.0 and g_next < 0.0 else -1.0
+
+
+def _subcell_switch(k: _StepConstants, contact: bool, be: float, src: _StepSource, u: float,
+                    i: int, theta: float, wall_a: float, wall_b: float) -> _EndStep | None:
+    """The switch at ``t_n + theta dt`` inside step ``i``: the end-cell content reflecting
+    before and after it gets the two boundary conditions and its average leaves the cell
+    (module docstring). A release always happens; an impact only if the wall stress after it
+    is compressive (else None: the step stays free)."""
+    dt, Z = k.dt, k.Z
+    t_th = k.t0 + (i + theta) * dt
+    w_th = k.w0 * math.sin(k.omega * t_th) if k.wall else 0.0
+    fd, fb = src.d_L, src.bar_L
+    if contact:  # release
+        wd1 = (w_th - wall_a) / (theta * dt)
+        sig1 = be + Z * wd1
+        a_new = theta * (be + 2.0 * Z * wd1) - (1.0 - theta) * be + (fd - fb)
+        u_new = u + (w_th - wall_a) - (1.0 - theta) * dt * be / Z
+        return _EndStep(a_new, (u_new - u) / dt, u_new, -k.S * theta * sig1, False)
+    wd2 = (wall_b - w_th) / ((1.0 - theta) * dt)
+    sig2 = be + Z * wd2
+    if sig2 > 0.0:
+        return None
+    a_new = -theta * be + (1.0 - theta) * (be + 2.0 * Z * wd2) + (fd - fb)
+    u_new = u - theta * dt * be / Z + (wall_b - w_th)
+    return _EndStep(a_new, (u_new - u) / dt, u_new, -k.S * (1.0 - theta) * sig2, True)
+
+
+def _whole_step(k: _StepConstants, contact: bool, be: float, sig_c: float, src: _StepSource,
+                u: float, wd: float, dw: float) -> _EndStep:
+    """One boundary condition over the whole step: contact (B.3, moving wall: ``a_N' = b_N + 2
+    Z <w_t>``) or free (B.4, ``a_N' = -b_N``), with the exact force terms."""
+    if contact:
+        return _EndStep(be + 2.0 * k.Z * wd + (src.d_L - src.bar_L), wd, u + dw, -k.S * sig_c,
+                        True)
+    v_end = -be / k.Z
+    return _EndStep(-be + (src.d_L - src.bar_L), v_end, u + k.dt * v_end, 0.0, False)
+
+
+def _end_step(k: _StepConstants, J: float, src: _StepSource, contact: bool, u: float, i: int,
+              wall_a: float, wall_b: float, wdp_a: float, wdp_b: float, wd: float,
+              dw: float) -> _EndStep:
+    """One step of the floating boundary condition at x = L (Algorithm 2): ``J`` the
+    characteristic ``b_N`` arriving, ``contact`` the condition of the previous step, ``u`` the
+    end displacement at ``t_n``; ``wall_a, wall_b`` and ``wdp_a, wdp_b`` the wall position and
+    velocity at ``t_n`` and ``t_(n+1)``, ``wd`` its mean velocity over the step, ``dw`` its
+    increment. The decision is :func:`~problems.bar.wfem_operators.floating_bc_contact` with the
+    gap (B.2) and the wall stress ``b + Z <w_t>`` (B.5); ``switching="grid"`` closes at the
+    nearest grid time, ``"subcell"`` first tries a switch inside the step."""
+    be = J - src.bar_L  # mean b arriving at x = L over the step
+    g_n = k.g0 + wall_a - u
+    g_next = k.g0 + wall_b - (u - k.dt * be / k.Z)  # gap at t_(n+1) after a free step
+    if k.subcell:
+        theta = _subcell_theta(k, contact, J, src, g_n, g_next, wdp_a, wdp_b)
+        if theta > 0.0:
+            switched = _subcell_switch(k, contact, be, src, u, i, theta, wall_a, wall_b)
+            if switched is not None:
+                return switched
+    sig_c = be + k.Z * wd
+    contact = floating_bc_contact(contact, g_n, g_next, sig_c, nearest=not k.subcell)
+    return _whole_step(k, contact, be, sig_c, src, u, wd, dw)
+
+
+def _transport(w: np.ndarray, bview: np.ndarray, wa: np.ndarray, N: int, src: _StepSource,
+               a_new: float, b_new: float) -> None:
+    """(A.18): rotate the ring one slot, add the sources along the characteristics, set the
+    two reflected values."""
+    w[1:] = w[:-1]
+    if src.uniform != 0.0:
+        bview -= src.uniform
+        wa += src.uniform
+    if src.phi is not None:
+        w[1:N] -= src.phi[1:N]
+        wa[1:] += src.phi[N - 1:0:-1]
+    w[N] = a_new
+    w[0] = b_new
+
+
 def simulate(params: BarParams, loading: Loading, n_steps: int, state: BarState | None = None,
              store_fields: bool = False, switching: Literal["grid", "subcell"] = "grid",
              chunk: int = 65536) -> SimulationResult:
@@ -316,37 +500,27 @@ def simulate(params: BarParams, loading: Loading, n_steps: int, state: BarState 
     the contact end switched by the gap (B.2) and the sign of the wall stress (B.5) as in the
     module docstring (``switching`` "grid": Algorithm 2; "subcell": sub-step switching). O(N)
     per step; ``store_fields`` keeps every ring vector (O(N M) memory, for space-time plots).
+    Each step: half a damping step, the source terms (:func:`_step_source`), the floating
+    boundary condition (:func:`_end_step`), the reflection at x = 0, the transport
+    (:func:`_transport`), half a damping step.
     """
     if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 0:
         raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
-    st = rest_state(params) if state is None else state
-    N = params.N
-    w = np.array(st.w, dtype=float)
-    if w.shape != (2 * N,):
-        raise ValueError(f"state.w must have shape ({2 * N},), got {w.shape}")
-    if not np.all(np.isfinite(w)):
-        raise ValueError("state.w must be finite")
-    u = _check_finite("state.u_end", st.u_end)
-    t0 = _check_finite("state.t", st.t)
-    contact = bool(st.contact)
-
-    M = int(n_steps)
-    dt, c, Z, S, E = params.time_step, params.c, params.Z, params.S, params.E
-    g0 = params.g0
-    s0 = float(params.left_sign)
-    en_fac = S * params.dx / (4.0 * E)
-    gamma = loading.eta / params.rho
-    damp = gamma > 0.0
-    q_half = 0.5 * (1.0 - math.exp(-0.5 * gamma * dt))  # b += q (a - b), a -= q (a - b)
-    field_force = loading.force_field
-    x_if = np.arange(N + 1) * params.dx  # interfaces x_(i+1/2), i = 0..N
-    wall = loading.w0 != 0.0 and loading.omega != 0.0
-    w0l, oml = loading.w0, loading.omega
+    w, u, t0, contact = _check_state(params, state)
     if switching not in ("grid", "subcell"):
         raise ValueError(f"switching must be 'grid' or 'subcell', got {switching!r}")
-    subcell = switching == "subcell"
+    N = params.N
+    M = int(n_steps)
+    k = _StepConstants(N, params.time_step, params.c, params.Z, params.S, params.g0,
+                       float(params.left_sign), t0, switching == "subcell",
+                       loading.w0 != 0.0 and loading.omega != 0.0, loading.w0, loading.omega,
+                       loading.force_field, np.arange(N + 1) * params.dx)
+    en_fac = params.S * params.dx / (4.0 * params.E)
+    gamma = loading.eta / params.rho
+    damp = gamma > 0.0
+    q_half = 0.5 * (1.0 - math.exp(-0.5 * gamma * k.dt))  # b += q (a - b), a -= q (a - b)
 
-    t_out = t0 + np.arange(M + 1) * dt
+    t_out = t0 + np.arange(M + 1) * k.dt
     u_out = np.empty(M + 1)
     e_out = np.empty(M + 1)
     v_out = np.empty(M)
@@ -365,114 +539,30 @@ def simulate(params: BarParams, loading: Loading, n_steps: int, state: BarState 
     n = 0
     while n < M:
         mc = min(chunk, M - n)
-        cFdt_a, cFbar_a, wdot_a, dw_a = step_source_terms(params, loading, t0, n, mc)
-        cFdt, cFbar, wdot, dw = (cFdt_a.tolist(), cFbar_a.tolist(), wdot_a.tolist(),
-                                 dw_a.tolist())
-        t_blk = t0 + (n + np.arange(mc + 1)) * dt
-        wall_n = loading.wall(t_blk).tolist() if wall else [0.0] * (mc + 1)
-        wdp = (w0l * oml * np.cos(oml * t_blk)).tolist() if wall else [0.0] * (mc + 1)
+        cFdt, cFbar, wdot, dw, wall_n, wdp = _chunk_terms(params, loading, k, n, mc)
         for j in range(mc):
+            i = n + j
             if damp:
-                d = aview - bview
-                d *= q_half
-                bview += d
-                aview -= d
-            fdu = cFdt[j]
-            fb = fb0 = cFbar[j]
-            fd = fd0 = fdu
-            if field_force is not None:
-                phi = c * dt * np.asarray(field_force(x_if, t0 + (n + j + 0.5) * dt), dtype=float)
-                fd += phi[N]
-                fb += 0.5 * phi[N]
-                fd0 += phi[0]
-                fb0 += 0.5 * phi[0]
-            wd = wdot[j]
-            be = w[N - 1] - fb  # mean b arriving at x = L over the step
-            # -- floating boundary condition (Algorithm 2) --
+                _damp_half_step(aview, bview, q_half)
+            src = _step_source(k, cFdt[j], cFbar[j], i)
             a1 = w[2 * N - 1]
-            theta = -1.0  # switching fraction of the step (subcell only), -1: none
-            if contact:
-                cand = True
-                if subcell:
-                    sg0 = w[N - 1] + Z * wdp[j]  # wall stress at t_n+ and at t_n+1-
-                    sg1 = w[N - 1] - fd + Z * wdp[j + 1]
-                    if sg0 <= 0.0 < sg1:
-                        theta = sg0 / (sg0 - sg1)
-            else:
-                g_n = g0 + wall_n[j] - u
-                if g_n <= 0.0:
-                    cand = True
-                else:
-                    g_next = g0 + wall_n[j + 1] - (u - dt * be / Z)
-                    if subcell:
-                        cand = False
-                        if g_next < 0.0:
-                            theta = g_n / (g_n - g_next)
-                    else:
-                        cand = g_next < 0.0 and g_n < -g_next
-            if theta > 0.0:
-                # sub-step switch at t_n + theta dt: the end-cell content reflecting before and
-                # after it gets the two boundary conditions; its average leaves the cell.
-                t_th = t0 + (n + j + theta) * dt
-                w_th = w0l * math.sin(oml * t_th) if wall else 0.0
-                if contact:  # release
-                    wd1 = (w_th - wall_n[j]) / (theta * dt)
-                    sig1 = be + Z * wd1
-                    a_new = theta * (be + 2.0 * Z * wd1) - (1.0 - theta) * be + (fd - fb)
-                    u_new = u + (w_th - wall_n[j]) - (1.0 - theta) * dt * be / Z
-                    f_out[n + j] = -S * theta * sig1
-                    contact = False
-                else:  # impact, if the wall stress after it is compressive
-                    wd2 = (wall_n[j + 1] - w_th) / ((1.0 - theta) * dt)
-                    sig2 = be + Z * wd2
-                    if sig2 <= 0.0:
-                        a_new = -theta * be + (1.0 - theta) * (be + 2.0 * Z * wd2) + (fd - fb)
-                        u_new = u - theta * dt * be / Z + (wall_n[j + 1] - w_th)
-                        f_out[n + j] = -S * (1.0 - theta) * sig2
-                        contact = True
-                    else:
-                        theta = -1.0
-                if theta > 0.0:
-                    v_end = (u_new - u) / dt
-                    u = u_new
-            if theta <= 0.0:
-                sig_c = be + Z * wd
-                contact = bool(cand and sig_c <= 0.0)
-                if contact:
-                    a_new = be + 2.0 * Z * wd + (fd - fb)
-                    v_end = wd
-                    u += dw[j]
-                    f_out[n + j] = -S * sig_c
-                else:
-                    a_new = -be + (fd - fb)
-                    v_end = -be / Z
-                    u += dt * v_end
-                    f_out[n + j] = 0.0
-            b_new = s0 * (a1 + fb0) - (fd0 - fb0)
-            # -- transport (A.18): rotate the ring, sources along the characteristics --
-            w[1:] = w[:-1]
-            if fdu != 0.0:
-                bview -= fdu
-                wa += fdu
-            if field_force is not None:
-                w[1:N] -= phi[1:N]
-                wa[1:] += phi[N - 1:0:-1]
-            w[N] = a_new
-            w[0] = b_new
+            end = _end_step(k, w[N - 1], src, contact, u, i, wall_n[j], wall_n[j + 1],
+                            wdp[j], wdp[j + 1], wdot[j], dw[j])
+            contact, u = end.contact, end.u
+            b_new = k.s0 * (a1 + src.bar_0) - (src.d_0 - src.bar_0)  # reflection at x = 0
+            _transport(w, bview, wa, N, src, end.a_new, b_new)
             if damp:
-                d = aview - bview
-                d *= q_half
-                bview += d
-                aview -= d
-            v_out[n + j] = v_end
-            c_out[n + j] = contact
-            u_out[n + j + 1] = u
-            e_out[n + j + 1] = en_fac * float(np.dot(w, w))
+                _damp_half_step(aview, bview, q_half)
+            v_out[i] = end.v_end
+            f_out[i] = end.force
+            c_out[i] = contact
+            u_out[i + 1] = u
+            e_out[i + 1] = en_fac * float(np.dot(w, w))
             if ring is not None:
-                ring[n + j + 1] = w
+                ring[i + 1] = w
         n += mc
     wall_time = time.perf_counter() - tic
-    final = BarState(w.copy(), u, t0 + M * dt, contact)
+    final = BarState(w.copy(), u, t0 + M * k.dt, contact)
     return SimulationResult(params, loading, t_out, u_out, v_out, f_out, e_out, c_out, final,
                             ring, wall_time)
 
@@ -553,44 +643,29 @@ def steady_multiple(averages: np.ndarray, tol: float, max_multiple: int = 4) -> 
     return 0
 
 
-def forced_response_sweep(
-    params: BarParams,
-    omegas: Sequence[float] | np.ndarray,
-    eta: float,
-    w0: float = 0.0,
-    f0: float = 0.0,
-    n_periods_transient: int = 10,
-    n_periods_average: int = 8,
-    min_transient_time: float | None = None,
-    max_time: float | None = None,
-    tol: float = 2e-3,
-    continuation: bool = True,
-    switching: Literal["grid", "subcell"] = "subcell",
-    state: BarState | None = None,
-    progress: Callable[[ForcedPoint], None] | None = None,
-) -> ForcedSweep:
-    """Steady-state forced response (section 7, Figs. 20-22) over ``omegas`` (rad/time unit).
+@dataclass(frozen=True)
+class SteadyStateRule:
+    """How :func:`forced_response_point` finds the steady state at one frequency: transient of
+    ``n_periods_transient`` forcing periods and at least ``min_transient_time``, then blocks of
+    ``n_periods_average`` periods until the period averages are k-periodic to ``tol``
+    (:func:`steady_multiple`) or ``max_time`` has been simulated; ``switching`` as in
+    :func:`simulate`. Build it with :func:`steady_state_rule` (validation and defaults)."""
 
-    For each frequency: a transient of ``n_periods_transient`` forcing periods, at least
-    ``min_transient_time`` (default: 3 amplitude decay times ``3 * 2 rho / eta``), is discarded;
-    then blocks of ``n_periods_average`` periods are run and the energy (elastic + kinetic) is
-    averaged over each period of the block (:func:`period_averages`). The response is *steady*
-    when these averages are k-periodic (k <= 4; k > 1 is a subharmonic response) to ``tol``
-    (:func:`steady_multiple`); blocks are added until it is, or until ``max_time`` (default
-    12 decay times) has been simulated at this frequency. A point that never settles is
-    reported with ``steady=False`` (quasi-periodic or chaotic, as in the paper where no NSM
-    branch exists) and the mean over its last block.
+    n_periods_transient: int
+    n_periods_average: int
+    min_transient_time: float
+    max_time: float
+    tol: float
+    switching: Literal["grid", "subcell"]
 
-    With ``continuation`` the final state of one frequency starts the next one, with the time
-    origin shifted so that the forcing phase ``omega t`` is continuous (wall position and force
-    continuous). ``switching``: see :func:`simulate` (``"subcell"`` by default: with the wall
-    moving, contact switches fall anywhere in a step and the grid rule of Algorithm 2 makes the
-    period-averaged energy jitter by a few percent at N = 100, which hides the steady states).
-    """
-    om_arr = np.asarray(omegas, dtype=float)
-    if om_arr.ndim != 1 or om_arr.size == 0 or not np.all(np.isfinite(om_arr)) \
-            or np.any(om_arr <= 0.0):
-        raise ValueError("omegas must be a non-empty 1-D array of positive finite frequencies")
+
+def steady_state_rule(params: BarParams, eta: float, n_periods_transient: int = 10,
+                      n_periods_average: int = 8, min_transient_time: float | None = None,
+                      max_time: float | None = None, tol: float = 2e-3,
+                      switching: Literal["grid", "subcell"] = "subcell") -> SteadyStateRule:
+    """The validated :class:`SteadyStateRule`; defaults scale with the amplitude decay time
+    ``2 rho / eta`` of the damped bar: a transient of 3 decay times, at most 12 decay times per
+    frequency (``max_time`` is required without damping)."""
     eta = _check_finite("eta", eta, nonnegative=True)
     for name, val in (("n_periods_transient", n_periods_transient),
                       ("n_periods_average", n_periods_average)):
@@ -609,44 +684,123 @@ def forced_response_sweep(
     min_transient_time = _check_finite("min_transient_time", min_transient_time,
                                        nonnegative=True)
     max_time = _check_finite("max_time", max_time, positive=True)
-    base = Loading(f0=f0, w0=w0, eta=eta)
+    if switching not in ("grid", "subcell"):
+        raise ValueError(f"switching must be 'grid' or 'subcell', got {switching!r}")
+    return SteadyStateRule(int(n_periods_transient), int(n_periods_average),
+                           float(min_transient_time), float(max_time), float(tol), switching)
+
+
+def _check_omegas(omegas: Sequence[float] | np.ndarray) -> np.ndarray:
+    """The forcing frequencies as a 1-D array, refused unless positive and finite."""
+    om_arr = np.asarray(omegas, dtype=float)
+    if om_arr.ndim != 1 or om_arr.size == 0 or not np.all(np.isfinite(om_arr)) \
+            or np.any(om_arr <= 0.0):
+        raise ValueError("omegas must be a non-empty 1-D array of positive finite frequencies")
+    return om_arr
+
+
+def _average_until_steady(params: BarParams, load: Loading, state: BarState, period: float,
+                          rule: SteadyStateRule, steps: int
+                          ) -> tuple[SimulationResult, np.ndarray, int, int]:
+    """Blocks of ``n_periods_average`` forcing periods until the energy averaged over each
+    period of a block (:func:`period_averages`) is k-periodic (:func:`steady_multiple`) or
+    ``max_time`` has been simulated (``steps`` already done at this frequency). Returns the last
+    block, its period averages, k (0: not steady) and the total number of steps."""
+    dt = params.time_step
+    n_blk = int(math.ceil(rule.n_periods_average * period / dt)) + 1
+    while True:
+        res = simulate(params, load, n_blk, state, switching=rule.switching)
+        state = res.final
+        steps += n_blk
+        avgs = period_averages(res.t, res.energy, period, rule.n_periods_average)
+        k = steady_multiple(avgs, rule.tol)
+        if k or steps * dt >= rule.max_time:
+            return res, avgs, k, steps
+
+
+def _steady_mean(averages: np.ndarray, k: int) -> float:
+    """Mean energy over a whole number of steady (sub)harmonic periods k T of the block (all
+    of the block when not steady)."""
+    if k:
+        n_use = k * (len(averages) // k)
+        return float(np.mean(averages[-n_use:]))
+    return float(np.mean(averages))
+
+
+def forced_response_point(params: BarParams, base: Loading, omega: float, state: BarState,
+                          phase: float, rule: SteadyStateRule
+                          ) -> tuple[ForcedPoint, BarState, float]:
+    """The steady state at the forcing frequency ``omega`` (section 7) from ``state``, whose
+    time origin is shifted so that the forcing phase ``omega t`` equals ``phase`` at its start
+    (wall position and force continuous when ``state`` ends the previous frequency): a
+    transient (:class:`SteadyStateRule`), then :func:`_average_until_steady`. ``base`` holds the
+    amplitudes and the damping (its ``omega`` is replaced). Returns the point, the final state
+    and the forcing phase there (to warm-start the next frequency)."""
+    t1 = time.perf_counter()
+    st = replace(state, t=phase / omega)
+    load = replace(base, omega=float(omega))
+    T = 2.0 * math.pi / omega
+    dt = params.time_step
+    n_tr = int(math.ceil(max(rule.n_periods_transient * T, rule.min_transient_time) / dt))
+    steps = 0
+    if n_tr:
+        st = simulate(params, load, n_tr, st, switching=rule.switching).final
+        steps += n_tr
+    res, avgs, k, steps = _average_until_steady(params, load, st, T, rule, steps)
+    st = res.final
+    pt = ForcedPoint(float(omega), _steady_mean(avgs, k), avgs, bool(k), int(k),
+                     float(np.mean(res.contact)), float(np.max(res.u_end)),
+                     float(np.min(res.u_end)), steps, time.perf_counter() - t1)
+    return pt, st, math.fmod(omega * st.t, 2.0 * math.pi)
+
+
+def forced_response_sweep(
+    params: BarParams,
+    omegas: Sequence[float] | np.ndarray,
+    eta: float,
+    w0: float = 0.0,
+    f0: float = 0.0,
+    n_periods_transient: int = 10,
+    n_periods_average: int = 8,
+    min_transient_time: float | None = None,
+    max_time: float | None = None,
+    tol: float = 2e-3,
+    continuation: bool = True,
+    switching: Literal["grid", "subcell"] = "subcell",
+    state: BarState | None = None,
+    progress: Callable[[ForcedPoint], None] | None = None,
+) -> ForcedSweep:
+    """Steady-state forced response (section 7, Figs. 20-22) over ``omegas`` (rad/time unit).
+
+    For each frequency (:func:`forced_response_point`): a transient of ``n_periods_transient``
+    forcing periods, at least ``min_transient_time`` (default: 3 amplitude decay times
+    ``3 * 2 rho / eta``), is discarded; then blocks of ``n_periods_average`` periods are run
+    and the energy (elastic + kinetic) is averaged over each period of the block
+    (:func:`period_averages`). The response is *steady* when these averages are k-periodic
+    (k <= 4; k > 1 is a subharmonic response) to ``tol`` (:func:`steady_multiple`); blocks are
+    added until it is, or until ``max_time`` (default 12 decay times) has been simulated at this
+    frequency. A point that never settles is reported with ``steady=False`` (quasi-periodic or
+    chaotic, as in the paper where no NSM branch exists) and the mean over its last block.
+
+    With ``continuation`` the final state of one frequency starts the next one, with the time
+    origin shifted so that the forcing phase ``omega t`` is continuous (wall position and force
+    continuous). ``switching``: see :func:`simulate` (``"subcell"`` by default: with the wall
+    moving, contact switches fall anywhere in a step and the grid rule of Algorithm 2 makes the
+    period-averaged energy jitter by a few percent at N = 100, which hides the steady states).
+    """
+    om_arr = _check_omegas(omegas)
+    rule = steady_state_rule(params, eta, n_periods_transient, n_periods_average,
+                             min_transient_time, max_time, tol, switching)
+    base = Loading(f0=f0, w0=w0, eta=float(eta))
     sweep = ForcedSweep(params, float(eta), float(w0), float(f0))
     st = rest_state(params) if state is None else state.copy()
-    dt = params.time_step
     tic = time.perf_counter()
     phase = 0.0
     for om in om_arr:
-        t1 = time.perf_counter()
         if not continuation:
             st = rest_state(params) if state is None else state.copy()
             phase = 0.0
-        st = replace(st, t=phase / om)
-        load = replace(base, omega=float(om))
-        T = 2.0 * math.pi / om
-        n_tr = int(math.ceil(max(n_periods_transient * T, min_transient_time) / dt))
-        steps = 0
-        if n_tr:
-            res = simulate(params, load, n_tr, st, switching=switching)
-            st = res.final
-            steps += n_tr
-        n_blk = int(math.ceil(n_periods_average * T / dt)) + 1
-        while True:
-            res = simulate(params, load, n_blk, st, switching=switching)
-            st = res.final
-            steps += n_blk
-            avgs = period_averages(res.t, res.energy, T, n_periods_average)
-            k = steady_multiple(avgs, tol)
-            if k or steps * dt >= max_time:
-                break
-        if k:
-            n_use = k * (n_periods_average // k)
-            e_mean = float(np.mean(avgs[-n_use:]))
-        else:
-            e_mean = float(np.mean(avgs))
-        phase = math.fmod(om * st.t, 2.0 * math.pi)
-        pt = ForcedPoint(float(om), e_mean, avgs, bool(k), int(k),
-                         float(np.mean(res.contact)), float(np.max(res.u_end)),
-                         float(np.min(res.u_end)), steps, time.perf_counter() - t1)
+        pt, st, phase = forced_response_point(params, base, float(om), st, phase, rule)
         sweep.points.append(pt)
         if progress is not None:
             progress(pt)
@@ -665,6 +819,71 @@ def linear_forced_end_amplitude(params: BarParams, f0: float, omega: float,
     """
     k = np.sqrt((params.rho * omega**2 - 1j * eta * omega) / params.E + 0j)
     return complex(f0 / (params.E * k * k) * (1.0 / np.cos(k * params.L) - 1.0))
+
+
+def _wavenumber(params: BarParams, omega: float, eta: float) -> complex:
+    """``k = sqrt((rho omega^2 - i eta omega) / E)`` (principal root) of the damped bar."""
+    return complex(np.sqrt((params.rho * omega**2 - 1j * eta * omega) / params.E + 0j))
+
+
+def _sinh_ratio(y: float) -> float:
+    """``sinh(y) / y`` (1 at 0)."""
+    return math.sinh(y) / y if abs(y) > 1e-8 else 1.0 + y * y / 6.0
+
+
+def _sin_ratio(y: float) -> float:
+    """``sin(y) / y`` (1 at 0)."""
+    return math.sin(y) / y if abs(y) > 1e-8 else 1.0 - y * y / 6.0
+
+
+def _abs_trig_integrals(k: complex, L: float) -> tuple[float, float]:
+    """``int_0^L |cos(k s)|^2 ds`` and ``int_0^L |sin(k s)|^2 ds`` for ``k = a + i b``:
+    ``|cos|^2 = (cosh(2 b s) + cos(2 a s)) / 2``, ``|sin|^2 = (cosh(2 b s) - cos(2 a s)) / 2``."""
+    h = L * _sinh_ratio(2.0 * k.imag * L)
+    c = L * _sin_ratio(2.0 * k.real * L)
+    return 0.5 * (h + c), 0.5 * (h - c)
+
+
+def linear_forced_energy(params: BarParams, f0: float, omega: float, eta: float) -> float:
+    """Period-averaged total energy of the steady state of :func:`linear_forced_end_amplitude`
+    (clamped-free bar, no contact, ``f = f0 sin(omega t)`` uniform), in closed form.
+
+    With ``U(x) = A (cos(k s) / C - 1)``, ``s = L - x``, ``C = cos(k L)``, ``A = f0 / (E k^2)``:
+    ``<E> = S/4 int_0^L (rho omega^2 |U|^2 + E |U'|^2) dx`` (the time average of
+    ``Im(X e^(i omega t))^2`` is ``|X|^2 / 2``), ``int |U|^2 = |A|^2 (I_cc / |C|^2
+    - 2 Re(tan(k L) / k) + L)`` and ``int |U'|^2 = |A k|^2 I_ss / |C|^2`` with the integrals of
+    :func:`_abs_trig_integrals`. Oracle of the forced-response sweep far from contact.
+    """
+    k = _wavenumber(params, omega, eta)
+    L = params.L
+    A = f0 / (params.E * k * k)
+    C = np.cos(k * L)
+    i_cc, i_ss = _abs_trig_integrals(k, L)
+    int_u2 = abs(A) ** 2 * (i_cc / abs(C) ** 2 - 2.0 * (np.tan(k * L) / k).real + L)
+    int_ux2 = abs(A * k) ** 2 * i_ss / abs(C) ** 2
+    return float(params.S / 4.0 * (params.rho * omega**2 * int_u2 + params.E * int_ux2))
+
+
+def linear_wall_response(params: BarParams, w0: float, omega: float,
+                         eta: float) -> tuple[float, float]:
+    """Period-averaged energy and contact margin of the bar held in *permanent contact* with
+    the wall ``w(t) = w0 sin(omega t)`` (``g0 < 0``, section 7), in closed form.
+
+    Fixed-fixed bar with ``u(L, t) = g0 + w(t)``: static prestress ``sigma = E g0 / L`` plus
+    ``Im(W(x) e^(i omega t))``, ``W = w0 sin(k x) / sin(k L)``; the mean energy is
+    ``E S g0^2 / (2L) + S/4 int (rho omega^2 |W|^2 + E |W'|^2)`` (the cross terms average to
+    0). The contact force stays compressive, hence the contact permanent and this the response
+    of the bar with the unilateral wall, iff the margin ``-g0 / L - |W'(L)| >= 0``.
+    """
+    k = _wavenumber(params, omega, eta)
+    L = params.L
+    sL = np.sin(k * L)
+    i_cc, i_ss = _abs_trig_integrals(k, L)
+    dyn = params.S / 4.0 * abs(w0 / sL) ** 2 * (params.rho * omega**2 * i_ss
+                                                 + params.E * abs(k) ** 2 * i_cc)
+    static = params.E * params.S * params.g0**2 / (2.0 * L)
+    margin = -params.g0 / L - abs(w0 * k * np.cos(k * L) / sL)
+    return float(static + dyn), float(margin)
 
 
 def linear_forced_fields(params: BarParams, f0: float, omega: float, eta: float,
@@ -693,15 +912,20 @@ __all__ = [
     "ForcedSweep",
     "Loading",
     "SimulationResult",
+    "SteadyStateRule",
+    "forced_response_point",
     "forced_response_sweep",
     "from_ring",
     "linear_forced_end_amplitude",
+    "linear_forced_energy",
     "linear_forced_fields",
+    "linear_wall_response",
     "period_averages",
     "rest_state",
     "ring_displacement",
     "simulate",
     "state_from_fields",
     "steady_multiple",
+    "steady_state_rule",
     "step_source_terms",
 ]

@@ -12,13 +12,15 @@ distance to the unperturbed orbit *as a set* is followed period after period.
 Method
 ------
 * Time stepping: :func:`floating_bc_simulation`, Algorithm 2 on the ring, O(1) per step (a moving
-  origin on the ring buffer; about 0.3 s per 10^6 steps here). The end displacement ``u_end`` is the
+  origin on the ring buffer; about 0.4 s per 10^6 steps here). The end displacement ``u_end`` is the
   time integral of the end velocity, started from the state (``u_end = dx/(2E) sum w``, exact for
   the clamped bar) and never reset, so it stays the displacement of the state (resetting it to
   ``g0`` at each closure, as a shortcut, would discard the closure overshoot, always of the same
   sign, and shift the effective gap by up to one step per period). A step is CONTACT when
   ``g0 - u_end <= 0`` (up to a tolerance) and the arriving characteristic is compressive,
-  ``J = w[N-1] <= 0``, FREE otherwise, decided at its beginning.
+  ``J = w[N-1] <= 0``, FREE otherwise, decided at its beginning by the switching rule shared
+  with :func:`problems.bar.wfem_simulation.simulate`
+  (:func:`problems.bar.wfem_operators.floating_bc_contact`).
 * Perturbations (:func:`perturbation_growth`, :func:`perturb`), all admissible (no penetration):
 
   - ``"delay"``: the release (contact -> free) is delayed by ``j = round(eps N)`` steps, i.e. the
@@ -104,13 +106,13 @@ the same time, so the closures obey ``c_n = 2 c_(n-k) - c_(n-2k)``, characterist
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from .continuum import Signature, continuum_orbit, main_signature
 from .wfem_lattice import BarModel, LatticeSolution
-from .wfem_operators import CONTACT, FREE, ring_energy, ring_step
+from .wfem_operators import CONTACT, FREE, floating_bc_contact, ring_energy, ring_step
 
 NORMS = ("l1", "energy")
 KINDS = ("shift", "delay", "smooth", "scale")
@@ -178,22 +180,35 @@ class FloatingBCRun:
 def floating_bc_simulation(model: BarModel, w0: np.ndarray, steps: int, *,
                            sample_steps: np.ndarray | list[int] | None = None,
                            u0: float | None = None, closure_tol: float = 1e-9,
-                           release_tol: float = 1e-9, left_sign: int = 1) -> FloatingBCRun:
+                           release_tol: float = 1e-9, left_sign: int = 1,
+                           closure: Literal["tolerance", "nearest"] = "tolerance"
+                           ) -> FloatingBCRun:
     """Algorithm 2 (floating boundary condition) on the characteristic ring, O(1) per step.
 
-    At the beginning of step n, with ``J = w[N-1]`` the characteristic arriving at the end and
-    ``g = g0 - u_end`` the gap: the step is CONTACT if ``g <= closure_tol * dt A / Z`` and
-    ``J <= release_tol * A`` (``A = max |w0|``; ``dt A / Z`` is the end displacement over one free
-    step, so ``closure_tol = 0.5`` rounds the closure instant to the nearest step instead of the
-    first step after the gap closes), FREE otherwise; over a free step ``u_end -= dt J / Z``.
-    ``u_end`` starts at ``u0`` (default: the displacement of the state, ``dx/(2E) sum w0``) and is
-    never reset. States are recorded at ``sample_steps`` (default: 0 and ``steps``).
+    The specialisation of :func:`problems.bar.wfem_simulation.simulate` to the undamped,
+    unforced bar with a fixed wall, on a moving ring origin instead of a rotated array: the
+    switching decision is the same function,
+    :func:`problems.bar.wfem_operators.floating_bc_contact`, and the end update the same signed
+    reflection (B.3)/(B.4). At the beginning of step n, with ``J = w[N-1]`` the characteristic
+    arriving at the end (the wall stress of a contact step) and ``g = g0 - u_end`` the gap
+    (B.2): the step is CONTACT if the previous step was, or ``g <= closure_tol * dt A / Z``, and
+    ``J <= release_tol * A`` (``A = max |w0|``; ``dt A / Z`` is the end displacement over one
+    free step, so ``closure_tol = 0.5`` rounds the closure instant to the nearest step instead of
+    the first step after the gap closes), FREE otherwise; over a free step ``u_end -= dt J / Z``.
+    ``closure="nearest"`` adds the nearest-grid-time closure rule of ``simulate(...,
+    switching="grid")`` (with ``closure_tol = release_tol = 0`` the two give the same switching
+    sequence and states, tested). ``u_end`` starts at ``u0`` (default: the displacement of the
+    state, ``dx/(2E) sum w0``) and is never reset. States are recorded at ``sample_steps``
+    (default: 0 and ``steps``).
     """
     N = model.N
     n2 = 2 * N
     w0 = np.asarray(w0, dtype=float)
     if w0.shape != (n2,):
         raise ValueError(f"state must have 2N = {n2} entries")
+    if closure not in ("tolerance", "nearest"):
+        raise ValueError(f"closure must be 'tolerance' or 'nearest', got {closure!r}")
+    nearest = closure == "nearest"
     A = float(np.max(np.abs(w0))) or 1.0
     k_u = model.dt / model.Z
     g_tol = closure_tol * k_u * A
@@ -212,6 +227,7 @@ def floating_bc_simulation(model: BarModel, w0: np.ndarray, steps: int, *,
     Js = [0.0] * steps
     si = 0
     ns = samples.size
+    contact = False
     for n in range(steps):
         while si < ns and samples[si] == n:
             states[si] = np.roll(np.asarray(buf), off)
@@ -220,7 +236,9 @@ def floating_bc_simulation(model: BarModel, w0: np.ndarray, steps: int, *,
         J = buf[j]
         us[n] = u
         Js[n] = J
-        if g0 - u <= g_tol and J <= j_tol:
+        g = g0 - u
+        contact = floating_bc_contact(contact, g, g + k_u * J, J, nearest, g_tol, j_tol)
+        if contact:
             signs[n] = CONTACT
         else:
             signs[n] = FREE

@@ -78,6 +78,7 @@ from nsm_continuation.preflight import (
     start_key,
 )
 from nsm_continuation.protocol import FloquetData, Problem, StartPoint
+from nsm_continuation.vocabulary import CanonicalNames, as_parameters
 
 from .trig_sum import TrigSum
 
@@ -85,11 +86,14 @@ Finite = Annotated[float, Field(allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
-class ChainSpec(BaseModel):
-    """The spring-mass chain of eq. (2.17): wall - k_1 - m_1 - k_2 - ... - k_N - m_N (free end)."""
+class ChainSpec(CanonicalNames):
+    """The spring-mass chain of eq. (2.17): wall - k_1 - m_1 - k_2 - ... - k_N - m_N (free end);
+    ``dofs`` is the paper's ``N`` (the old key ``n`` is deprecated)."""
 
     model_config = STRICT
-    n: Annotated[int, Field(ge=1)]
+    deprecated_names = {"n": "dofs"}
+    key_path = "parameters.chain"
+    dofs: Annotated[int, Field(ge=1)]
     mass: Positive | list[Positive]
     stiffness: Positive | list[Positive]
 
@@ -97,15 +101,16 @@ class ChainSpec(BaseModel):
     def _lengths(self) -> ChainSpec:
         for name in ("mass", "stiffness"):
             v = getattr(self, name)
-            if isinstance(v, list) and len(v) != self.n:
-                raise ValueError(f"{name} has {len(v)} entries, expected n = {self.n}")
+            if isinstance(v, list) and len(v) != self.dofs:
+                raise ValueError(f"{name} has {len(v)} entries, expected dofs = {self.dofs}")
         return self
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray]:
-        m = np.broadcast_to(np.asarray(self.mass, dtype=float), (self.n,)).copy()
-        k = np.broadcast_to(np.asarray(self.stiffness, dtype=float), (self.n,)).copy()
-        K = np.zeros((self.n, self.n))
-        for i in range(self.n):
+        n = self.dofs
+        m = np.broadcast_to(np.asarray(self.mass, dtype=float), (n,)).copy()
+        k = np.broadcast_to(np.asarray(self.stiffness, dtype=float), (n,)).copy()
+        K = np.zeros((n, n))
+        for i in range(n):
             K[i, i] += k[i]
             if i > 0:
                 K[i - 1, i - 1] += k[i]
@@ -114,8 +119,9 @@ class ChainSpec(BaseModel):
         return np.diag(m), K
 
 
-class NDofParameters(BaseModel):
-    """YAML ``parameters`` of ``problem: ndof_impact``."""
+class NDofParameters(CanonicalNames):
+    """YAML ``parameters`` of ``problem: ndof_impact``: ``gap`` is the paper's ``g`` (wall at
+    ``u_c = gap``), ``restitution`` its ``e`` (must be 1)."""
 
     model_config = STRICT
     chain: ChainSpec | None = None
@@ -142,7 +148,7 @@ class NDofParameters(BaseModel):
     @model_validator(mode="after")
     def _matrices(self) -> NDofParameters:
         if self.chain is None and (self.M is None or self.K is None):
-            raise ValueError("give either 'chain: {n, mass, stiffness}' or both 'M' and 'K'")
+            raise ValueError("give either 'chain: {dofs, mass, stiffness}' or both 'M' and 'K'")
         if self.chain is not None and (self.M is not None or self.K is not None):
             raise ValueError("give either 'chain' or 'M'/'K', not both")
         if self.chain is None:
@@ -159,7 +165,7 @@ class NDofParameters(BaseModel):
             if len(self.M) != len(self.K):
                 raise ValueError(f"M is {len(self.M)}x{len(self.M)} but K is "
                                  f"{len(self.K)}x{len(self.K)}")
-        n = self.chain.n if self.chain is not None else len(self.M)
+        n = self.chain.dofs if self.chain is not None else len(self.M)
         if self.impacting_dof is not None and not 1 <= self.impacting_dof <= n:
             raise ValueError(f"impacting_dof = {self.impacting_dof} is out of range 1..{n}")
         return self
@@ -233,12 +239,11 @@ class NDofImpactProblem(Problem):
     SUBHARMONIC_KMAX: ClassVar[int] = 10
 
     def __init__(self, params: NDofParameters | dict[str, Any]) -> None:
-        if isinstance(params, dict):
-            params = NDofParameters.model_validate(params)
+        params = as_parameters(NDofParameters, params)
         super().__init__(params)
         # nothing of size N^2 (let alone the O(N^3) modal analysis) is built here: ``validate``
         # constructs the problem, and the sizes are checked first (``check_size``, preflight)
-        self.N = params.chain.n if params.chain is not None else len(params.M or [])
+        self.N = params.chain.dofs if params.chain is not None else len(params.M or [])
         self.c = (params.impacting_dof or self.N) - 1
         self.g = float(params.gap)
         self.formulation = params.formulation
@@ -250,6 +255,9 @@ class NDofImpactProblem(Problem):
             self.variables = ([f"u{i + 1}" for i in range(N)]
                               + [f"du{i + 1}" for i in range(N)] + ["T"])
         self.parameter = "T"
+        #: +1 continued in T, -1 in omega (set by :meth:`parameter_bounds`): a start's
+        #: ``direction`` is meant along the continued parameter
+        self._orientation = 1
         self.symbolic = "SX" if N <= 30 else "MX"
         #: (the branches, their static grazing spectrum): see :meth:`static_grazing_spectrum`
         self._spectrum_cache: tuple[list[Any], list[dict[str, Any]]] | None = None
@@ -279,7 +287,7 @@ class NDofImpactProblem(Problem):
 
     @property
     def _size_key(self) -> str:
-        return "parameters.chain.n" if self.params.chain is not None else "parameters.M"
+        return "parameters.chain.dofs" if self.params.chain is not None else "parameters.M"
 
     def check_size(self) -> None:
         """Refuse a chain whose dense matrices exceed the memory limit (before building them)."""
@@ -612,12 +620,17 @@ class NDofImpactProblem(Problem):
             if v is not None and v <= 0:
                 raise ValueError(f"continuation.{key}: {name} = {v:g} is not positive (a "
                                  f"{'frequency' if name == 'omega' else 'period'} bound)")
+        self._orientation = self.parameter_orientation(name)
         if name == "T":
             return lo, hi
         if name == "omega":
             return (None if hi is None else 2 * np.pi / hi,
                     None if lo is None else 2 * np.pi / lo)
         raise ValueError(f"continuation.parameter: {name!r} is not one of 'omega', 'T'")
+
+    def parameter_orientation(self, name: str) -> int:
+        """``T = 2 pi / omega`` falls as ``omega`` grows."""
+        return -1 if name == "omega" else 1
 
     def grazing_start(self, j: int, k: int) -> np.ndarray:
         """The linear grazing orbit (2.14) of mode ``j`` (0-based) at ``T = k T_j``: a point of
@@ -649,7 +662,8 @@ class NDofImpactProblem(Problem):
                 u0, du0 = self.closed_form(s.T) if self.g != 0 else (np.zeros(self.N),
                                                                    np.zeros(self.N))
                 out.append(StartPoint(self.y_from_state(u0, du0, s.T), f"T = {s.T:g}",
-                                      s.direction, {"T0": s.T}))
+                                      s.direction * self._orientation,
+                                      {"T0": s.T}))
             else:
                 out.extend(self._all_starts(window, s.max_subharmonic))
         return out
@@ -926,7 +940,7 @@ def simulate_first_return(problem: NDofImpactProblem, u0: np.ndarray, du0: np.nd
 
 def chain_case_matrices(n: int) -> tuple[np.ndarray, np.ndarray]:
     """The paper's example (2.17): ``m = 1/N``, ``k = N``."""
-    return ChainSpec(n=n, mass=1.0 / n, stiffness=float(n)).matrices()
+    return ChainSpec(dofs=n, mass=1.0 / n, stiffness=float(n)).matrices()
 
 
 __all__ = ["NDofImpactProblem", "NDofParameters", "simulate_first_return", "chain_case_matrices"]

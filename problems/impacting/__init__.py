@@ -8,7 +8,7 @@ chattering* (``../shared/papers/002_c96038ab39efa963.txt``), declared on
   (``impact_oscillator``, sec. 2.2.1), :mod:`.bouncing_ball` (``bouncing_ball``, secs. 3.5, 4.4)
   and :mod:`.two_mass_chain` (``two_mass_chain``, the worked example of
   ``docs/adding_an_impact_system.md``, not a system of the paper);
-* models and analyses of the double pendulum: :mod:`.pendulum_lagrange` (independent
-  Euler-Lagrange derivation vs the printed eq. (53)), :mod:`.pendulum_equilibria` (the sticking
-  saddle of sec. 6.3 and its eigenvalues), :mod:`.brute_force` (brute-force bifurcation diagrams).
+* analyses of the double pendulum: :mod:`.brute_force` (brute-force bifurcation diagrams); the
+  test oracles (an independent Euler-Lagrange derivation vs the printed eq. (53), the sticking
+  saddle of sec. 6.3) live in ``tests/oracles/``.
 """

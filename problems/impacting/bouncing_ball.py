@@ -39,15 +39,17 @@ from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationEr
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
 from nsm_continuation.preflight import STRICT
 from nsm_continuation.protocol import Problem, StartPoint
+from nsm_continuation.vocabulary import CanonicalNames, CanonicalParameter, as_parameters
 
 
-class BouncingBallParameters(BaseModel):
+class BouncingBallParameters(CanonicalNames):
     """``parameters:`` of ``problem: bouncing_ball`` (defaults: Fig. 4, g = 9.8, s = 1)."""
 
     model_config = STRICT
+    deprecated_names = {"e": "restitution"}
     g: float = Field(9.8, gt=0, allow_inf_nan=False)
-    e: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False,
-                     description="restitution; complete chattering needs 0 <= e < 1")
+    restitution: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False,
+                               description="e; complete chattering needs 0 <= e < 1")
     s: float = Field(1.0, gt=0, allow_inf_nan=False, description="initial height (at rest)")
     chatter_order: int = Field(2, ge=1, le=4)
     chatter_tol: float = Field(1e-10, gt=0, lt=1)
@@ -89,21 +91,20 @@ def impact_times(res: SimResult) -> list[float]:
     return [t for t in out if not t_map or t < t_map[0]]
 
 
-class BouncingBallProblem(Problem):
+class BouncingBallProblem(CanonicalParameter, Problem):
     """The bouncing ball as a simulation case (no continuation; see the module docstring)."""
 
     name: ClassVar[str] = "bouncing_ball"
     Parameters: ClassVar[type[BaseModel]] = BouncingBallParameters
-    fep_axes = ("e", "t_star")
+    fep_axes = ("restitution", "t_star")
 
     def __init__(self, params: BaseModel | dict[str, Any]) -> None:
-        if isinstance(params, dict):
-            params = self.Parameters.model_validate(params)
+        params = as_parameters(BouncingBallParameters, params)
         super().__init__(params)
-        self.p: BouncingBallParameters = params  # type: ignore[assignment]
-        self.variables = ["x1", "e"]
-        self.parameter = "e"
-        self.c: CompiledHybrid = ball_system().compile({"g": self.p.g, "e": self.p.e})
+        self.p: BouncingBallParameters = params
+        self.variables = ["x1", "restitution"]
+        self.parameter = "restitution"
+        self.c: CompiledHybrid = ball_system().compile({"g": self.p.g, "e": self.p.restitution})
         self._cache: dict[str, Any] = {}
 
     # -- the Problem contract: a simulation case has no residual and no start ---------------
@@ -171,7 +172,7 @@ class BouncingBallProblem(Problem):
             self._cache["results"] = {"simulation_failed": str(exc)}
             return self._cache["results"]
         imp = impact_times(res)
-        cf = closed_form(p.g, p.e, p.s, len(imp))
+        cf = closed_form(p.g, p.restitution, p.s, len(imp))
         chatter = [ev for ev in res.events if ev.kind == "chatter"]
         out: dict[str, Any] = {
             "closed_form": {"first_impact_velocity": cf["v0"], "first_impact_time": cf["t0"],
@@ -200,14 +201,15 @@ class BouncingBallProblem(Problem):
                 out["chatter_map"]["jacobian_after_map"] = res.J[:2, :2].tolist()
                 out["chatter_map"]["d_t_complete_d_initial"] = res.Jt[:2].tolist()
             v0 = cf["v0"]
-            pN = ball_pn_chain(p.e, p.g, v0, N)
+            pN = ball_pn_chain(p.restitution, p.g, v0, N)
             out["paper_eqs_47_50"] = {
                 "N": N,
                 "chain_vs_closed_form_48_max_diff": float(np.abs(
-                    pN - ball_pn_closed_form(p.e, p.g, v0, N)).max()),
-                "printed_48_entry_4_1": float(ball_pn_closed_form(p.e, p.g, v0, N, True)[3, 0]),
+                    pN - ball_pn_closed_form(p.restitution, p.g, v0, N)).max()),
+                "printed_48_entry_4_1": float(
+                    ball_pn_closed_form(p.restitution, p.g, v0, N, True)[3, 0]),
                 "corrected_48_entry_4_1": float(pN[3, 0]),
-                "D_N_times_p_N_eq_50": (ball_chatter_jacobian(p.e, N, v0) @ pN).tolist(),
+                "D_N_times_p_N_eq_50": (ball_chatter_jacobian(p.restitution, N, v0) @ pN).tolist(),
             }
         else:
             out["chatter_map"] = None
@@ -268,7 +270,7 @@ class BouncingBallProblem(Problem):
             for a in ax:
                 a.axvline(t_c, color="C3", ls=":", lw=1, label="chatter map: t*")
             ax[0].legend()
-        ax[0].set_title(f"Bouncing ball, e = {self.p.e}, s = {self.p.s} (Fig. 1)")
+        ax[0].set_title(f"Bouncing ball, e = {self.p.restitution}, s = {self.p.s} (Fig. 1)")
         fig.tight_layout()
         fig.savefig(out / "ball_fig1_position_velocity.png", dpi=120)
         plt.close(fig)
@@ -282,7 +284,8 @@ class BouncingBallProblem(Problem):
             for k in range(len(imp)):
                 t_next = imp[k + 1] if k + 1 < len(imp) else np.inf
                 m = (ts >= imp[k]) & (ts <= t_next)
-                u[m] = self.p.e ** (k + 1) * abs(info["closed_form"]["first_impact_velocity"])
+                u[m] = self.p.restitution ** (k + 1) * abs(
+                    info["closed_form"]["first_impact_velocity"])
             t_map = [ev.t for ev in res.events if ev.kind == "chatter"]
             if t_map:
                 sel &= ts <= t_map[0]

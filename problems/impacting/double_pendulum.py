@@ -11,7 +11,7 @@ Conventions (documented choices where the paper is inconsistent):
   Sec. 6.3 prints ``d = -0.5``, but its saddle ``q*`` has ``X(q*) = -0.49997``, i.e. the wall
   at ``X = -0.5``: the same wall as ``d = +0.5`` here (and as secs. 6.1-6.2). We use ``d = 0.5``
   for all three scenarios.
-* **Equations of motion** derived by Lagrange (``problems/impacting/pendulum_lagrange.py`` is the
+* **Equations of motion** derived by Lagrange (``tests/oracles/pendulum_lagrange.py`` is the
   independent symbolic derivation the tests compare with): ``M(q) qdd = f(q, qd)`` with the
   printed ``M`` and ``V`` of eq. (53) but the Coriolis vector
   ``m2 L1 L2 sin(q1 - q2) (qd2^2, -qd1^2)``: the printed ``L(q, qd) = L1 L2 s12 (m1 qd2^2,
@@ -21,7 +21,10 @@ Conventions (documented choices where the paper is inconsistent):
   ``q1`` downwards, one period is one revolution ``q1 -> q1 - 2 pi``.
 * **Poincaré section** ``q1 = pi/2`` (mod 2 pi), as in Fig. 9; the shift is ``-2 pi`` per
   revolution for ``T < 0``.
-* **Impact law** (54)-(58) with restitution ``e``: ``r = e`` (eq. 8).
+* **Impact law** (54)-(58) with restitution ``e`` (the key ``restitution``; the old key ``e``
+  is deprecated): ``r = e`` (eq. 8).
+* **d** keeps the paper's name: it is the wall's distance from the upper joint (the wall is
+  ``X = -d``), not the obstacle's position ``gap`` of the other problems (that would be ``-d``).
 """
 
 from __future__ import annotations
@@ -35,14 +38,16 @@ from pydantic import BaseModel, Field
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
 from nsm_continuation.preflight import STRICT
+from nsm_continuation.vocabulary import CanonicalNames, CanonicalParameter
 
-PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "e", "d")
+PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "restitution", "d")
 
 
-class DoublePendulumParameters(BaseModel):
+class DoublePendulumParameters(CanonicalNames):
     """``parameters:`` of ``problem: double_pendulum`` (defaults: sec. 6, scenario 6.1)."""
 
     model_config = STRICT
+    deprecated_names = {"e": "restitution"}
     g: float = Field(9.81, gt=0, allow_inf_nan=False)
     m1: float = Field(1.0, gt=0, allow_inf_nan=False)
     m2: float = Field(2.0, gt=0, allow_inf_nan=False)
@@ -50,7 +55,7 @@ class DoublePendulumParameters(BaseModel):
     L2: float = Field(1.0, gt=0, allow_inf_nan=False)
     D: float = Field(10.0, ge=0, allow_inf_nan=False)
     torque: float = Field(-31.15, allow_inf_nan=False)
-    e: float = Field(0.89, ge=0, lt=1, allow_inf_nan=False)
+    restitution: float = Field(0.89, ge=0, lt=1, allow_inf_nan=False)
     d: float = Field(0.5, gt=0, allow_inf_nan=False)
     integrator: IntegratorSpec = IntegratorSpec()
 
@@ -69,19 +74,19 @@ def pendulum_terms(q: Any, qd: Any, p: dict[str, Any]) -> tuple[Any, Any, Any]:
     return M, -coriolis - V + damping, H
 
 
-class DoublePendulumProblem(HybridCaseProblem):
+class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits of the forced double pendulum with chattering (sec. 6)."""
 
     name: ClassVar[str] = "double_pendulum"
     Parameters: ClassVar[type[BaseModel]] = DoublePendulumParameters
-    default_parameter: ClassVar[str] = "e"
+    default_parameter: ClassVar[str] = "restitution"
 
     def system(self) -> HybridSystem:
         q = ca.SX.sym("q", 2)
         qd = ca.SX.sym("qd", 2)
         p = {k: ca.SX.sym(k) for k in PARAMS}
         M, f, H = pendulum_terms(q, qd, p)
-        return HybridSystem.mechanical("double_pendulum", q, qd, p, M, f, H, p["e"],
+        return HybridSystem.mechanical("double_pendulum", q, qd, p, M, f, H, p["restitution"],
                                        state_names=["q1", "q2", "q1dot", "q2dot"],
                                        periodic={0: 2 * np.pi, 1: 2 * np.pi})
 
@@ -127,7 +132,7 @@ class DoublePendulumProblem(HybridCaseProblem):
             for k in c.system.params]), dtype=float)
         L1, L2 = self.values["L1"], self.values["L2"]
         N = np.array([L1 * np.cos(x[0]), L2 * np.cos(x[1])])
-        e = self.values["e"] if self.parameter != "e" else float(y[-1])
+        e = self.values["restitution"] if self.parameter != "restitution" else float(y[-1])
         # eq. (60) multiplies N by lambda; eq. (10) multiplies W: lambda_60 = lambda_10 (1 + e)
         # / (N^T M^-1 N)
         lam60 = eq["lambda"] * (1 + e) / float(N @ np.linalg.solve(Mq, N))

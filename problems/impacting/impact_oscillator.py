@@ -1,14 +1,17 @@
 """Periodically forced 1-dof linear impact oscillator (Nordmark & Piiroinen 2009, sec. 2.2.1).
 
-``qdd + 2 zeta qd + q = cos(omega t)``, ``q >= sigma``, ``qd+ = -e qd-`` at ``q = sigma``. State
+``qdd + 2 zeta qd + q = cos(omega t)``, ``q >= sigma``, ``qd+ = -e qd-`` at ``q = sigma``; the
+parameters are ``gap`` (``sigma`` in Nordmark & Piiroinen sec. 2.2.1: the position of the stop,
+so the rest position ``q = 0`` is clear of it for ``gap < 0``) and ``restitution`` (``e``); the
+old keys ``sigma`` and ``e`` are deprecated. State
 ``x = (q, qd, phase)`` with ``phase = omega t`` (eq. 4); ``H = q - sigma``; ``W = (0, -(1 + e), 0)``
 (sec. 2.5.1), so ``r = e``. Fig. 2 (zeta = 0.1, omega = 1, sigma = 0, e = 0.6): orbits enter
 sticking through complete chattering (or, exceptionally, without impact through Sigma_3^-) and
 leave it at ``Sigma_3^+ = (0, 0, 3 pi / 2)`` where ``a = -q - 2 zeta qd + cos(phase)`` rises
 through 0.
 
-The Poincaré section is the stroboscopic one, ``phase = 0`` (mod ``2 pi m`` for a period-``m``
-orbit: ``start.returns``).
+The Poincaré section is the stroboscopic one, ``phase = section_phase`` (default 0), mod
+``2 pi m`` for a period-``m`` orbit (``start.returns``).
 """
 
 from __future__ import annotations
@@ -22,36 +25,46 @@ from pydantic import BaseModel, Field
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
 from nsm_continuation.preflight import STRICT
+from nsm_continuation.vocabulary import CanonicalNames, CanonicalParameter
 
 
-class ImpactOscillatorParameters(BaseModel):
+class ImpactOscillatorParameters(CanonicalNames):
     """``parameters:`` of ``problem: impact_oscillator`` (defaults: Fig. 2)."""
 
     model_config = STRICT
+    deprecated_names = {"sigma": "gap", "e": "restitution"}
     zeta: float = Field(0.1, ge=0, allow_inf_nan=False)
     omega: float = Field(1.0, gt=0, allow_inf_nan=False)
-    sigma: float = Field(0.0, allow_inf_nan=False)
-    e: float = Field(0.6, ge=0, lt=1, allow_inf_nan=False)
+    #: the stop's position, ``q >= gap`` (``sigma`` in Nordmark & Piiroinen sec. 2.2.1)
+    gap: float = Field(0.0, allow_inf_nan=False)
+    #: coefficient of restitution (``e``)
+    restitution: float = Field(0.6, ge=0, lt=1, allow_inf_nan=False)
+    #: forcing phase of the stroboscopic section (``phase = section_phase`` mod ``2 pi``): move
+    #: it away from a phase where the orbit grazes (for omega > 1 the free orbit's minimum is at
+    #: phase 0, where a section would sit on the grazing point)
+    section_phase: float = Field(0.0, ge=0, lt=2 * np.pi, allow_inf_nan=False)
     integrator: IntegratorSpec = IntegratorSpec()
 
 
-class ImpactOscillatorProblem(HybridCaseProblem):
+class ImpactOscillatorProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits (with chattering and sticking) of the forced impact oscillator."""
 
     name: ClassVar[str] = "impact_oscillator"
     Parameters: ClassVar[type[BaseModel]] = ImpactOscillatorParameters
     default_parameter: ClassVar[str] = "omega"
+    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "section_phase")
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase")
-        p = {k: ca.SX.sym(k) for k in ("zeta", "omega", "sigma", "e")}
+        p = {k: ca.SX.sym(k) for k in ("zeta", "omega", "gap", "restitution")}
         force = -q - 2 * p["zeta"] * qd + ca.cos(ph)
         return HybridSystem.mechanical("impact_oscillator", q, qd, p, ca.SX(1.0), force,
-                                       q - p["sigma"], p["e"], clock=ph, clock_rate=p["omega"],
+                                       q - p["gap"], p["restitution"], clock=ph,
+                                       clock_rate=p["omega"],
                                        state_names=["q", "qdot", "phase"])
 
     def section(self) -> Section:
-        return Section(2, 0.0, 2 * np.pi)
+        return Section(2, self.params.section_phase, 2 * np.pi)  # type: ignore[attr-defined]
 
     def default_initial(self) -> np.ndarray:
-        return np.array([self.values["sigma"] + 1.0, 0.0, 0.0])
+        return np.array([self.values["gap"] + 1.0, 0.0, self.section().value])

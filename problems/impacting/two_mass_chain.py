@@ -3,7 +3,8 @@
 Mass ``m1`` (position ``q1``) hangs on a spring ``k1`` from a fixed base and is forced by
 ``F0 cos(omega t)``; mass ``m2`` (``q2``) is coupled to it by a spring ``k2``; both have viscous
 damping ``c`` to the ground. ``m2`` hits a rigid wall at ``q2 = gap`` (admissible side
-``H = gap - q2 >= 0``) with Newton's law ``q2dot+ = -e q2dot-``. State
+``H = gap - q2 >= 0``) with Newton's law ``q2dot+ = -e q2dot-`` (``e``: ``restitution``; the
+old key ``e`` is deprecated). State
 ``x = (q1, q2, q1dot, q2dot, phase)`` with the clock ``phase = omega t`` (eq. 4); the Poincaré
 section is the stroboscopic one, ``phase = 0 (mod 2 pi)``. Not a system of the paper: everything
 but the equations of motion (``v, a, r, lambda, F'``, chatter map, Jacobians) is derived by
@@ -21,12 +22,14 @@ from pydantic import BaseModel, Field
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
 from nsm_continuation.preflight import STRICT
+from nsm_continuation.vocabulary import CanonicalNames, CanonicalParameter
 
 
-class TwoMassChainParameters(BaseModel):
+class TwoMassChainParameters(CanonicalNames):
     """``parameters:`` of ``problem: two_mass_chain``."""
 
     model_config = STRICT
+    deprecated_names = {"e": "restitution"}
     m1: float = Field(1.0, gt=0, allow_inf_nan=False)
     m2: float = Field(1.0, gt=0, allow_inf_nan=False)
     k1: float = Field(1.0, ge=0, allow_inf_nan=False)
@@ -35,11 +38,11 @@ class TwoMassChainParameters(BaseModel):
     F0: float = Field(0.5, allow_inf_nan=False)
     omega: float = Field(1.0, gt=0, allow_inf_nan=False)
     gap: float = Field(0.5, allow_inf_nan=False)
-    e: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False)
+    restitution: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False)
     integrator: IntegratorSpec = IntegratorSpec()
 
 
-class TwoMassChainProblem(HybridCaseProblem):
+class TwoMassChainProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits of a forced two-mass chain whose second mass hits a wall."""
 
     name: ClassVar[str] = "two_mass_chain"
@@ -48,13 +51,14 @@ class TwoMassChainProblem(HybridCaseProblem):
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q", 2), ca.SX.sym("qd", 2), ca.SX.sym("phase")
-        p = {k: ca.SX.sym(k) for k in ("m1", "m2", "k1", "k2", "c", "F0", "omega", "gap", "e")}
+        p = {k: ca.SX.sym(k)
+             for k in ("m1", "m2", "k1", "k2", "c", "F0", "omega", "gap", "restitution")}
         M = ca.diag(ca.vertcat(p["m1"], p["m2"]))
         spring = p["k2"] * (q[1] - q[0])
         force = ca.vertcat(-p["k1"] * q[0] + spring + p["F0"] * ca.cos(ph),
                            -spring) - p["c"] * qd
         return HybridSystem.mechanical("two_mass_chain", q, qd, p, M, force, p["gap"] - q[1],
-                                       p["e"], clock=ph, clock_rate=p["omega"],
+                                       p["restitution"], clock=ph, clock_rate=p["omega"],
                                        state_names=["q1", "q2", "q1dot", "q2dot", "phase"])
 
     def section(self) -> Section:

@@ -4,7 +4,7 @@ sec. 6.3, eqs. (60)-(61)) and their eigenvalues.
 Equilibrium. With ``q' = 0`` eq. (53) reduces to ``V(q) = lambda N(q)`` (60) and ``H(q) = 0``
 (61). The three unknowns ``(q1, q2, lambda)`` are found by Newton's method with the exact CasADi
 Jacobian of the residual ``(f(q, 0) + lambda N(q), H(q))``, where ``f(q, 0) = -V(q)`` comes from
-the Euler-Lagrange derivation :func:`problems.impacting.pendulum_lagrange.lagrange_terms`.
+the Euler-Lagrange derivation :func:`tests/oracles/pendulum_lagrange.lagrange_terms`.
 ``H = X + d`` (``d > 0``: wall at ``X = -d``, admissible side ``H >= 0``),
 ``N = (L1 c1, L2 c2)^T``, and
 ``lambda`` is reported in the normalisation of eq. (53)/(60) (force ``lambda N``; ``lambda > 0``
@@ -47,7 +47,8 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from nsm_continuation.problems.impacting.pendulum_lagrange import (
+
+from .pendulum_lagrange import (
     contact_normal,
     lagrange_terms,
     positions,

@@ -1,0 +1,483 @@
+"""Forced response of the damped bar with contact as a YAML problem (section 7, Figs. 20-22).
+
+Yoong, Thorin, Legrand (2017), section 7: the bar of section 2 with a small viscous damping
+(``rho u_tt + eta u_t - E u_xx = f``), forced by a harmonically moving wall
+``w(t) = w0 sin(omega t)`` (the gap becomes ``g = g0 + w(t) - u(L, t)``) and/or a uniform
+distributed force ``f = f0 sin(omega t)``; the total energy of the steady state averaged over
+one forcing period is plotted against the forcing frequency for increasing frequencies and
+several dampings (Figs. 20-22 (a): moving wall, (b): distributed force; Fig. 20: g0 > 0,
+21: g0 = 0, 22: g0 < 0). The steady state at each frequency is found by time stepping
+(Algorithm 2, :func:`problems.bar.wfem_simulation.forced_response_point`), warm-started from
+the steady state at the previous frequency, by the ``sweep`` algorithm
+(:class:`nsm_continuation.algorithms.Sweep`), one sweep (branch) per damping ratio.
+
+YAML::
+
+    problem: wfem_forced_bar
+    parameters: {cells: 100, gap: 1.0e-3, wall_amplitude: 2.0e-3, force_amplitude: 0.0,
+                 damping_ratio: [0.01, 0.02, 0.05]}
+    start: {warm_start: true}
+    continuation: {parameter: omega_ratio, min: 0.25, max: 4.0, max_points: 40,
+                   direction: increase}
+
+``damping_ratio`` is the modal damping ratio ``zeta_1`` of the first fixed-free mode,
+``eta = 2 rho omega_1 zeta_1`` (mass-proportional: the same amplitude decay time
+``2 rho / eta`` for every mode); ``continuation.max_points`` is the number of forcing
+frequencies (``numpy.linspace(min, max, max_points)``), ``parameter`` is ``omega_ratio``
+(``omega / omega_1``, eq. 13) or ``omega``. Optional: ``transient_periods`` (10),
+``average_periods`` (8), ``transient_time`` (3 decay times), ``max_time`` (12 decay times;
+required with a zero damping), ``steady_tol`` (2e-3), ``switching`` (``subcell`` or ``grid``):
+:func:`problems.bar.wfem_simulation.steady_state_rule`.
+
+Each point: ``energy_ratio`` (the period-averaged energy over ``E_ref`` of eq. 14; absolute for
+g0 = 0), ``amplitude`` (half the peak-to-peak end displacement), ``steady`` and ``multiple``
+(1: T-periodic, k: kT-periodic, 0: not steady within ``max_time``, quasi-periodic or chaotic as
+in the paper between the NSM branches), ``contact_fraction`` and the linear references in
+closed form: without contact (clamped-free, force: :func:`linear_forced_energy`,
+:func:`linear_forced_end_amplitude`) or, for the wall alone with g0 < 0, in permanent contact
+(fixed-fixed with a moving end, :func:`linear_wall_response`, where the contact force stays
+compressive).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
+
+from nsm_continuation.algorithms import SweepProblem, SweepSeed, sweep_point_record
+from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, one_or_many
+from nsm_continuation.records import Point
+from nsm_continuation.vocabulary import CanonicalNames, as_parameters
+
+from .continuum import main_signature
+from .wfem_simulation import (
+    BarParams,
+    ForcedPoint,
+    Loading,
+    SteadyStateRule,
+    forced_response_point,
+    linear_forced_end_amplitude,
+    linear_forced_energy,
+    linear_wall_response,
+    rest_state,
+    steady_state_rule,
+)
+
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+#: a damping ratio of the first mode (``zeta_1``); 1 is critical damping of that mode
+DampingRatio = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+
+
+def _as_list(v: Any) -> Any:
+    """A single value as a one-element list (``damping_ratio: 0.01`` or ``[0.01, 0.02]``)."""
+    return v if isinstance(v, list) else [v]
+
+
+class ForcedBarParameters(CanonicalNames):
+    """The ``parameters:`` block of ``wfem_forced_bar`` (module docstring): ``cells`` is the
+    paper's ``N``, ``gap`` its ``g0``, ``wall_amplitude`` its ``w0``, ``force_amplitude`` its
+    ``f0``."""
+
+    model_config = STRICT
+    E: PosFloat = 1.0
+    rho: PosFloat = 1.0
+    L: PosFloat = 1.0
+    cells: Annotated[int, Field(ge=2, le=100_000)] = 100
+    gap: Finite = 1e-3
+    #: ``w0`` of the wall ``w(t) = w0 sin(omega t)`` (section 7)
+    wall_amplitude: Finite = 0.0
+    #: ``f0`` of the uniform force ``f = f0 sin(omega t)`` (section 7)
+    force_amplitude: Finite = 0.0
+    #: ``zeta_1``, a number or a list (one sweep per value): ``eta = 2 rho omega_1 zeta_1``
+    damping_ratio: Annotated[list[DampingRatio], BeforeValidator(_as_list),
+                             Field(min_length=1, max_length=10)] = [0.01]
+    transient_periods: Annotated[int, Field(ge=0, le=1_000_000)] = 10
+    average_periods: Annotated[int, Field(ge=2, le=10_000)] = 8
+    transient_time: NonNegFloat | None = None
+    max_time: PosFloat | None = None
+    steady_tol: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 2e-3
+    switching: Literal["grid", "subcell"] = "subcell"
+
+    @field_validator("gap")
+    @classmethod
+    def _gap_range(cls, v: float) -> float:
+        return check_gap(v)
+
+    @model_validator(mode="after")
+    def _excited_and_bounded(self) -> ForcedBarParameters:
+        if self.wall_amplitude == 0.0 and self.force_amplitude == 0.0:
+            raise ValueError("force_amplitude: wall_amplitude and force_amplitude are both 0: "
+                             "nothing forces the bar (section 7 moves the wall or applies a "
+                             "distributed force)")
+        if self.max_time is None and 0.0 in self.damping_ratios:
+            raise ValueError("max_time: required with a zero damping_ratio (without damping "
+                             "there is no decay time to scale the time budget per frequency)")
+        return self
+
+    @property
+    def damping_ratios(self) -> list[float]:
+        return list(self.damping_ratio)
+
+
+class ForcedStart(BaseModel):
+    """A sweep: warm-started from the previous frequency's steady state (default), or from
+    rest at every frequency."""
+
+    model_config = STRICT
+    warm_start: bool = True
+
+
+def main_backbone(mode: int, gap_sign: float, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
+    """``(omega / omega_1, E / E_ref)`` of the main backbone of mode k (the exact continuum
+    limit, :mod:`problems.bar.continuum`): ``E / E_ref = 32 / (pi^2 mu(T)^2)`` with ``mu``
+    affine in the period ``T = 4 / omega_ratio`` (units L/c), admissible where
+    ``sign(mu) = sign(g0)`` (hardening from omega_k for g0 > 0, softening from Omega_k for
+    g0 < 0). For ``g0 = 0`` the vertical line at the asymptote (energy free): ``x`` twice the
+    asymptote and ``y = (nan, nan)``, to be drawn as a vertical line."""
+    sig = main_signature(mode)
+    if gap_sign == 0:
+        x = sig.omega_ratio_asymptote
+        return np.array([x, x]), np.full(2, np.nan)
+    lo, hi = sig.T_range
+    T = np.linspace(lo, hi, n)
+    mu = np.asarray(sig.mu(T), dtype=float)
+    ok = np.sign(mu) == np.sign(gap_sign)
+    with np.errstate(divide="ignore"):
+        energy = 32.0 / (math.pi**2 * mu[ok] ** 2)
+    return 4.0 / T[ok], energy
+
+
+def response_kind(multiple: int) -> str:
+    """The signature of a steady state: periodic, period k T (subharmonic) or not steady."""
+    if multiple == 1:
+        return "periodic"
+    return f"period {multiple} T" if multiple > 1 else "not steady"
+
+
+class WfemForcedBarProblem(SweepProblem):
+    """Steady forced response of the WFEM bar over a frequency grid (module docstring)."""
+
+    name: ClassVar[str] = "wfem_forced_bar"
+    Parameters: ClassVar[type[BaseModel]] = ForcedBarParameters
+    start_adapter = one_or_many(ForcedStart)
+    energy_quantity: ClassVar[str | None] = "energy_ratio"
+    event_kinds: ClassVar[dict[str, str]] = {
+        "response_change": "the kind of steady response changes between two consecutive "
+                           "forcing frequencies of the sweep (periodic, period k T: "
+                           "subharmonic, not steady: quasi-periodic or chaotic within the time "
+                           "budget); recorded at the first frequency of the new kind",
+    }
+    signature_kind: ClassVar[str | None] = "response_change"
+    diagram_title: ClassVar[str] = "Frequency response (steady state, section 7)"
+    diagram_yscale: ClassVar[str] = "log"
+    fep_axes = ("omega_ratio", "energy_ratio")
+    csv_head = ["omega_ratio", "omega", "energy_ratio", "linear_energy_ratio", "amplitude",
+                "linear_amplitude", "steady", "multiple", "contact_fraction", "damping_ratio"]
+    event_columns = ["omega_ratio", "energy_ratio", "amplitude", "multiple", "damping_ratio"]
+    #: seconds per simulated step (a + b N, measured on the shared 2-core machine under load:
+    #: 12 us at N = 100, 18 us at N = 1600; an upper estimate)
+    STEP_SECONDS: ClassVar[tuple[float, float]] = (1.5e-5, 5e-9)
+    #: bytes per simulated step of one call of ``simulate`` (time, end displacement, energy,
+    #: velocity, force, contact; period averages of a block)
+    STEP_BYTES: ClassVar[float] = 64.0
+
+    def __init__(self, params: ForcedBarParameters | dict[str, Any]) -> None:
+        params = as_parameters(ForcedBarParameters, params)
+        super().__init__(params)
+        p = params
+        self.bar = BarParams(E=p.E, rho=p.rho, L=p.L, N=p.cells, g0=p.gap)
+        self.variables = ["omega_ratio", "energy_ratio"]
+        self.parameter = "omega_ratio"
+        self._check_scales()
+
+    # -- model ------------------------------------------------------------------------------
+    def _check_scales(self) -> None:
+        """The bar's scales are representable (as for ``wfem_bar``)."""
+        bar = self.bar
+        for name, v in (("omega_1 = pi c / (2L)", bar.omega1), ("dt = L / (N c)",
+                                                                bar.time_step)):
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"parameters.E: E, rho and L give {name} = {v:.3g}, not a "
+                                 "positive finite number: rescale them")
+        if bar.g0 != 0 and not 1e-200 <= bar.energy_ref <= 1e200:
+            raise ValueError(f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
+                             f"{bar.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200]: "
+                             "rescale E, L or the gap")
+
+    @property
+    def energy_scale(self) -> float:
+        """``E_ref`` of eq. (14), or 1 for g0 = 0 (absolute energies, as for ``wfem_bar``)."""
+        return self.bar.energy_ref if self.bar.g0 != 0 else 1.0
+
+    def eta(self, zeta: float) -> float:
+        """``eta = 2 rho omega_1 zeta_1`` (decay time ``2 rho / eta`` for every mode)."""
+        return 2.0 * self.bar.rho * self.bar.omega1 * zeta
+
+    def rule(self, eta: float) -> SteadyStateRule:
+        """The steady-state rule of the parameters at damping ``eta``."""
+        p = self.params
+        return steady_state_rule(self.bar, eta, p.transient_periods, p.average_periods,
+                                 p.transient_time, p.max_time, p.steady_tol, p.switching)
+
+    def loading(self, eta: float) -> Loading:
+        """Amplitudes and damping (the frequency is set per point)."""
+        return Loading(f0=self.params.force_amplitude, w0=self.params.wall_amplitude,
+                       eta=float(eta))
+
+    def linear_reference(self, omega: float, eta: float) -> tuple[float, float]:
+        """``(E / E_ref, end amplitude)`` of the linear reference in closed form (module
+        docstring), NaN where there is none (the wall alone with g0 >= 0: the bar stays at
+        rest without contact; g0 < 0 where the contact would not be permanent)."""
+        p, bar = self.params, self.bar
+        if p.force_amplitude != 0.0:
+            return (linear_forced_energy(bar, p.force_amplitude, omega, eta) / self.energy_scale,
+                    abs(linear_forced_end_amplitude(bar, p.force_amplitude, omega, eta)))
+        if bar.g0 < 0.0:
+            energy, margin = linear_wall_response(bar, p.wall_amplitude, omega, eta)
+            if margin >= 0.0:
+                return energy / self.energy_scale, abs(p.wall_amplitude)
+        return math.nan, math.nan
+
+    def reference_label(self) -> str:
+        if self.params.force_amplitude != 0.0:
+            return "linear, no contact (closed form)"
+        if self.bar.g0 < 0.0:
+            return "linear, permanent contact (closed form)"
+        return "none (without contact the bar stays at rest)"
+
+    # -- preflight --------------------------------------------------------------------------
+    def parameter_bounds(self, name: str, lo: float | None, hi: float | None
+                         ) -> tuple[float | None, float | None]:
+        """``omega_ratio`` or ``omega`` (divided by omega_1); forcing frequencies are > 0."""
+        if name not in ("omega_ratio", "omega"):
+            raise ValueError(f"continuation.parameter: wfem_forced_bar sweeps the forcing "
+                             f"frequency 'omega_ratio' (omega / omega_1) or 'omega', not "
+                             f"{name!r}")
+        if lo is not None and lo <= 0:
+            raise ValueError(f"continuation.min: forcing frequencies must be > 0 (got {lo:g})")
+        scale = self.bar.omega1 if name == "omega" else 1.0
+        return (None if lo is None else lo / scale, None if hi is None else hi / scale)
+
+    def steps_per_frequency(self, eta: float, omega_ratio: float) -> tuple[int, int]:
+        """Upper bound on the steps simulated at one frequency, and on the longest single
+        call of ``simulate`` (transient or block), from :class:`SteadyStateRule`."""
+        rule = self.rule(eta)
+        dt = self.bar.time_step
+        T = 2.0 * math.pi / (omega_ratio * self.bar.omega1)
+        n_tr = math.ceil(max(rule.n_periods_transient * T, rule.min_transient_time) / dt)
+        n_blk = math.ceil(rule.n_periods_average * T / dt) + 1
+        return max(n_tr, math.ceil(rule.max_time / dt)) + n_blk, max(n_tr, n_blk)
+
+    def preflight(self, start: Any, window: tuple[float | None, float | None],
+                  max_points: int) -> None:
+        """The window (both ends, > 0), the starts, and the budget: ``max_points`` frequencies
+        per sweep, one sweep per start and damping ratio, both directions counted (the
+        direction is not known here), each frequency at most :meth:`steps_per_frequency`
+        steps at the lowest frequency, ``STEP_SECONDS`` per step; memory ``STEP_BYTES`` per
+        step of the longest ``simulate`` call."""
+        lo, hi = window
+        for key, v in (("continuation.min", lo), ("continuation.max", hi)):
+            if v is None:
+                raise ValueError(f"{key}: a frequency sweep needs both ends of the window "
+                                 "(continuation.min and continuation.max)")
+        assert lo is not None
+        specs = as_list(self.start_adapter.validate_python(start))
+        steps = longest = 0
+        for zeta in self.params.damping_ratios:
+            try:
+                total, call = self.steps_per_frequency(self.eta(zeta), lo)
+            except ValueError as exc:
+                raise ValueError(f"parameters: {exc}") from None
+            steps += total
+            longest = max(longest, call)
+        sweeps = 2 * len(specs)
+        N = self.bar.N
+        check_budget("parameters.transient_time", f"a single simulation of {longest:.3g} "
+                     f"steps ({N} cells, lowest frequency {lo:g} omega_1)",
+                     memory_bytes=self.STEP_BYTES * longest + 16.0 * N)
+        per_step = self.STEP_SECONDS[0] + self.STEP_SECONDS[1] * N
+        check_budget("continuation.max_points",
+                     f"{sweeps} x {max_points} frequencies of up to {steps:.3g} steps "
+                     f"({N} cells, {len(self.params.damping_ratios)} damping ratios)",
+                     seconds=sweeps * max_points * steps * per_step)
+
+    # -- the sweep --------------------------------------------------------------------------
+    def sweep_seeds(self, start: Any, window: tuple[float | None, float | None]
+                    ) -> list[SweepSeed]:
+        """One sweep per start and damping ratio, from rest (:func:`rest_state`: unstressed
+        for g0 >= 0, compressed against the wall for g0 < 0) with forcing phase 0."""
+        specs = start if isinstance(start, ForcedStart) else \
+            self.start_adapter.validate_python(start)
+        seeds = []
+        for _, spec in as_list(specs):
+            for zeta in self.params.damping_ratios:
+                eta = self.eta(zeta)
+                label = f"zeta_1 = {zeta:g} (eta = {eta:.4g})"
+                if not spec.warm_start:
+                    label += ", from rest at each frequency"
+                seeds.append(SweepSeed(label, (rest_state(self.bar), 0.0), 0,
+                                       {"damping_ratio": zeta, "eta": eta,
+                                        "warm_start": spec.warm_start}))
+        return seeds
+
+    def sweep_point(self, seed: SweepSeed, value: float, state: Any) -> tuple[Point, Any]:
+        """The steady state at ``omega = value * omega_1`` from ``state = (BarState, forcing
+        phase)`` (:func:`forced_response_point`; from rest with phase 0 without warm start)."""
+        eta = float(seed.info["eta"])
+        st, phase = state if seed.info["warm_start"] else (rest_state(self.bar), 0.0)
+        omega = value * self.bar.omega1
+        pt, st, phase = forced_response_point(self.bar, self.loading(eta), omega, st, phase,
+                                              self.rule(eta))
+        derived = self.point_quantities(pt, value, seed.info)
+        point = sweep_point_record(np.array([value, derived["energy_ratio"]]), derived,
+                                   seed.direction, self.parameter_index,
+                                   response_kind(pt.multiple))
+        return point, (st, phase)
+
+    def point_quantities(self, pt: ForcedPoint, omega_ratio: float,
+                         info: dict[str, Any]) -> dict[str, float]:
+        """The derived quantities of a steady state (module docstring)."""
+        lin_e, lin_a = self.linear_reference(pt.omega, float(info["eta"]))
+        return {"omega": pt.omega, "omega_ratio": omega_ratio, "energy": pt.energy_mean,
+                "energy_ratio": pt.energy_mean / self.energy_scale,
+                "linear_energy_ratio": lin_e, "amplitude": 0.5 * (pt.u_max - pt.u_min),
+                "linear_amplitude": lin_a, "u_max": pt.u_max, "u_min": pt.u_min,
+                "steady": float(pt.steady), "multiple": float(pt.multiple),
+                "contact_fraction": pt.contact_fraction, "steps": float(pt.n_steps),
+                "damping_ratio": float(info["damping_ratio"]), "eta": float(info["eta"])}
+
+    def monitor_names(self) -> list[str]:
+        return ["omega", "omega_ratio", "energy", "energy_ratio", "amplitude", "u_max", "u_min",
+                "contact_fraction", "steps"]
+
+    # -- presentation -----------------------------------------------------------------------
+    @property
+    def fep_labels(self) -> tuple[str, str]:  # type: ignore[override]
+        y = (r"period-averaged energy $\bar E/E_{ref}$ (eq. 14)" if self.bar.g0 != 0
+             else r"period-averaged energy $\bar E$ (g0 = 0: absolute)")
+        return (r"forcing frequency $\omega/\omega_1$", y)
+
+    def reference_curve(self, eta: float, x_range: tuple[float, float],
+                        n: int = 600) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The linear reference on a fine grid of ``omega / omega_1``: ``(x, E/E_ref,
+        amplitude)`` (NaN where there is none)."""
+        x = np.linspace(x_range[0], x_range[1], n)
+        ref = np.array([self.linear_reference(xi * self.bar.omega1, eta) for xi in x])
+        return x, ref[:, 0], ref[:, 1]
+
+    def backbones(self, x_range: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray,
+                                                                    str]]:
+        """The main NSM backbones (modes 1, 2) inside ``x_range`` (:func:`main_backbone`)."""
+        out = []
+        for k in (1, 2):
+            x, y = main_backbone(k, np.sign(self.bar.g0))
+            keep = (x >= x_range[0]) & (x <= x_range[1])
+            if keep.any():
+                out.append((x[keep], y[keep], f"NSM backbone, mode {k}"))
+        return out
+
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """The linear references (dashed, one per damping ratio), the main NSM backbones and
+        the linear resonances omega_k (fixed-free) and Omega_k (fixed-fixed)."""
+        from .plots_forced import draw_backbones, draw_linear_resonances
+
+        for zeta in self.params.damping_ratios:
+            x, e, _ = self.reference_curve(self.eta(zeta), x_range)
+            ax.plot(x, e, "--", color="0.45", lw=0.9, zorder=1)
+        draw_backbones(ax, self.backbones(x_range), color="tab:blue")
+        draw_linear_resonances(ax, x_range)
+
+    def legend_handles(self) -> list[Any]:
+        """What :meth:`plot_decorations` draws (the reference only where there is one)."""
+        from matplotlib.lines import Line2D
+
+        p = self.params
+        ref = ([Line2D([], [], ls="--", color="0.45", label=self.reference_label())]
+               if p.force_amplitude != 0.0 or self.bar.g0 < 0.0 else [])
+        return ref + [Line2D([], [], color="tab:blue", lw=1.0, label="NSM backbones (modes 1, 2)"),
+                      Line2D([], [], ls=":", color="tab:blue", lw=0.8,
+                             label=r"$\omega_k$ (fixed-free)"),
+                      Line2D([], [], ls=":", color="tab:orange", lw=0.8,
+                             label=r"$\Omega_k$ (fixed-fixed)")]
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        """``frequency_response.png``: energy and end amplitude against the forcing frequency,
+        one curve per sweep (steady filled, not steady hollow), linear references, backbones."""
+        from pathlib import Path
+
+        from .plots_forced import frequency_response_figure, response_curves
+
+        curves = response_curves(branches)
+        if not curves:
+            return []
+        xs = np.concatenate([c.x for c in curves])
+        x_range = (float(xs.min()), float(xs.max()))
+        refs = []
+        for zeta in self.params.damping_ratios:
+            x, e, a = self.reference_curve(self.eta(zeta), x_range)
+            refs.append((x, e, a, rf"$\zeta_1$ = {zeta:g}"))
+        fig = frequency_response_figure(curves, refs, self.backbones(x_range),
+                                        self.fep_labels[1], self.reference_label(),
+                                        title=self.figure_title())
+        fig.savefig(Path(out_dir) / "frequency_response.png", dpi=130)
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        return ["frequency_response.png"]
+
+    def figure_title(self) -> str:
+        p = self.params
+        what = ("moving wall" if p.force_amplitude == 0 else "distributed force"
+                if p.wall_amplitude == 0 else "moving wall and distributed force")
+        return (f"Forced response, {what} (w0 = {p.wall_amplitude:g}, f0 = "
+                f"{p.force_amplitude:g}), g0 = {p.gap:g}, N = {p.cells}")
+
+    def summary(self) -> dict[str, Any]:
+        bar, p = self.bar, self.params
+        return {"omega_1": bar.omega1, "dt": bar.time_step, "E_ref": bar.energy_ref,
+                "cells": bar.N, "gap": bar.g0, "wall_amplitude": p.wall_amplitude,
+                "force_amplitude": p.force_amplitude, "damping_ratios": p.damping_ratios,
+                "eta": [self.eta(z) for z in p.damping_ratios],
+                "linear_reference": self.reference_label(), "switching": p.switching}
+
+    def warnings(self) -> list[str]:
+        p = self.params
+        if p.force_amplitude == 0.0 and 0.0 <= p.wall_amplitude <= p.gap:
+            return [f"wall_amplitude = {p.wall_amplitude:g} <= gap = {p.gap:g}: the wall never "
+                    "reaches the bar at rest (section 7 takes w0 > g0)"]
+        return []
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Per sweep: the resonance peak, the count of periodic / subharmonic / not steady
+        responses, the simulated steps, and the largest deviation from the linear reference."""
+        out = []
+        for br in branches:
+            pts = br.points
+            if not pts:
+                continue
+            d = [p.derived for p in pts]
+            peak = max(d, key=lambda q: q["energy_ratio"])
+            lin = np.array([q["linear_energy_ratio"] for q in d])
+            en = np.array([q["energy_ratio"] for q in d])
+            dev = np.abs(en / lin - 1.0)[np.isfinite(lin)]
+            out.append({"branch": br.id, "label": br.label,
+                        "peak_omega_ratio": peak["omega_ratio"],
+                        "peak_energy_ratio": peak["energy_ratio"],
+                        "periodic": sum(q["multiple"] == 1 for q in d),
+                        "subharmonic": sum(q["multiple"] > 1 for q in d),
+                        "not_steady": sum(q["multiple"] == 0 for q in d),
+                        "steps": int(sum(q["steps"] for q in d)),
+                        "max_relative_deviation_from_linear": (float(dev.max()) if dev.size
+                                                               else None)})
+        return {"sweeps": out, "linear_reference": self.reference_label()}
+
+
+__all__ = ["ForcedBarParameters", "ForcedStart", "WfemForcedBarProblem", "main_backbone",
+           "response_kind"]
