@@ -928,7 +928,7 @@ class ContinuationEngine:
         if a.multipliers is not None and b.multipliers is not None \
                 and a.n_unstable != b.n_unstable:
             found.extend(self._locate_multiplier_crossings(a, b))
-        return found
+        return _merge_fold_crossings(found)
 
     def _signature_events(self, a: Point, b: Point) -> list[Event]:
         """A change of the problem's discrete signature (event sequence of a hybrid orbit)."""
@@ -1126,8 +1126,8 @@ class ContinuationEngine:
 _CROSSING_DETAIL = {
     "fold": "a multiplier pair crosses the unit circle at +1",
     "period_doubling": "a multiplier crosses the unit circle at -1 (flip)",
-    "neimark_sacker": "a complex pair crosses the unit circle away from +-1 (Krein collision "
-                      "in a conservative system)",
+    "neimark_sacker": "a complex pair crosses the unit circle away from +-1 (in a "
+                      "conservative system: a Krein collision)",
     "stability_change": "multipliers cross the unit circle",
 }
 
@@ -1172,6 +1172,25 @@ def _adapted_step(h: float, iterations: int, angle: float, st: ContinuationSetti
     if iterations >= 6 or angle > 0.8 * st.max_angle:
         return max(h * 0.6, st.step_min)
     return h
+
+
+def _merge_fold_crossings(events: list[Event]) -> list[Event]:
+    """A limit point of the branch (the tangent's parameter component changes sign) is where a
+    multiplier passes +1: the crossing located there on the multipliers is the same event,
+    reported once (the fold, with the crossing's data: multipliers outside before and after)."""
+    folds = [e for e in events if e.kind == "fold" and e.data.get("test") == "tangent"]
+    if not folds:
+        return events
+    out: list[Event] = []
+    for ev in events:
+        twin = next((f for f in folds if ev is not f and ev.kind == "fold" and abs(
+            ev.point.s - f.point.s) <= max(1e-8 * (1.0 + abs(f.point.s)),
+                                           2 * ev.bracket, 2 * f.bracket)), None)
+        if twin is not None:
+            twin.data.update({k: v for k, v in ev.data.items() if k != "test"})
+            continue
+        out.append(ev)
+    return out
 
 
 def _merge_coincident_grazing(events: list[Event], tol: float) -> list[Event]:

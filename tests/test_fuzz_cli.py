@@ -672,8 +672,11 @@ def test_extreme_values(problem: str, path: tuple, value: Any, capsys: Any) -> N
 
 
 def test_every_registered_problem_has_a_fuzz_base() -> None:
-    assert set(registry.available()) <= set(BASE_SOURCES), \
-        f"add a base case for {set(registry.available()) - set(BASE_SOURCES)}"
+    # the problems this distribution registers (a user's plugin in the same environment is
+    # not ours to fuzz)
+    ours = {k for k, v in registry.available().items()
+            if v.startswith("nsm_continuation.problems.")}
+    assert ours <= set(BASE_SOURCES), f"add a base case for {ours - set(BASE_SOURCES)}"
 
 
 @pytest.mark.parametrize("problem", PROBLEMS)

@@ -233,3 +233,31 @@ def test_continuation_through_grazing_both_ways() -> None:
     for p in free[1:]:
         assert p.derived["n_impacts"] == 0
         assert p.derived["max_q"] == pytest.approx(amplitude(p.y[2]), abs=1e-9)
+
+
+# --------------------------------------------------------------------------- two parameters
+@pytest.mark.parametrize("zeta", [0.0, 0.1])
+def test_grazing_curve_is_the_closed_form(zeta: float) -> None:
+    """The grazing curve in (omega, gap) (``hybrid.codim1.GrazingCurve``, eq. C1, continued in
+    the gap) is the closed form ``1/sqrt((1 - w^2)^2 + (2 zeta w)^2) = -gap - margin`` (the
+    continued orbits miss the stop by the documented margin) at every point, to 1e-10."""
+    from scipy.optimize import brentq
+
+    import nsm_continuation as nsm
+    from nsm_continuation.hybrid.codim1 import GrazingCurve, grazing_curve_start
+    from nsm_continuation.protocol import StartPoint
+
+    curve = GrazingCurve(problem(zeta), "omega", "gap")
+    wg = brentq(lambda w: amplitude(w, zeta) + GAP, 1.2, 3.0, xtol=1e-15)
+    y0 = grazing_curve_start(curve, free_orbit_point(wg, zeta))
+    res = nsm.continuation(curve, StartPoint(y0, "grazing curve", 0), min=-0.9, max=-0.2,
+                           step={"initial": 0.01, "min": 1e-9, "max": 0.05}, max_points=16,
+                           newton_tol=1e-10,
+                           analysis={"stability": False, "bifurcations": False})
+    br = res.run_result.branches[0]
+    gaps = [p.y[-1] for p in br.points]
+    assert len(br.points) >= 20 and max(gaps) - min(gaps) > 0.01
+    for p in br.points:
+        omega, gap = p.y[-2], p.y[-1]
+        assert amplitude(omega, zeta) == pytest.approx(-gap - curve.target(p.y), abs=1e-10)
+        assert curve.shooting.simulate(p.y).n_impacts == 0

@@ -689,7 +689,19 @@ class Simulator:
     def _transition(self, mode: str, name: str, Y: np.ndarray, J: np.ndarray | None,
                     Jt: np.ndarray | None, t: float, pr: np.ndarray, seq: list[Any],
                     events: list[SimEvent], chatter_errors: list[float]) -> tuple[Any, ...]:
-        c, o = self.c, self.o
+        """The transition of Table 1 fired by ``name`` in state ``mode``: a flight transition
+        (:meth:`_flight_transition`) or an impact (:meth:`_impact_transition`).
+        Returns ``(new mode, Y, J, Jt, t, info)``."""
+        if name in ("H", "h"):
+            return self._impact_transition(mode, Y, J, Jt, t, seq, events, chatter_errors)
+        return self._flight_transition(mode, name, Y, J, Jt, t, pr, seq, events)
+
+    def _flight_transition(self, mode: str, name: str, Y: np.ndarray, J: np.ndarray | None,
+                           Jt: np.ndarray | None, t: float, pr: np.ndarray, seq: list[Any],
+                           events: list[SimEvent]) -> tuple[Any, ...]:
+        """Transitions I, II, VI, VIII, X, XI, XII of Table 1 (turns of ``v``, sign changes of
+        ``a``): no jump of the state; the extended state is dropped where chattering ends."""
+        c = self.c
         N = c.N
         info: dict[str, Any] = {}
         if mode == S1 and name == "v":                                  # I
@@ -722,6 +734,17 @@ class Simulator:
                                    {"impacts": count, "H": float(pr[0]),
                                     "J": None if J is None else J[:N].copy()}))
             return S1, Y[:N].copy(), None if J is None else J[:N].copy(), Jt, t, info
+        raise SimulationError(f"no transition for {name!r} in state {mode}")  # pragma: no cover
+
+    def _impact_transition(self, mode: str, Y: np.ndarray, J: np.ndarray | None,
+                           Jt: np.ndarray | None, t: float, seq: list[Any],
+                           events: list[SimEvent], chatter_errors: list[float]
+                           ) -> tuple[Any, ...]:
+        """Transitions III, IV, V, VII, IX of Table 1: an impact (eq. 5), the chatter map once
+        its error estimate meets the tolerance (:meth:`_chatter_step`), or sticking."""
+        c, o = self.c, self.o
+        N = c.N
+        info: dict[str, Any] = {}
         # ---------------------------------------------------------------- impacts
         X = Y[:N].copy()
         JX = None if J is None else J[:N].copy()

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -175,24 +176,12 @@ class HybridSystem:
     def compile(self, values: dict[str, float], free: Sequence[str] = (),
                 method: str = "dop853") -> CompiledHybrid:
         """Substitute numeric ``values`` for every parameter except ``free`` (lifted into the
-        state) and build the CasADi Functions. Raises :class:`HybridDeclarationError` naming the
-        parameter on a missing, unknown or non-finite value."""
-        names = list(self.params)
-        for k in free:
-            if k not in self.params:
-                raise HybridDeclarationError(f"{self.name}: cannot free unknown parameter {k!r}"
-                                             f" (parameters: {names})")
-        fixed = [k for k in names if k not in free]
-        for k in fixed:
-            if k not in values:
-                raise HybridDeclarationError(f"{self.name}: missing value for parameter {k!r}")
-        for k, val in values.items():
-            if k not in self.params:
-                raise HybridDeclarationError(f"{self.name}: unknown parameter {k!r}")
-            if not np.isfinite(float(val)):
-                raise HybridDeclarationError(f"{self.name}: parameter {k!r} is not finite")
-        if method not in TABLEAUS:
-            raise HybridDeclarationError(f"integrator {method!r}: choose one of {list(TABLEAUS)}")
+        state) and build the CasADi Functions: the derived quantities of the module docstring
+        (eqs. 2-12, 24, 30-31), the projection onto the sticking set and the Runge-Kutta steps
+        (:func:`_step_functions`). Raises :class:`HybridDeclarationError` naming the parameter
+        on a missing, unknown or non-finite value."""
+        self._check_values(values, free, method)
+        fixed = [k for k in self.params if k not in free]
         sym_fixed = [self.params[k] for k in fixed]
         num_fixed = [float(values[k]) for k in fixed]
         free_syms = [self.params[k] for k in free]
@@ -217,47 +206,10 @@ class HybridSystem:
         K = 2 * F * r / a + W                                     # eq. (24)
         Q1 = X + K * v / (1 - r)                                  # eq. (30), first order
         q1 = 2 * r * v / (a * (1 - r))                            # eq. (31), first order
-        # projection of a chatter end point onto the sticking set {H = 0, v = 0}: Newton steps
-        # along grad H (positions) and along W (velocities); moves the point by O(v^2), the order
-        # of the first-order map's own error, and makes v exactly invariant under F'
-        pos = ca.SX.zeros(X.shape)
-        for i in self.position or []:
-            pos[i] = 1
-        Hx = ca.jacobian(H, X).T * pos
-        Hfun = ca.Function("Hf", [X], [H, Hx, v, W, r])
-        P = X
-        for _ in range(2):
-            h_, hx_, v_, w_, r_ = Hfun(P)
-            P = P - hx_ * h_ / ca.dot(hx_, hx_)
-            h_, hx_, v_, w_, r_ = Hfun(P)
-            P = P + w_ * v_ / (1 + r_)
+        P = self._sticking_projection(X, H, v, W, r)
         probe = ca.vertcat(H, v, a, jerk)
         grads = ca.vertcat(ca.jacobian(H, X), ca.jacobian(v, X), ca.jacobian(a, X))
-
-        # extended (scaled) system of sec. 4.3, eq. (44): (X, h, u), h' = v/u, u' = 0
-        hs, us = ca.SX.sym("h"), ca.SX.sym("u")
-        Xe = ca.vertcat(X, hs, us)
-        Fe = ca.vertcat(F, v / us, 0)
-        probe_e = ca.vertcat(probe, hs, v / us)
-
-        fF = ca.Function("F", [X], [F])
-        fFs = ca.Function("Fs", [X], [Fs])
-        fFe = ca.Function("Fe", [Xe], [Fe])
-        dt = ca.SX.sym("dt")
-        steps = {}
-        for key, f, Y, pr in (("free", fF, X, probe), ("stick", fFs, X, probe),
-                              ("ext", fFe, Xe, probe_e)):
-            Yn, err, err3 = rk_step(f, Y, dt, method)
-            fields = f(Yn)
-            prn = ca.substitute([pr], [Y], [Yn])[0]
-            J = ca.jacobian(Yn, Y)
-            # one flat output per call (a single DM -> numpy conversion): Yn, err, err3,
-            # probe, field, vec(J) (column-major); split by Simulator._step
-            steps[key] = (
-                ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
-                ca.Function(f"stepJ_{key}", [Y, dt],
-                            [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
-            )
+        fF, fFs, fFe, probe_e, Xe, steps = _step_functions(X, F, Fs, v, probe, method)
         return CompiledHybrid(
             system=self, n=self.n, N=int(X.numel()), free=list(free), method=method,
             order=TABLEAUS[method]()[5],
@@ -274,6 +226,72 @@ class HybridSystem:
             project=ca.Function("project", [X], [P, ca.jacobian(P, X)]),
             steps=steps, values={k: float(v) for k, v in values.items()},
         )
+
+    def _check_values(self, values: dict[str, float], free: Sequence[str], method: str) -> None:
+        """Every parameter is freed or has a finite value; no unknown name; a known method."""
+        names = list(self.params)
+        for k in free:
+            if k not in self.params:
+                raise HybridDeclarationError(f"{self.name}: cannot free unknown parameter {k!r}"
+                                             f" (parameters: {names})")
+        for k in names:
+            if k not in free and k not in values:
+                raise HybridDeclarationError(f"{self.name}: missing value for parameter {k!r}")
+        for k, val in values.items():
+            if k not in self.params:
+                raise HybridDeclarationError(f"{self.name}: unknown parameter {k!r}")
+            if not np.isfinite(float(val)):
+                raise HybridDeclarationError(f"{self.name}: parameter {k!r} is not finite")
+        if method not in TABLEAUS:
+            raise HybridDeclarationError(f"integrator {method!r}: choose one of {list(TABLEAUS)}")
+
+    def _sticking_projection(self, X: ca.SX, H: ca.SX, v: ca.SX, W: ca.SX, r: ca.SX) -> ca.SX:
+        """Projection of a chatter end point onto the sticking set ``{H = 0, v = 0}``: Newton
+        steps along ``grad H`` (positions) and along ``W`` (velocities). It moves the point by
+        ``O(v^2)``, the order of the first-order map's own error, and makes ``v`` exactly
+        invariant under ``F'``."""
+        pos = ca.SX.zeros(X.shape)
+        for i in self.position or []:
+            pos[i] = 1
+        Hx = ca.jacobian(H, X).T * pos
+        Hfun = ca.Function("Hf", [X], [H, Hx, v, W, r])
+        P = X
+        for _ in range(2):
+            h_, hx_, v_, w_, r_ = Hfun(P)
+            P = P - hx_ * h_ / ca.dot(hx_, hx_)
+            h_, hx_, v_, w_, r_ = Hfun(P)
+            P = P + w_ * v_ / (1 + r_)
+        return P
+
+
+def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, method: str
+                    ) -> tuple[Any, ...]:
+    """The fields ``F``, ``F'`` and the scaled extended field of sec. 4.3, eq. (44)
+    (``(X, h, u)``, ``h' = v/u``, ``u' = 0``), with one Runge-Kutta step of each and its exact
+    Jacobian: ``(fF, fFs, fFe, probe_e, Xe, steps)``."""
+    hs, us = ca.SX.sym("h"), ca.SX.sym("u")
+    Xe = ca.vertcat(X, hs, us)
+    Fe = ca.vertcat(F, v / us, 0)
+    probe_e = ca.vertcat(probe, hs, v / us)
+    fF = ca.Function("F", [X], [F])
+    fFs = ca.Function("Fs", [X], [Fs])
+    fFe = ca.Function("Fe", [Xe], [Fe])
+    dt = ca.SX.sym("dt")
+    steps = {}
+    for key, f, Y, pr in (("free", fF, X, probe), ("stick", fFs, X, probe),
+                          ("ext", fFe, Xe, probe_e)):
+        Yn, err, err3 = rk_step(f, Y, dt, method)
+        fields = f(Yn)
+        prn = ca.substitute([pr], [Y], [Yn])[0]
+        J = ca.jacobian(Yn, Y)
+        # one flat output per call (a single DM -> numpy conversion): Yn, err, err3, probe,
+        # field, vec(J) (column-major); split by Simulator._step
+        steps[key] = (
+            ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
+            ca.Function(f"stepJ_{key}", [Y, dt],
+                        [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
+        )
+    return fF, fFs, fFe, probe_e, Xe, steps
 
 
 @dataclass

@@ -258,11 +258,24 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
           itself (cached: the run reuses it), so a backbone without a physical orbit near its
           start is refused here, not after the run started.
         """
+        items = as_list(self.start_adapter.validate_python(start))
+        M_lo, M_seed = self._check_starts(items, window)
+        self._check_start_budget(items, window, max_points, M_lo, M_seed)
+        if self.model.N <= self.PREFLIGHT_SEED_CELLS[self.model.g0 == 0]:
+            self._check_seeds(items, window)
+
+    #: periods (in steps) beyond any budget: keeps the budget arithmetic finite
+    PERIOD_CAP: ClassVar[float] = 1e15
+
+    def _check_starts(self, items: list[tuple[int | None, Any]],
+                      window: tuple[float | None, float | None]) -> tuple[float, int]:
+        """Each start alone (node entries, subharmonic gap, the filter, the window); returns
+        the shortest period ``M_lo`` the window allows and the longest start period
+        ``M_seed`` (in steps)."""
         md, p = self.model, self.params
         N = md.N
         lo, hi = window
-        items = as_list(self.start_adapter.validate_python(start))
-        cap = 1e15  # periods (in steps) beyond any budget: keeps the arithmetic finite
+        cap = self.PERIOD_CAP
         M_lo = max(2.0, min(np.ceil(4 * N / hi), cap)) if hi else 2.0
         M_seed = 8 * N
         for i, s in items:
@@ -296,6 +309,16 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
                     f"{key}: {what} starts at omega/omega_1 = {r:.6g}, outside the window "
                     f"[{lo if lo is not None else 0:g}, {hi if hi is not None else np.inf:g}] "
                     "(continuation.min/max): a branch starting there computes nothing")
+        return M_lo, M_seed
+
+    def _check_start_budget(self, items: list[tuple[int | None, Any]],
+                            window: tuple[float | None, float | None], max_points: int,
+                            M_lo: float, M_seed: int) -> None:
+        """Memory and time of the run (see :meth:`preflight`) against the limits."""
+        md, p = self.model, self.params
+        N = md.N
+        lo, _ = window
+        cap = self.PERIOD_CAP
         M_hi = min(np.floor(4 * N / lo), cap) if lo else float(M_seed + 2 * max_points)
         M_hi = max(M_hi, M_lo)
         periods = int(M_hi - M_lo + 1)
@@ -328,8 +351,12 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
                      f"start{'s' if len(items) != 1 else ''}"
                      f"{', a scan of the window' if scans else ''})",
                      memory_bytes=memory, seconds=seconds)
-        if N > self.PREFLIGHT_SEED_CELLS[md.g0 == 0]:
-            return
+
+    def _check_seeds(self, items: list[tuple[int | None, Any]],
+                     window: tuple[float | None, float | None]) -> None:
+        """The seed search of every non-scan start (cached: the run reuses it)."""
+        N = self.model.N
+        lo, hi = window
         for i, s in items:
             if isinstance(s, ScanStart):
                 continue
