@@ -13,8 +13,11 @@ engine):
 * ``Newton step``: ``ContinuationEngine.correct`` from a converged point (one bordered iteration:
   G, J, dense solve of size N + 2, and the convergence check);
 * ``tangent``: ``ContinuationEngine.tangent`` (one bordered solve);
-* ``Floquet``: ``problem.floquet`` (return-map Jacobian (A.8), restriction, Householder deflation,
-  ``eigvals`` of a ``(2N - 2)`` square matrix, its 2-norm);
+* ``Floquet``: ``problem.floquet``: for ``N > 40`` the multipliers from the structure of the
+  return map (rotation plus rank two, secular equation, O(N^2), started from the multipliers
+  of the previous call) with their Krein definiteness; up to 40 dofs the dense eigenvalues;
+* ``Floquet dense``: ``problem.floquet_dense`` (return-map Jacobian (A.8), restriction,
+  Householder deflation, ``eigvals`` of a ``(2N - 2)`` square matrix): the O(N^3) oracle;
 * ``admissibility``: ``problem.admissibility`` (exact maximum of ``u_N(t)`` over ``(0, T)`` by
   certified subdivision, :class:`~nsm_continuation.problems.chain.trig_sum.TrigSum`);
 * ``per point``: wall time of ``ContinuationEngine.run`` (bifurcation detection off, no bounds,
@@ -66,7 +69,8 @@ from nsm_continuation.settings import ContinuationSettings  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 OUT = Path(__file__).resolve().parent / "results" / "scaling.png"
 FEP_CASE = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
-COMPONENTS = ("G + J", "Newton step", "tangent", "Floquet", "admissibility", "per point")
+COMPONENTS = ("G + J", "Newton step", "tangent", "Floquet", "Floquet dense", "admissibility",
+              "per point")
 
 
 def random_chain(n: int, seed: int = 1) -> dict[str, Any]:
@@ -162,6 +166,7 @@ def measure_size(n: int, points: int) -> SizeResult:
         "Newton step": lambda: engine.correct(y, t, y, 0.0),
         "tangent": lambda: engine.tangent(y, t),
         "Floquet": lambda: problem.floquet(y, t),
+        "Floquet dense": lambda: problem.floquet_dense(y, t),
         "admissibility": lambda: problem.admissibility(y),
     }
     for name, fun in parts.items():
@@ -202,6 +207,7 @@ def chart(results: list[SizeResult], path: Path) -> None:
     ns = [r.n for r in results]
     fig, ax = plt.subplots(figsize=(8, 5.5))
     styles = {"per point": ("k", "o", "-", 2.5), "Floquet": ("C3", "s", "--", 1.5),
+              "Floquet dense": ("C3", "x", ":", 1.0),
               "admissibility": ("C2", "D", "--", 1.5), "G + J": ("C0", "^", ":", 1.2),
               "Newton step": ("C1", "v", ":", 1.2), "tangent": ("C4", "<", ":", 1.2),
               "build: CasADi": ("C7", "x", "-.", 1.0), "build: problem": ("C5", "+", "-.", 1.0)}
@@ -282,7 +288,8 @@ def main(argv: list[str] | None = None) -> list[SizeResult]:
           " for Floquet/admissibility)")
     for r in results:
         per = r.analyses / max(r.n_points, 1)
-        share = {c: 100 * r.time[c] / r.time["per point"] for c in COMPONENTS[:-1]}
+        share = {c: 100 * r.time[c] / r.time["per point"] for c in COMPONENTS[:-1]
+                 if c != "Floquet dense"}
         hooks = 100 * per * (r.time["Floquet"] + r.time["admissibility"]) / r.time["per point"]
         print(f"  N = {r.n:>4}: " + "   ".join(f"{c} {v:5.1f}" for c, v in share.items())
               + f"   | {per:.2f} analyses/point -> hooks ~{hooks:5.1f}")

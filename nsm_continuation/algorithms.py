@@ -58,6 +58,10 @@ class Algorithm(ABC):
     takes_start_points: ClassVar[bool] = True
     #: key of ``report.json``'s ``timings`` for the time to build the seeds and prepare
     setup_key: ClassVar[str] = "setup_s"
+    #: whether its branches can be computed as independent Dask tasks, each rebuilding the
+    #: seeds from the case (:mod:`nsm_continuation.execution`); not the lattice engine, whose
+    #: seeds come from a scan of the whole window (one task)
+    distributable: ClassVar[bool] = True
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         self.problem = problem
@@ -134,6 +138,52 @@ class _CurveAlgorithm(Algorithm):
             seed, branches, self.problem.parameter_index)
 
 
+@dataclass
+class TangentStart(StartPoint):
+    """A start point that knows the tangent of its branch there (a restart from a saved point,
+    the first point of a switched branch: :mod:`nsm_continuation.restart`). It is corrected by
+    Newton on ``[G(y); t . (y - y0)] = 0`` instead of at fixed parameter (well posed at a fold,
+    where the parameter cannot be held), and its tangent is oriented along ``t``. With
+    ``forward_only`` the branch is continued in that one direction (``direction`` must then be
+    nonzero; its sign is not used): e.g. away from a period doubling, where the parameter along
+    the new family is flat to the corrector's accuracy and cannot give the direction."""
+
+    tangent: np.ndarray | None = None
+    forward_only: bool = False
+
+
+class StartTangentEngine(ContinuationEngine):
+    """The pseudo-arclength engine, with starts that carry their tangent
+    (:class:`TangentStart`) corrected along it."""
+
+    def correct_start(self, start: StartPoint) -> tuple[Point | None, str]:
+        t0 = getattr(start, "tangent", None)
+        if t0 is None:
+            return super().correct_start(start)
+        y0 = np.asarray(start.y, dtype=float)
+        t0 = np.asarray(t0, dtype=float)
+        if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(t0))
+                and np.linalg.norm(t0) > 0):
+            return None, "start guess or its tangent is not finite"
+        t0 = t0 / np.linalg.norm(t0)
+        y, it, why = self.correct(y0, t0, y0, 0.0)
+        if y is None:
+            return None, f"start point did not converge ({why})"
+        try:
+            t = self.tangent(y, t0)
+        except np.linalg.LinAlgError:
+            return None, "singular Jacobian at start point"
+        except NUMERICAL_ERRORS as exc:
+            return None, f"no tangent at start point ({describe_error(exc)})"
+        if start.direction != 0 and not getattr(start, "forward_only", False) \
+                and np.sign(t[self.ip]) != np.sign(start.direction):
+            t = -t
+        try:
+            return self.analyse(y, t, 0.0, it), ""
+        except NUMERICAL_ERRORS as exc:
+            return None, f"start point cannot be analysed ({describe_error(exc)})"
+
+
 class PseudoArclength(_CurveAlgorithm):
     """Pseudo-arclength continuation with event location (:mod:`nsm_continuation.palc`)."""
 
@@ -141,7 +191,7 @@ class PseudoArclength(_CurveAlgorithm):
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         super().__init__(problem, settings)
-        self.engine = ContinuationEngine(problem, settings, progress=self._tick)
+        self.engine = StartTangentEngine(problem, settings, progress=self._tick)
 
     def run_branch(self, seed: Any, branch_id: int) -> Branch:
         return self.engine.run(seed, branch_id=branch_id)
@@ -158,6 +208,7 @@ class Lattice(Algorithm):
     name: ClassVar[str] = "lattice"
     takes_start_points: ClassVar[bool] = False
     setup_key: ClassVar[str] = "seeds_s"
+    distributable: ClassVar[bool] = False
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         if not isinstance(problem, LatticeProblem):
@@ -483,5 +534,6 @@ def make_algorithm(name: str, problem: Problem, settings: ContinuationSettings) 
     return ALGORITHMS[name](problem, settings)
 
 
-__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "PseudoArclength", "PycontLite", "Sweep",
-           "SweepProblem", "SweepSeed", "make_algorithm", "sweep_point_record", "unsupported"]
+__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "PseudoArclength", "PycontLite",
+           "StartTangentEngine", "Sweep", "SweepProblem", "SweepSeed", "TangentStart",
+           "make_algorithm", "sweep_point_record", "unsupported"]

@@ -10,6 +10,10 @@
     branch["omega"], branch["energy"]                           # numpy arrays, one per column
     [(e.kind, e.parameter) for e in result.events]
     result.save("runs/my_study")                                # the CLI's files, same policy
+    again = result.restart(event="fold", max_points=50)        # from a point of the result
+    nsm.run({"start": {"from": "runs/my_study", "point": 12}})  # or of a saved run
+    flip = nsm.run("yaml_cases/chain_two_mass_wall.yaml")
+    period2 = flip.restart(event="period_doubling", switch=True)  # the period-2 family
 
     problem = nsm.problem("ndof_impact", {"chain": {"n": 3, "mass": 1, "stiffness": 1}})
     result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
@@ -32,6 +36,7 @@ from pydantic import ValidationError
 
 from . import cases, registry
 from .cases import Case, CaseError
+from .execution import Execution
 from .protocol import Problem, StartPoint
 from .records import Branch, Point
 from .results import branch_rows, build_report, event_record, termination_text, write_outputs
@@ -80,11 +85,17 @@ def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] 
 
 
 def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
-        progress: bool = False) -> Result:
+        progress: bool = False, *, workers: int | None = None,
+        scheduler: str | None = None) -> Result:
     """Run a case (file, mapping or :class:`Case`) and return its :class:`Result`. Nothing is
-    written: call :meth:`Result.save`."""
+    written: call :meth:`Result.save`. ``workers`` (a local Dask cluster of that many
+    processes) or ``scheduler`` (an existing cluster's address) compute the branches as Dask
+    tasks, with the same result (:mod:`nsm_continuation.execution`); default: the case's
+    ``execution:`` block, else serial."""
     case, problem = _validated(source, overrides)
-    return Result(run_case(case, problem, progress=progress))
+    execution = (Execution(workers, scheduler) if workers or scheduler
+                 else Execution(case.execution.workers, case.execution.scheduler))
+    return Result(run_case(case, problem, progress=progress, execution=execution))
 
 
 def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
@@ -224,6 +235,14 @@ class Result:
                 for b in self.run_result.branches for ev in b.events]
 
     @property
+    def tree(self) -> list[dict[str, Any]]:
+        """The tree of a bifurcation diagram (``analysis.branch_switching``,
+        :mod:`nsm_continuation.diagrams`): per event considered, its generation, parent
+        branch, event ``{kind, index}``, parameter, child branch (None if not followed) and
+        status; empty for a run without branch switching."""
+        return [dict(n) for n in self.run_result.tree]
+
+    @property
     def failed_starts(self) -> list[BranchData]:
         """Branches whose start could not be corrected (no points; the termination says why)."""
         return [b for b in self.branches if len(b) == 0]
@@ -239,6 +258,51 @@ class Result:
         Returns the directory written."""
         return write_outputs(self.run_result, Path(directory), plots=plots,
                              if_exists="overwrite" if overwrite else "error")
+
+    def restart(self, *, branch: int | None = None, event: Any = None, point: int | None = None,
+                switch: bool | str = False, amplitude: float | None = None,
+                direction: str | None = None, parameters: Mapping[str, Any] | None = None,
+                name: str | None = None, analysis: Mapping[str, Any] | None = None,
+                curve: str | None = None, free: str | None = None,
+                margin: float | None = None, **settings: Any) -> Result:
+        """Continue again from a point of this result (:mod:`nsm_continuation.restart`), as a
+        case with ``start: {from: <this run>, ...}`` would from its saved folder.
+
+        ``event``: a kind (the only event of that kind on the branch), ``{"kind": ...,
+        "index": n}``, or one of :attr:`events` (its branch and place are taken from it);
+        ``point``: a row of the branch (its CSV row); ``switch=True`` follows the branch that
+        bifurcates there (:mod:`nsm_continuation.switching`: the period-2 family at a period
+        doubling, the other branch at a branch point); ``curve="grazing"`` with ``free=...``
+        continues the grazing event in two parameters (:mod:`nsm_continuation.hybrid.codim1`:
+        ``free`` solved for, ``parameter=...`` continued). ``parameters`` override this run's,
+        ``settings`` are keys of the ``continuation:`` block (``parameter`` may be any
+        parameter of the problem; the rest of the block is inherited when it is the same),
+        ``analysis`` keys of ``analysis:``. Nothing is written (:meth:`save`)."""
+        from .restart import record_from_result
+
+        if isinstance(event, EventRecord):
+            same = [e for e in self.events if e.branch == event.branch and e.kind == event.kind]
+            index = next((k for k, e in enumerate(same) if e.point is event.point), None)
+            if index is None:
+                raise CaseError("start.event: this event is not an event of this result")
+            branch, event = event.branch, {"kind": event.kind, "index": index}
+        start: dict[str, Any] = {"from": f"<result {self.case.name}>"}
+        for key, value in (("branch", branch), ("event", event), ("point", point),
+                           ("amplitude", amplitude), ("direction", direction),
+                           ("curve", curve), ("free", free), ("margin", margin)):
+            if value is not None:
+                start[key] = dict(value) if isinstance(value, Mapping) else value
+        if switch is not False:
+            start["switch"] = switch
+        raw: dict[str, Any] = {"start": start, "parameters": dict(parameters or {}),
+                               "continuation": dict(settings), "analysis": dict(analysis or {}),
+                               "output": {"plots": False, "progress": False}}
+        if name is not None:
+            raw["name"] = name
+        record = record_from_result(self.run_result, start["from"])
+        case, problem = cases.validate(raw, restart_record=record,
+                                       problem_class=type(self.problem))
+        return Result(run_case(case, problem, progress=False))
 
     def plot(self, ax: Any = None) -> Any:
         """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);

@@ -20,6 +20,7 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    PrivateAttr,
     ValidationError,
     model_validator,
 )
@@ -105,8 +106,38 @@ class ContinuationSpec(BaseModel):
         return self
 
 
+#: event kinds at which ``analysis.branch_switching`` follows the branch born there
+DIAGRAM_KINDS = ("period_doubling", "branch_point")
+#: largest ``analysis.branch_switching.depth`` (generations of switched branches)
+MAX_DIAGRAM_DEPTH = 8
+
+
+def _unique(kinds: list[str]) -> list[str]:
+    if len(set(kinds)) != len(kinds):
+        raise ValueError(f"{kinds} names a kind twice")
+    return kinds
+
+
+class BranchSwitchingSpec(BaseModel):
+    """``analysis.branch_switching``: a bifurcation diagram (:mod:`nsm_continuation.diagrams`):
+    every branch born at an event of ``kinds`` is followed, recursively, ``depth`` generations
+    deep, into the same run."""
+
+    model_config = ConfigDict(extra="forbid")
+    depth: Annotated[int, Field(ge=1, le=MAX_DIAGRAM_DEPTH, strict=True)] = 1
+    kinds: Annotated[list[Literal["period_doubling", "branch_point"]], Field(min_length=1),
+                     AfterValidator(_unique)] = list(DIAGRAM_KINDS)
+    #: at most this many branches in the run (root branches included); the events beyond it
+    #: are listed in the tree as not followed
+    max_branches: Annotated[int, Field(ge=1, le=1000, strict=True)] = 64
+    #: ``continuation.max_points`` of the switched branches (default: the case's)
+    max_points: Annotated[int, Field(ge=2, le=MAX_POINTS, strict=True)] | None = None
+
+
 class AnalysisSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: follow the branches born at detected points, recursively (a bifurcation diagram)
+    branch_switching: BranchSwitchingSpec | None = None
     stability: Bool = True
     bifurcations: Bool = True
     stop_on_inadmissible: Bool = False
@@ -125,18 +156,44 @@ class OutputSpec(BaseModel):
     #: an existing output folder holding a previous run: refuse (error), replace the files that
     #: run wrote (overwrite, as ``--overwrite``), or write to a numbered sibling (new)
     if_exists: Literal["error", "overwrite", "new"] = "error"
+    #: the quantities (unknowns or derived quantities) on the axes of ``diagram.png``, e.g.
+    #: ``[d, q2]`` (default: the problem's diagram axes)
+    axes: Annotated[list[Annotated[str, Field(min_length=1, strict=True)]],
+                    Field(min_length=2, max_length=2)] | None = None
+
+
+class ExecutionSpec(BaseModel):
+    """``execution:``: where the branches are computed (:mod:`nsm_continuation.execution`):
+    serially in this process (default), on a local cluster of ``workers`` processes, or on
+    the Dask cluster at ``scheduler`` (``tcp://HOST:8786``)."""
+
+    model_config = ConfigDict(extra="forbid")
+    workers: Annotated[int, Field(ge=1, le=1024, strict=True)] | None = None
+    scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True,
+                                    pattern=r"^(tcp|tls|inproc|ucx|ws|wss)://")] | None = None
 
 
 class Case(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: Annotated[str, Field(strict=True), AfterValidator(_plain_name)] = "case"
     description: Annotated[str, Field(max_length=10_000, strict=True)] = ""
-    problem: Annotated[str, Field(strict=True)]
-    parameters: dict[str, Any]
+    #: required, except in a restart (``start: {from: <run>}``), which inherits it
+    problem: Annotated[str, Field(strict=True)] | None = None
+    #: required, except in a restart, which inherits the run's (these override them)
+    parameters: dict[str, Any] | None = None
     start: Any
     continuation: ContinuationSpec = ContinuationSpec()
     analysis: AnalysisSpec = AnalysisSpec()
     output: OutputSpec = OutputSpec()
+    execution: ExecutionSpec = ExecutionSpec()
+    #: the resolved restart (:class:`nsm_continuation.restart.Restart`) of a ``start: {from:
+    #: ...}`` case, set by :func:`validate`
+    _restart: Any = PrivateAttr(default=None)
+
+    @property
+    def restart(self) -> Any:
+        """The resolved restart of a ``start: {from: <run>}`` case (None otherwise)."""
+        return self._restart
 
 
 def _keyed(prefix: str, msg: str) -> str:
@@ -321,21 +378,39 @@ def load_raw(path: str | Path) -> dict[str, Any]:
     return raw
 
 
-def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
+def validate(raw: dict[str, Any], *, restart_record: Any = None,
+             problem_class: type[Problem] | None = None) -> tuple[Case, Problem]:
     """Validate a raw case, build its problem and run its preflight (:meth:`Problem.preflight`):
     everything that can be checked without computing. Raises :class:`CaseError` (one line
     naming the key). ``nsm-continuation validate`` is exactly this, and ``run`` starts with it,
-    so the two agree on every input."""
+    so the two agree on every input.
+
+    A restart (``start: {from: <run folder>, ...}``, :mod:`nsm_continuation.restart`) reads
+    the run's restart record here (``restart_record``: a run in memory instead), inherits its
+    problem, parameters, ``continuation`` and ``analysis``, and is checked like any start.
+    ``problem_class``: the problem's class when it is not registered (the Python API)."""
     if not isinstance(raw, dict):
         raise CaseError("case: must be a mapping of keys")
     _check_size(raw, "case")
     _reject_nan(raw, "")
+    from . import restart as rs
+
+    resolved = None
+    if isinstance(raw.get("start"), list) and any(rs.is_restart(s) for s in raw["start"]):
+        raise CaseError("start: a restart (start.from) is one start mapping, not a list item")
+    if rs.is_restart(raw.get("start")):
+        resolved = rs.resolve(raw["start"], raw, restart_record)
+        raw = resolved[3]
     try:
         case = Case.model_validate(raw)
     except ValidationError as err:
         raise CaseError(_format(err, raw)) from None
+    if case.problem is None:
+        raise CaseError("problem: required key is missing")
+    if case.parameters is None:
+        raise CaseError("parameters: required key is missing")
     try:
-        cls = registry.get(case.problem)
+        cls = problem_class if problem_class is not None else registry.get(case.problem)
     except registry.UnknownProblemError as exc:
         raise CaseError(f"problem: {exc}") from None
     if not isinstance(case.parameters, dict):
@@ -346,6 +421,10 @@ def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
         raw_params = canonical_keys(cls.Parameters, case.parameters)
     except ValueError as exc:  # an old key together with its new one
         raise CaseError(str(exc)) from None
+    user_params = raw_params
+    if resolved is not None:  # the run's parameters, the case's on top
+        raw_params = rs.merged_parameters(resolved[1], resolved[2], user_params)
+        case.parameters = raw_params
     try:
         params = cls.Parameters.model_validate(raw_params)
     except ValidationError as err:
@@ -355,7 +434,7 @@ def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
     except (ValueError, ArithmeticError) as exc:
         raise CaseError(_keyed("parameters", str(exc))) from None
     adapter = cls.start_adapter
-    if adapter is not None:
+    if adapter is not None and resolved is None:
         try:
             adapter.validate_python(case.start)
         except ValidationError as err:
@@ -380,11 +459,104 @@ def validate(raw: dict[str, Any]) -> tuple[Case, Problem]:
     if c.max_energy is not None and problem.energy_quantity is None:
         raise CaseError(f"continuation.max_energy: problem {case.problem!r} has no energy; "
                         "bound one of its quantities with continuation.bounds instead")
+    if resolved is not None:
+        problem = _validate_restart(case, problem, resolved, user_params, window)
+        _check_diagram(case, problem)
+        return case, problem
+    _check_diagram(case, problem)
     try:
         problem.preflight(case.start, window, c.max_points)
     except (ValueError, ArithmeticError) as exc:
         raise CaseError(_keyed("start", str(exc))) from None
     return case, problem
+
+
+def diagram_quantities(problem: Problem) -> list[str]:
+    """The names ``output.axes`` may give: the problem's unknowns, its declared derived
+    quantities (``monitor_names``) and the columns of its diagram and CSV head."""
+    names = [*problem.variables, *problem.monitor_names(), *problem.fep_axes,
+             *problem.csv_head]
+    return list(dict.fromkeys(names))
+
+
+def _check_diagram(case: Case, problem: Problem) -> None:
+    """``output.axes`` names quantities of the problem; ``analysis.branch_switching`` needs
+    an algorithm that starts from points, and a problem that can represent what it asks for
+    (orbits of twice the period at a period doubling: ``Problem.iterated``)."""
+    axes = case.output.axes
+    if axes is not None:
+        known = diagram_quantities(problem)
+        for i, name in enumerate(axes):
+            if name not in known:
+                raise CaseError(f"output.axes[{i}]: {name!r} is not a quantity of problem "
+                                f"{case.problem!r} (one of: {', '.join(known)})")
+    spec = case.analysis.branch_switching
+    if spec is None:
+        return
+    from .hybrid.codim1 import GrazingCurve
+
+    if isinstance(problem, GrazingCurve):
+        raise CaseError("analysis.branch_switching: a two-parameter curve (start.curve) has no "
+                        "branches born on it to follow; switch on the orbits' runs instead")
+    from .algorithms import ALGORITHMS
+
+    name = case.continuation.algorithm or problem.algorithms[0]
+    algorithm = ALGORITHMS.get(name)
+    if algorithm is not None and not algorithm.takes_start_points:
+        raise CaseError(f"analysis.branch_switching: problem {case.problem!r} is continued by "
+                        f"the {name} algorithm, which cannot start a branch at a detected "
+                        "point")
+    if "period_doubling" in spec.kinds and type(problem).iterated is Problem.iterated:
+        raise CaseError(f"analysis.branch_switching.kinds: problem {case.problem!r} cannot "
+                        "represent orbits of twice the period (Problem.iterated), so no branch "
+                        "is born at its period doublings; list branch_point only")
+    if not case.analysis.bifurcations:
+        raise CaseError("analysis.branch_switching: needs analysis.bifurcations: true (the "
+                        "branches start at the detected points)")
+
+
+def _validate_restart(case: Case, problem: Problem, resolved: tuple[Any, ...],
+                      user_params: dict[str, Any],
+                      window: tuple[float | None, float | None]) -> Problem:
+    """The rest of :func:`validate` for a restart: the problem with the run's period multiple
+    (twice it for a switch at a period doubling), the point in its unknowns, the checks of an
+    ordinary start there; the :class:`~nsm_continuation.restart.Restart` is attached to
+    ``case``. Returns the problem to continue."""
+    from . import restart as rs
+    from .algorithms import ALGORITHMS
+    from .hybrid.codim1 import GrazingCurve
+
+    spec, record, sel, _ = resolved
+    c = case.continuation
+    algorithm = ALGORITHMS.get(c.algorithm or problem.algorithms[0])
+    if algorithm is not None and not algorithm.takes_start_points:
+        raise CaseError(f"start.from: problem {problem.name!r} is continued by the "
+                        f"{algorithm.name} algorithm, which cannot start from a saved point")
+    try:
+        target, base = rs.configure(problem, sel, spec, record, c.parameter)
+        base.parameter_bounds(c.parameter, c.min, c.max)
+        window = target.parameter_bounds(c.parameter, c.min, c.max)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("start", str(exc))) from None
+    assert case.parameters is not None
+    y = rs.map_unknowns(base, sel, user_params, case.parameters)
+    if spec.switch is not False and spec.event_kind == "branch_point" \
+            and base.parameter != sel.parameter:
+        raise CaseError(f"start.switch: a branch point is switched in the parameter it was "
+                        f"found in ({sel.parameter}), not in {base.parameter}")
+    try:
+        rs.check_start(target, y, window, c.max_points)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("start", str(exc))) from None
+    case._restart = rs.Restart(
+        spec, record, sel, y, base,
+        switch=spec.event_kind if spec.switch is not False else None,
+        direction=rs.direction_of(spec, target, c.parameter),
+        overridden=any(record.restart.get("parameters", {}).get(k) != v
+                       for k, v in user_params.items()),
+        curve=target.curve_kind if isinstance(target, GrazingCurve) else None,
+        free=target.free if isinstance(target, GrazingCurve) else None)
+    return target
 
 
 def load(path: str | Path, overrides: list[str] | None = None) -> tuple[Case, Problem]:

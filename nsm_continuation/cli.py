@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from . import __version__, cases, registry
+from .execution import Execution
 from .output import OutputTarget
 
 DEFAULT_CASE = "default_case.yaml"
@@ -56,6 +57,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="replace a previous run in the output directory (only the files it "
                         "wrote; never files this tool did not write)")
     r.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    r.add_argument("--workers", type=_positive_int, metavar="N",
+                   help="compute the branches on a local Dask cluster of N worker processes "
+                        "(same results as serial)")
+    r.add_argument("--scheduler", metavar="ADDRESS",
+                   help="compute the branches on the Dask cluster at ADDRESS "
+                        "(tcp://HOST:8786)")
     v = sub.add_parser("validate", help="check a YAML case (and where it would write) without "
                                         "running it")
     v.add_argument("case")
@@ -119,6 +126,23 @@ def _bug(exc: BaseException) -> int:
     return 1
 
 
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 1 <= n <= 1024:
+        raise argparse.ArgumentTypeError(f"{n} is not in 1..1024")
+    return n
+
+
+def _execution(args: argparse.Namespace, case: cases.Case) -> Execution:
+    """``--workers`` / ``--scheduler`` over the case's ``execution:`` block."""
+    if args.workers or args.scheduler:
+        return Execution(args.workers, args.scheduler)
+    return Execution(case.execution.workers, case.execution.scheduler)
+
+
 def _target(args: argparse.Namespace, case: cases.Case) -> OutputTarget:
     out = Path(args.out or case.output.dir or Path("runs") / case.name)
     return OutputTarget(out, "overwrite" if args.overwrite else case.output.if_exists)
@@ -134,7 +158,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
     target.prepare()  # exit 2 here: nothing computed, nothing written
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
-                       poll=_poll)
+                       poll=_poll, execution=_execution(args, case))
         assert target.tmp is not None
         write_files(res, target.tmp, plots=case.output.plots)
         _poll()

@@ -14,11 +14,26 @@ map written in the full state space) carries eigenvalues that say nothing about 
 
 Deflation by a known eigenvector is preferred to "remove the eigenvalue closest to 1": near a
 bifurcation through +1 another multiplier is also close to 1 and picking by distance swaps them.
+
+Structured spectra (:func:`low_rank_update_eigen`). A return map that is a known normal map plus
+a low-rank term, ``A = Q (diag(mu) + X Y^T) Q^H`` (the impacting chain: a rotation by the
+flight and rank two from the impact and the period gradient), has the characteristic
+polynomial ``prod (mu_m - lam) det(I_k + Y^T (diag(mu) - lam)^-1 X)``: all its roots in O(n^2)
+by the Ehrlich-Aberth iteration, known roots divided out exactly, and for each root the Krein
+definiteness of its eigenvector (:func:`krein_definiteness`), whose sign on the unit circle is
+the Krein signature (:class:`KreinFloquetData`). :func:`collision_distances` turns signatures
+into the distance of each multiplier to a collision that can open or close an instability
+window; the engine's step control uses it (:func:`nsm_continuation.palc.krein_motion`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
 import numpy as np
+
+from .protocol import FloquetData
 
 #: kinds of a multiplier crossing the unit circle
 CROSSING_PLUS_ONE = "fold"
@@ -92,3 +107,373 @@ def classify_crossing(before: np.ndarray, after: np.ndarray, tol: float,
     if abs(ang) < angle_tol or abs(abs(ang) - np.pi) < angle_tol:
         return (CROSSING_PLUS_ONE if lam.real > 0 else CROSSING_MINUS_ONE), leaving
     return CROSSING_COMPLEX, leaving
+
+
+# ============================================================================ Krein signatures
+#: a multiplier on the unit circle whose Krein definiteness (:func:`low_rank_update_eigen`) is
+#: below this in modulus has no trustworthy signature: it is at (or numerically within) a
+#: collision of opposite signatures, and is treated as indefinite
+KREIN_DEFINITE = 1e-6
+
+
+@dataclass
+class KreinFloquetData(FloquetData):
+    """Multipliers of a conservative (symplectic) return map with, for each, its *Krein
+    definiteness* ``kappa = g(v, v) / |v|^2`` in ``[-1, 1]`` (``g`` the Hermitian form
+    ``-i omega(conj v, v)`` of the map's symplectic form ``omega``, ``|v|^2`` a positive
+    definite norm for which ``|g(v, v)| <= |v|^2``). On the unit circle ``sign(kappa)`` is the
+    Krein signature of the multiplier; off the circle ``kappa = 0`` (``g(v, v) = |lambda|^2
+    g(v, v)``); two multipliers of opposite signature that collide both have ``kappa -> 0``.
+    """
+
+    krein: np.ndarray | None = None
+    #: computes ``krein`` when first asked (:func:`krein_of`): the multipliers of the points
+    #: of an event location never need it
+    krein_source: Callable[[], np.ndarray] | None = field(default=None, repr=False)
+
+
+def krein_of(fl: FloquetData | None) -> np.ndarray | None:
+    """The Krein definiteness of ``fl``'s multipliers (computed once, on first use), or None
+    when ``fl`` carries none (not a conservative family)."""
+    if fl is None:
+        return None
+    krein = getattr(fl, "krein", None)
+    source = getattr(fl, "krein_source", None)
+    if krein is None and source is not None:
+        krein = fl.krein = np.asarray(source(), dtype=float)  # type: ignore[attr-defined]
+        fl.krein_source = None  # type: ignore[attr-defined]
+    return krein
+
+
+def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: float
+                        ) -> np.ndarray:
+    """For each multiplier, the distance to the nearest multiplier it can *collide* with so
+    that an instability window opens or closes (Krein, MacKay 1986):
+
+    * on the unit circle with a definite signature ``s = sign(kappa)``: the nearest multiplier
+      of the other signature on the circle (its own conjugate among them: ``conj(v)`` has
+      ``kappa(conj v) = -kappa(v)``, so a multiplier near ``+-1`` is near a collision), or off
+      it; multipliers of the same signature pass through each other on the circle without
+      leaving it (definite collisions are strongly stable);
+    * on the circle without a definite signature (``|kappa| < KREIN_DEFINITE``): 0 (at a
+      collision);
+    * off the circle: the distance to its partner ``1/conj(lambda)`` (they meet on the circle
+      when the window closes) or to any other multiplier, whichever is smaller.
+
+    Without ``krein`` (not a conservative family) every distance is 0: every multiplier near
+    the circle may leave it.
+    """
+    m = np.asarray(mult, dtype=complex)
+    if krein is None or m.size == 0:
+        return np.zeros(m.size)
+    on = np.abs(np.abs(m) - 1.0) <= circle_tol
+    kappa = np.where(on, np.asarray(krein, dtype=float), 0.0)
+    sign = np.where(np.abs(kappa) >= KREIN_DEFINITE, np.sign(kappa), 0.0)
+    out = np.full(m.size, np.inf)
+    # definite multipliers on the circle: the nearest one of the other signature, found on
+    # the circle sorted by angle (the chord grows with the angle): O(K log K)
+    for sgn in (1.0, -1.0):
+        mine, other = np.nonzero(sign == sgn)[0], np.nonzero(sign == -sgn)[0]
+        if mine.size and other.size:
+            phi_o = np.sort(np.angle(m[other]))
+            phi = np.angle(m[mine])
+            j = np.searchsorted(phi_o, phi)
+            left = phi_o[(j - 1) % phi_o.size]
+            right = phi_o[j % phi_o.size]
+            gap = np.minimum(np.abs(np.angle(np.exp(1j * (phi - left)))),
+                             np.abs(np.angle(np.exp(1j * (right - phi)))))
+            out[mine] = 2.0 * np.sin(0.5 * gap)
+    # anything can collide with a multiplier off the circle or of no definite signature
+    loose = np.nonzero(sign == 0)[0]
+    if loose.size:
+        d = np.abs(m[:, None] - m[None, loose])
+        d[loose, np.arange(loose.size)] = np.inf
+        out = np.minimum(out, d.min(axis=1))
+        out[loose] = np.minimum(out[loose], np.abs(m[loose, None] - m[None, :]).min(
+            axis=1, initial=np.inf, where=~np.eye(m.size, dtype=bool)[loose]))
+    off = ~on
+    with np.errstate(divide="ignore", invalid="ignore"):
+        partner = np.abs(m - 1.0 / np.conj(m))
+    out[off] = np.minimum(out[off], partner[off])
+    out[on & (sign == 0)] = 0.0
+    return out
+
+
+#: rows of the Cauchy matrix ``1/(mu_m - lam_k)`` formed at once (keeps it in cache)
+_CHUNK = 64
+
+
+def _cauchy_chunk(mu: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(G, star)``: ``G_km = 1/(mu_m - lam_k)`` with the entry of the pole nearest to each
+    ``lam_k`` (index ``star_k``) set to 0."""
+    D = mu[None, :] - lam[:, None]
+    d2 = D.real**2 + D.imag**2
+    star = np.argmin(d2, axis=1)
+    rows = np.arange(lam.size)
+    d2[rows, star] = 1.0
+    G = D.conj()
+    G /= d2
+    G[rows, star] = 0.0
+    return G, star
+
+
+def _adj(A: np.ndarray) -> np.ndarray:
+    """Adjugates of a batch ``(K, k, k)`` of ``k x k`` matrices, ``k`` = 1, 2 or 3 (explicit
+    cofactors: polynomial in the entries, no inverse)."""
+    k = A.shape[-1]
+    if k == 1:
+        return np.ones_like(A)
+    if k == 2:
+        out = np.empty_like(A)
+        out[:, 0, 0], out[:, 1, 1] = A[:, 1, 1], A[:, 0, 0]
+        out[:, 0, 1], out[:, 1, 0] = -A[:, 0, 1], -A[:, 1, 0]
+        return out
+    cof = np.empty_like(A)
+    for i in range(3):
+        for j in range(3):
+            i1, i2, j1, j2 = (i + 1) % 3, (i + 2) % 3, (j + 1) % 3, (j + 2) % 3
+            cof[:, i, j] = A[:, i1, j1] * A[:, i2, j2] - A[:, i1, j2] * A[:, i2, j1]
+    return np.swapaxes(cof, 1, 2)
+
+
+def _dadj(A: np.ndarray, dA: np.ndarray) -> np.ndarray:
+    """Derivative of :func:`_adj` along ``dA``."""
+    k = A.shape[-1]
+    if k == 1:
+        return np.zeros_like(A)
+    if k == 2:
+        return _adj(dA)
+    cof = np.empty_like(A)
+    for i in range(3):
+        for j in range(3):
+            i1, i2, j1, j2 = (i + 1) % 3, (i + 2) % 3, (j + 1) % 3, (j + 2) % 3
+            cof[:, i, j] = (dA[:, i1, j1] * A[:, i2, j2] + A[:, i1, j1] * dA[:, i2, j2]
+                            - dA[:, i1, j2] * A[:, i2, j1] - A[:, i1, j2] * dA[:, i2, j1])
+    return np.swapaxes(cof, 1, 2)
+
+
+def _secular_terms(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray
+                   ) -> tuple[np.ndarray, ...]:
+    """The secular quantities of ``A = diag(mu) + X Y^T`` (``X, Y``: n x k, k <= 3) at each
+    ``lam``.
+
+    ``det(A - lam) = prod_m (mu_m - lam) det S(lam)``, ``S = I_k + Y^T diag(1/(mu - lam)) X``
+    (matrix determinant lemma). The pole ``mu_*`` nearest to ``lam`` is split off,
+    ``S = S_r + g_* y_* x_*^T`` with ``g_* = 1/(mu_* - lam)`` and ``S_r`` summed over the other
+    poles, so that ``(mu_* - lam) det S = F(lam) = (mu_* - lam) det S_r + x_*^T adj(S_r) y_*``
+    is formed without the cancellation of the ``g_*^2`` terms of ``det S`` (``adj`` is a
+    polynomial in the entries). Returns ``(Gsum, star, F, dF, S_r, d_star)``:
+    ``sum_{m != *} 1/(mu_m - lam)``, the index of ``*``, ``F``, ``dF/dlam``, ``S_r``
+    (``K x k x k``) and ``mu_* - lam``. O(n k^2) per ``lam``, in chunks of rows.
+    """
+    k = X.shape[1]
+    Z = (Y[:, :, None] * X[:, None, :]).reshape(-1, k * k)
+    K = lam.size
+    S = np.empty((K, k * k), dtype=complex)
+    dS = np.empty((K, k * k), dtype=complex)
+    Gsum = np.empty(K, dtype=complex)
+    star = np.empty(K, dtype=int)
+    for a in range(0, K, _CHUNK):
+        G, st = _cauchy_chunk(mu, lam[a:a + _CHUNK])
+        star[a:a + _CHUNK] = st
+        S[a:a + _CHUNK] = G @ Z
+        Gsum[a:a + _CHUNK] = G.sum(axis=1)
+        G *= G
+        dS[a:a + _CHUNK] = G @ Z
+    S = S.reshape(K, k, k) + np.eye(k)
+    dS = dS.reshape(K, k, k)
+    xs, ys = X[star], Y[star]
+    adj = _adj(S)
+    det_r = np.einsum("kj,kj->k", S[:, 0, :], adj[:, :, 0])  # expansion along row 0
+    ddet_r = np.einsum("kij,kji->k", adj, dS)
+    q = np.einsum("ki,kij,kj->k", xs, adj, ys)
+    dq = np.einsum("ki,kij,kj->k", xs, _dadj(S, dS), ys)
+    d_star = mu[star] - lam
+    F = d_star * det_r + q
+    dF = -det_r + d_star * ddet_r + dq
+    return Gsum, star, F, dF, S, d_star
+
+
+def low_rank_update_eigen(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, *,
+                       removed: tuple[complex, ...] = (), guess: np.ndarray | None = None,
+                       krein_weights: np.ndarray | None = None, max_sweeps: int = 100
+                       ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]] | None:
+    """Eigenvalues of ``A = diag(mu) + X Y^T`` (``n x n``, ``X, Y``: ``n x k``, ``k <= 3``)
+    other than the known ones ``removed``, in O(n^2), by the Ehrlich-Aberth iteration on the
+    secular equation; and, with ``krein_weights``, the Krein definiteness of each eigenvector.
+
+    **Secular equation.** By the matrix determinant lemma
+
+    ``chi(lam) = det(A - lam) = prod_m (mu_m - lam) det(I_k + Y^T (diag(mu) - lam)^-1 X)``,
+
+    a k x k determinant of Cauchy sums (O(n) per ``lam``; the nearest pole is split off, see
+    :func:`_secular_terms`). The known eigenvalues ``r`` are removed *exactly* by iterating on
+    ``q(lam) = chi(lam) / prod_r (lam - r)``: its logarithmic derivative is
+    ``chi'/chi - sum_r 1/(lam - r)``, so the iteration never converges to a removed root
+    (a computed root ``r + delta`` is cancelled by the pole at ``r`` except within
+    ``|delta|`` of it). Each sweep of the Aberth iteration
+
+    ``lam_k <- lam_k - N_k / (1 - N_k sum_{j != k} 1/(lam_k - lam_j))``,
+    ``N_k = q(lam_k)/q'(lam_k)``
+
+    costs O(n^2) for all ``n - len(removed)`` roots at once (cubic convergence for simple
+    roots, linear at a double root; only the roots not yet converged are updated). Start:
+    ``guess`` (e.g. the roots at a nearby point of a branch) or the poles ``mu`` rotated by a
+    fraction of their spacing.
+
+    **Eigenvectors and Krein signature.** ``A v = lam v`` gives
+    ``v = -(diag(mu) - lam)^-1 X w`` with ``S(lam) w = 0`` (``w``: a column of ``adj S``); with
+    real ``krein_weights`` ``s``
+    (the Hermitian form ``g(v) = sum_m s_m |v_m|^2`` of a symplectic map in this basis) the
+    *Krein definiteness* of each eigenvalue is ``g(v) / sum_m |s_m| |v_m|^2`` in ``[-1, 1]``:
+    ``+-1`` for a pure mode, its sign the Krein signature of an eigenvalue on the unit circle,
+    ``0`` off the circle, and it tends to 0 for both eigenvalues as two of opposite signature
+    collide (the eigenvectors become ``g``-isotropic).
+
+    Returns ``(eigenvalues, definiteness or None, info)`` with ``info['sweeps']`` and
+    ``info['correction']`` (the largest last Newton correction), or None when the iteration
+    did not converge in ``max_sweeps`` sweeps (the caller falls back to a dense solver).
+    """
+    mu = np.asarray(mu, dtype=complex)
+    X = np.asarray(X, dtype=complex)
+    Y = np.asarray(Y, dtype=complex)
+    n = mu.size
+    k = n - len(removed)
+    if k <= 0:
+        return np.empty(0, complex), (None if krein_weights is None else np.empty(0)), {
+            "sweeps": 0, "correction": 0.0}
+    rem = np.asarray(removed, dtype=complex)
+    if guess is not None and np.asarray(guess).size == k and np.all(np.isfinite(guess)):
+        # identical starting values stall the iteration: separate them, slightly
+        lam = _separate(np.array(guess, dtype=complex), 1e-6)
+    else:
+        lam = _separate(_cold_start(mu, rem, k), 0.3)
+    active = np.ones(k, dtype=bool)
+    last = np.full(k, np.inf)
+    sweeps = 0
+    while sweeps < max_sweeps:
+        sweeps += 1
+        idx = np.nonzero(active)[0]
+        la = lam[idx]
+        Gsum, _, F, dF, _, _ = _secular_terms(mu, X, Y, la)
+        # log-derivative of prod_{m != *} (mu_m - lam) F(lam), removed roots divided out
+        with np.errstate(divide="ignore", invalid="ignore"):
+            L = -Gsum + dF / F
+            if rem.size:
+                L = L - (1.0 / (la[:, None] - rem[None, :])).sum(axis=1)
+            Nk = 1.0 / L
+            step = Nk / (1.0 - Nk * _aberth_sums(lam, idx))
+        bad = ~np.isfinite(step)
+        step[bad] = 0.0
+        F0 = F == 0.0
+        lam[idx] = la - step
+        size = np.abs(step)
+        scale = np.maximum(1.0, np.abs(lam[idx]))
+        # converged: a correction of 1e-12, or one that predicts (at the at least quadratic
+        # convergence of a simple root, e_next ~ e^3 / e_prev^2) a next one below 1e-14;
+        # near a multiple root (linear convergence) the corrections keep decreasing; one that
+        # no longer decreases is the rounding noise of the secular function: the root is as
+        # accurate as it evaluates
+        with np.errstate(over="ignore", invalid="ignore"):
+            predicted = size**3 / last[idx] ** 2
+        done = (size <= 1e-12 * scale) | F0 | ((size <= 1e-8 * scale) & (size >= last[idx])) \
+            | ((size <= 1e-6 * scale) & (last[idx] <= 1e-3 * scale)
+               & (size <= 1e-2 * last[idx]) & (predicted <= 1e-14 * scale))
+        last[idx] = size
+        active[idx[done]] = False
+        if not active.any():
+            break
+    if active.any():
+        return None
+    info = {"sweeps": float(sweeps), "correction": float(np.max(last[np.isfinite(last)],
+                                                                   initial=0.0))}
+    if krein_weights is None:
+        return lam, None, info
+    return lam, krein_definiteness(mu, X, Y, lam, np.asarray(krein_weights, dtype=float)), info
+
+
+def _aberth_sums(lam: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``sum_{j != k} 1/(lam_k - lam_j)`` for each ``k`` in ``idx`` (chunks of rows)."""
+    out = np.empty(idx.size, dtype=complex)
+    for a in range(0, idx.size, _CHUNK):
+        rows = idx[a:a + _CHUNK]
+        D = lam[rows, None] - lam[None, :]
+        d2 = D.real**2 + D.imag**2
+        r = np.arange(rows.size)
+        d2[r, rows] = 1.0
+        G = D.conj()
+        G /= d2
+        G[r, rows] = 0.0
+        out[a:a + _CHUNK] = G.sum(axis=1)
+    return out
+
+
+def _cold_start(mu: np.ndarray, removed: np.ndarray, k: int) -> np.ndarray:
+    """``k`` starting values: the poles, without those nearest to the removed roots, moved by
+    a third of the distance to their nearest neighbour (off the poles, and off any symmetry
+    of the pole set: a conjugate-symmetric start cannot split into two real roots)."""
+    keep = np.ones(mu.size, dtype=bool)
+    for r in removed:
+        d = np.abs(mu - r)
+        d[~keep] = np.inf
+        keep[int(np.argmin(d))] = False
+    start = mu[keep][:k]
+    if start.size < k:
+        start = np.concatenate([start, np.exp(2j * np.pi * (np.arange(k - start.size) + 0.5)
+                                              / max(k - start.size, 1))])
+    return start
+
+
+def _separate(lam: np.ndarray, fraction: float) -> np.ndarray:
+    """Starting values moved off each other and off exact symmetry by ``fraction`` of the
+    distance to their nearest neighbour, in a fixed pseudo-random direction (a
+    conjugate-symmetric start cannot split into two real roots; coincident starts stall)."""
+    lam = lam.copy()
+    if lam.size < 2:
+        return lam * (1.0 + fraction * 1j) if lam.size else lam
+    order = np.argsort(np.angle(lam))
+    ang = lam[order]
+    gap = np.abs(np.diff(np.concatenate([ang, ang[:1]])))
+    near = np.empty(lam.size)
+    near[order] = np.minimum(gap, np.roll(gap, 1))
+    near = np.where(np.isfinite(near) & (near > 0), near, 1e-3)
+    near = np.minimum(near, 0.1)
+    rng = np.random.default_rng(12345)  # fixed: results do not depend on the call history
+    return lam + fraction * near * np.exp(2j * np.pi * rng.random(lam.size))
+
+
+def krein_definiteness(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray,
+                       s: np.ndarray) -> np.ndarray:
+    """Krein definiteness ``g(v)/sum |s_m| |v_m|^2`` of the eigenvector ``v`` of each
+    eigenvalue ``lam`` of ``diag(mu) + X Y^T`` (see :func:`low_rank_update_eigen`; ``lam`` from
+    any solver), computed from ``(mu_* - lam) v = -(mu_* - lam)(diag(mu) - lam)^-1 X w``
+    (bounded near a pole), ``w`` the largest column of ``adj((mu_* - lam) S(lam))``. O(n) per
+    eigenvalue."""
+    _, star, _, _, S, d_star = _secular_terms(mu, X, Y, lam)
+    # M = (mu_* - lam) S = d S_r + y_* x_*^T is singular at an eigenvalue: its null vector
+    # is the largest column of adj(M) (rank one)
+    M = d_star[:, None, None] * S + Y[star][:, :, None] * X[star][:, None, :]
+    A = _adj(M)
+    col = np.argmax(np.linalg.norm(A, axis=1), axis=1)
+    w = A[np.arange(lam.size), :, col]
+    num = np.empty(lam.size)
+    den = np.empty(lam.size)
+    s_abs = np.abs(s)
+    d2_star = np.abs(d_star) ** 2
+    for a in range(0, lam.size, _CHUNK):
+        sl = slice(a, a + _CHUNK)
+        D = mu[None, :] - lam[sl, None]
+        Xw = w[sl] @ X.T  # (X w)_m for each root
+        # |(mu_* - lam) v_m|^2 = |(X w)_m|^2 |mu_* - lam|^2 / |mu_m - lam|^2 (m != *)
+        p = Xw.real**2 + Xw.imag**2
+        d2 = D.real**2 + D.imag**2
+        rows = np.arange(d2.shape[0])
+        st = star[sl]
+        d2[rows, st] = d2_star[sl]
+        p *= d2_star[sl, None] / d2
+        num[a:a + _CHUNK] = p @ s
+        den[a:a + _CHUNK] = p @ s_abs
+    # an eigenvalue at an uncoupled pole (its row of X vanishes) has that pole's unit vector
+    # as eigenvector, which -(diag(mu) - lam)^-1 X w does not see
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / den, np.sign(s[star]))

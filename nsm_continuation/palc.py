@@ -12,7 +12,11 @@ The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
   and the turning angle. A step never carries the parameter past an edge of the window (it is
   shortened to end on the edge, corrected there), nor an admissibility test function or an
   event function far past a zero (``TEST_STEP_FACTOR``), and the multipliers near the unit
-  circle move at most ``max_multiplier_step`` per step (:func:`multiplier_motion`);
+  circle move at most ``max_multiplier_step`` per step (:func:`multiplier_motion`); in a
+  conservative family (``problem.conservative``, multipliers with Krein signatures) only those
+  near a collision with a partner of the other signature do (:func:`krein_motion`), and a step
+  may not close the nearest such collision by more than half nor swap the multipliers outside
+  the circle (:func:`krein_closing`);
 * termination with a recorded reason, never an exception: parameter bound, bound on a derived
   quantity, maximum number of points, step below minimum (with the problem's own message when it
   raised), step below the floating-point resolution, singular Jacobian, loss of admissibility
@@ -36,7 +40,13 @@ from typing import Any
 import numpy as np
 
 from .events import bisect_predicate, illinois, interior_extremum, pole_estimate
-from .floquet import classify_crossing, count_outside
+from .floquet import (
+    KREIN_DEFINITE,
+    classify_crossing,
+    collision_distances,
+    count_outside,
+    krein_of,
+)
 from .protocol import EvaluationError, FloquetData, Problem, StartPoint
 from .records import Branch, Event, Point
 from .settings import ContinuationSettings
@@ -178,7 +188,8 @@ class ContinuationEngine:
         circle_tol = self.settings.unit_circle_tol
         if fl is not None:
             # eigenvalues are known to ~ eps * |B| only: never classify below that
-            circle_tol = max(circle_tol, 1e3 * np.finfo(float).eps * fl.matrix_norm)
+            circle_tol = max(circle_tol, 1e3 * np.finfo(float).eps * fl.matrix_norm,
+                             fl.noise)
         n_out = 0 if mult is None else count_outside(mult, circle_tol)
         A = self._bordered(y, t)
         sign, logdet = np.linalg.slogdet(A)
@@ -325,8 +336,8 @@ class ContinuationEngine:
                 ahead = self._kink_ahead(pts, h_step)
                 crossed = None if ahead is None else self._cross_kink(a, *ahead, h_step)
                 if crossed is not None:
-                    events.extend(crossed[2])
-                    pts.extend(crossed[:2])
+                    pts.extend(crossed[0])
+                    events.extend(crossed[1])
                     continue
             if y_new is None:
                 h = 0.5 * h_step
@@ -362,11 +373,13 @@ class ContinuationEngine:
                 continue
             crossed = self._kink_in_step(a, new_events, stop, h_step)
             if crossed is not None:
-                pg, p1, kink_events = crossed
-                events.extend(ev for ev in new_events if ev.point.s < pg.s - 1e-12
-                              and ev.kind != self.problem.signature_kind)
+                new_pts, kink_events = crossed
+                s_zero = kink_events[0].point.s
+                events.extend(ev for ev in new_events if ev.point.s < s_zero - 1e-12
+                              and ev.kind != self.problem.signature_kind
+                              and "function" not in ev.data)
                 events.extend(kink_events)
-                pts.extend([pg, p1])
+                pts.extend(new_pts)
                 continue
             if stop is not None:
                 stop_point, stop_reason = stop
@@ -387,7 +400,7 @@ class ContinuationEngine:
 
     # ------------------------------------------------------------------ kinks
     def _kink_in_step(self, a: Point, new_events: list[Event], stop: tuple[Point, str] | None,
-                      h_step: float) -> tuple[Point, Point, list[Event]] | None:
+                      h_step: float) -> tuple[list[Point], list[Event]] | None:
         """A zero of an event function located in the step ``a -> b`` at which the problem
         says the branch has a kink (:meth:`Problem.continue_beyond`): the branch goes on from
         the problem's point beyond it instead of from ``b`` (which the arclength corrector may
@@ -421,30 +434,42 @@ class ContinuationEngine:
         return None
 
     def _cross_kink(self, a: Point, name: str, value: float, h_step: float,
-                    start: Point | None = None) -> tuple[Point, Point, list[Event]] | None:
-        """The zero of event function ``name`` and a first point beyond it from the problem
-        (:meth:`Problem.continue_beyond`, from ``start`` or ``a``), analysed, with the event at
-        the zero (and a ``stability_change`` there when the number of multipliers outside the
-        circle differs on the two sides: they jump at a kink, there is no crossing to
-        locate); None when the problem does not resolve it."""
+                    start: Point | None = None) -> tuple[list[Point], list[Event]] | None:
+        """The points the problem returns across a kink at a zero of event function ``name``
+        (:meth:`Problem.continue_beyond`, from ``start`` or ``a``): the approach, the zero and
+        the first point beyond, analysed in order, with the event at the zero (and a
+        ``stability_change`` there when the number of multipliers outside the circle differs
+        on the two sides: they jump at a kink, there is no crossing to locate). The zero itself
+        gets no multipliers: the map is not differentiable there. None when the problem does
+        not resolve the kink."""
         src = start if start is not None else a
         try:
             out = self.problem.continue_beyond(name, src.y, src.tangent, value, h_step,
                                                self.settings.newton_tol)
             if out is None:
                 return None
-            yg, y1 = (np.asarray(z, dtype=float) for z in out)
-            pg = self.analyse(yg, a.tangent, a.s + float(np.linalg.norm(yg - a.y)))
+            path: list[Point] = []
+            prev = a
+            for z in out.approach:
+                z = np.asarray(z, dtype=float)
+                if np.linalg.norm(z - prev.y) <= 1e-12 * (1.0 + np.linalg.norm(z)):
+                    continue
+                t = self.tangent(z, prev.tangent)
+                prev = self.analyse(z, t, prev.s + float(np.linalg.norm(z - prev.y)))
+                path.append(prev)
+            yg, y1 = (np.asarray(z, dtype=float) for z in (out.zero, out.beyond))
+            pg = self.analyse(yg, prev.tangent, prev.s + float(np.linalg.norm(yg - prev.y)),
+                              floquet=False)
             d = y1 - yg
             p1 = self.analyse(y1, self.tangent(y1, d / np.linalg.norm(d)),
                               pg.s + float(np.linalg.norm(d)))
         except (*NUMERICAL_ERRORS, EvaluationError):
             return None
         ip = self.ip
-        if np.sign(a.tangent[ip]) != np.sign(p1.tangent[ip]):
+        if np.sign(prev.tangent[ip]) != np.sign(p1.tangent[ip]):
             # the parameter turns at the kink (a nonsmooth fold): like a fold, the point has
             # no direction in the parameter (its tangent is the bisector, flat in p)
-            t0 = a.tangent + p1.tangent
+            t0 = prev.tangent + p1.tangent
             t0[ip] = 0.0
             if np.linalg.norm(t0) > 0:
                 pg = replace(pg, tangent=t0 / np.linalg.norm(t0))
@@ -456,13 +481,13 @@ class ContinuationEngine:
         found = [Event(kind, pg, f"event function '{name}' vanishes; the branch has a kink "
                        "here and goes on beyond it (the problem's local parametrisation)",
                        data=data, bracket=0.0)]
-        if a.multipliers is not None and p1.multipliers is not None \
-                and a.n_unstable != p1.n_unstable:
-            found += _crossing_events("stability_change", pg, 0.0, a.n_unstable,
+        if prev.multipliers is not None and p1.multipliers is not None \
+                and prev.n_unstable != p1.n_unstable:
+            found += _crossing_events("stability_change", pg, 0.0, prev.n_unstable,
                                       p1.n_unstable, np.array([]), None, "kink")[1:]
         if self.progress is not None:
-            self.progress(2)
-        return pg, p1, found
+            self.progress(len(path) + 2)
+        return [*path, pg, p1], found
 
     def _step_length(self, pts: list[Point], h: float, res: float
                      ) -> tuple[float, float | None] | None:
@@ -518,9 +543,46 @@ class ContinuationEngine:
                 or halvings >= st.max_multiplier_halvings:
             return None, False
         pre = self._floquet(y_new, t_new)
-        too_far = pre is not None and multiplier_motion(
-            a.multipliers, np.asarray(pre.multipliers)) > st.max_multiplier_step
-        return pre, too_far
+        if pre is None:
+            return None, False
+        b_mult = np.asarray(pre.multipliers)
+        # Krein-aware check (conservative families): only multipliers that may collide with a
+        # partner of the other signature within the step are bounded
+        krein_a = self._krein_at(a)
+        krein_b = krein_of(pre) if krein_a is not None else None
+        self._krein_memo = (np.array(y_new, dtype=float), pre)
+        if krein_a is not None and krein_b is not None:
+            tol = max(st.unit_circle_tol, a.circle_tol,
+                      1e3 * np.finfo(float).eps * pre.matrix_norm)
+            dist = (collision_distances(a.multipliers, krein_a, tol),
+                    collision_distances(b_mult, krein_b, tol))
+            if krein_closing(a.multipliers, krein_a, b_mult, krein_b, tol,
+                             st.max_multiplier_step, dist):
+                return pre, True
+            motion = krein_motion(a.multipliers, krein_a, b_mult, krein_b, tol,
+                                  st.krein_fraction, distances=dist)
+        else:
+            motion = multiplier_motion(a.multipliers, b_mult)
+        return pre, motion > st.max_multiplier_step
+
+    def _krein_at(self, a: Point) -> np.ndarray | None:
+        """Krein definiteness of the multipliers of ``a`` (:class:`~nsm_continuation.floquet.
+        KreinFloquetData`), or None (generic motion check). Only for a problem that declares
+        itself conservative (:attr:`Problem.conservative`: its map is symplectic) and when
+        ``settings.krein_step_control``. Remembered from the trial point that became ``a``;
+        otherwise (a start, a located or kink point) the multipliers are computed again."""
+        st = self.settings
+        if not (st.krein_step_control and self.problem.conservative):
+            return None
+        memo = getattr(self, "_krein_memo", None)
+        if memo is not None and memo[0].shape == a.y.shape and np.array_equal(memo[0], a.y):
+            fl = memo[1]
+        else:
+            fl = self._floquet(a.y, a.tangent)
+        krein = krein_of(fl)
+        if krein is None or np.asarray(fl.multipliers).shape != np.asarray(a.multipliers).shape:
+            return None
+        return krein
 
     def _analyse_step(self, a: Point, pts: list[Point], y_new: np.ndarray, t_new: np.ndarray,
                       s_new: float, it: int, pre: FloquetData | None, h_step: float
@@ -1220,6 +1282,130 @@ def _nearest(multipliers: np.ndarray, ref: complex) -> complex:
     """The multiplier nearest to ``ref``."""
     m = np.asarray(multipliers)
     return complex(m[int(np.argmin(np.abs(m - ref)))])
+
+
+def krein_motion(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.ndarray,
+                 circle_tol: float, fraction: float, lo: float = 0.5, hi: float = 2.0,
+                 distances: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """The motion that matters in a conservative family: the largest displacement, between
+    two points, of a multiplier in the annulus ``lo < |lambda| < hi`` that is *near a
+    collision that can open or close an instability window*, 0 if there is none.
+
+    Krein's theorem (MacKay 1986, "Stability of equilibria of Hamiltonian systems"): a
+    multiplier on the unit circle with a definite Krein signature stays on it under small
+    symplectic perturbations; the circle can only be left where two multipliers of *opposite*
+    signature collide (a conjugate pair at ``+-1``: ``conj`` flips the signature), and
+    re-entered where the pair ``lambda, 1/conj(lambda)`` meets again on it. So a window can
+    hide inside a step only if some multiplier moves by at least ``fraction`` of its
+    *collision distance* (:func:`~nsm_continuation.floquet.collision_distances`: to the
+    nearest multiplier of the other signature on the circle, or to any multiplier off it;
+    0 for a multiplier of indefinite signature). Multipliers of one signature may pass
+    through each other at any speed. The displacement of a multiplier on the circle with a
+    definite signature is measured to the nearest multiplier *of the same signature* at the
+    other point (two of opposite signature that swapped places moved, whatever their
+    positions); any other multiplier to the whole other set (as :func:`multiplier_motion`).
+
+    With ``fraction = 0`` this is :func:`multiplier_motion` (every multiplier in the annulus
+    counts), the generic check of damped and hybrid problems. ``distances``: the collision
+    distances of ``a`` and ``b`` if already computed.
+    """
+    a, b = np.asarray(a), np.asarray(b)
+    if a.size == 0 or b.size == 0:
+        return 0.0
+    if distances is None:
+        distances = (collision_distances(a, krein_a, circle_tol),
+                     collision_distances(b, krein_b, circle_tol))
+    motion = 0.0
+    sa, sb = _definite_sign(a, krein_a, circle_tol), _definite_sign(b, krein_b, circle_tol)
+    full = np.abs(a[:, None] - b[None, :])
+    for d_all, sx, sz, x, cx in ((full, sa, sb, a, distances[0]),
+                                 (full.T, sb, sa, b, distances[1])):
+        watch = (np.abs(x) > lo) & (np.abs(x) < hi)
+        if not watch.any():
+            continue
+        d = d_all[watch]
+        other = (sx[watch][:, None] * sz[None, :]) < 0  # a definite multiplier of the other sign
+        disp = np.where(other, np.inf, d).min(axis=1)
+        disp = np.where(np.isfinite(disp), disp, d.min(axis=1))
+        counts = disp >= fraction * cx[watch]
+        if counts.any():
+            motion = max(motion, float(disp[counts].max()))
+    return motion
+
+
+#: :func:`krein_closing`: a step may shrink the smallest collision distance at most by this
+#: factor, once it is below ``KREIN_NEAR``
+KREIN_CLOSING = 0.5
+KREIN_NEAR = 0.1
+
+
+def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.ndarray,
+                  circle_tol: float, match: float = 0.02,
+                  distances: tuple[np.ndarray, np.ndarray] | None = None) -> bool:
+    """Whether a step from ``a`` to ``b`` (multipliers with their Krein definiteness) closes
+    the nearest collision too fast: the smallest collision distance
+    (:func:`~nsm_continuation.floquet.collision_distances`, over the annulus
+    ``0.5 < |lambda| < 2``) falls below ``KREIN_NEAR`` and below ``KREIN_CLOSING`` times its
+    value at ``a``, with the same number of multipliers outside the circle at both ends.
+
+    This catches the window that the endpoints of a step cannot show: two multipliers of
+    opposite signature that approach, collide, leave the circle and come back *on the same
+    side* within one step (the collision distance dips to 0 and recovers; each multiplier
+    ends close to where it started, so no displacement is large). Halving the step until the
+    distance shrinks at most by half per step approaches a collision geometrically: either
+    the multipliers leave the circle at the end of a step (the count changes, the crossing is
+    located) or the distance turns and grows again (a near miss, no window). In a step whose
+    count changes, the multipliers of that crossing (and their partners) are left out of the
+    test: it is located by the count.
+
+    Also refused: a step whose multipliers *outside* the circle (and inside ``|lambda| < 2``)
+    are not the same ones at both ends (one outside at one end has none outside within
+    ``match`` at the other end) beyond a single crossing: with the same count at both ends a
+    window closed and another opened within the step, two crossings the count cannot see;
+    more than two such multipliers, more crossings than one (a conjugate pair, or a real
+    multiplier, leaves or enters at a crossing) in the step."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.size == 0 or b.size == 0:
+        return False
+    n_a, n_b = count_outside(a, circle_tol), count_outside(b, circle_tol)
+    if abs(n_a - n_b) > 2:
+        return True  # more than one crossing (a complex pair, or a real multiplier) at once
+    same_count = n_a == n_b
+    out_a, out_b = a[np.abs(a) > 1.0 + circle_tol], b[np.abs(b) > 1.0 + circle_tol]
+    # multipliers outside the circle (and near it: only those can have come from it or gone
+    # back to it) at one end with none outside within ``match`` at the other end
+    if out_a.size and out_b.size:
+        d = np.abs(out_a[:, None] - out_b[None, :])
+        crossed = np.concatenate([out_a[(d.min(axis=1) > match) & (np.abs(out_a) < 2.0)],
+                                  out_b[(d.min(axis=0) > match) & (np.abs(out_b) < 2.0)]])
+    else:
+        crossed = np.concatenate([out_a[np.abs(out_a) < 2.0], out_b[np.abs(out_b) < 2.0]])
+    if (same_count and crossed.size) or crossed.size > 2:
+        # a window closed and another opened (same count), or more than one crossing (a
+        # complex pair or a real multiplier) in the step: the count cannot show them all
+        return True
+    ca, cb = distances if distances is not None else (
+        collision_distances(a, krein_a, circle_tol), collision_distances(b, krein_b, circle_tol))
+    wa = (np.abs(a) > 0.5) & (np.abs(a) < 2.0)
+    wb = (np.abs(b) > 0.5) & (np.abs(b) < 2.0)
+    if crossed.size:
+        # the crossing of the step itself (located by the count) is not a hidden window: its
+        # multipliers, their partners 1/conj and conjugates are left out
+        near = np.concatenate([crossed, 1.0 / np.conj(crossed)])
+        near = np.concatenate([near, np.conj(near)])
+        wa &= np.abs(a[:, None] - near[None, :]).min(axis=1) > match
+        wb &= np.abs(b[:, None] - near[None, :]).min(axis=1) > match
+    if not (wa.any() and wb.any()):
+        return False
+    min_a, min_b = float(ca[wa].min()), float(cb[wb].min())
+    return min_b < KREIN_NEAR and min_b < KREIN_CLOSING * min_a
+
+
+def _definite_sign(m: np.ndarray, krein: np.ndarray, circle_tol: float) -> np.ndarray:
+    """``sign(kappa)`` of the multipliers on the circle with a definite signature, else 0."""
+    on = np.abs(np.abs(m) - 1.0) <= circle_tol
+    k = np.asarray(krein, dtype=float)
+    return np.where(on & (np.abs(k) >= KREIN_DEFINITE), np.sign(k), 0.0)
 
 
 def multiplier_motion(a: np.ndarray, b: np.ndarray, lo: float = 0.5, hi: float = 2.0) -> float:

@@ -83,6 +83,22 @@ class FloquetData:
     #: 2-norm of the matrix whose eigenvalues are ``multipliers``: eigenvalues are only known to
     #: about ``eps * matrix_norm``, so the unit-circle test uses at least ``1e3 * eps * norm``
     matrix_norm: float = 1.0
+    #: absolute uncertainty of the multipliers from the computation that produced the matrix
+    #: (e.g. a simulator's integration error times the monodromy's norm): a multiplier within
+    #: ``noise`` of the unit circle is never counted as having crossed it
+    noise: float = 0.0
+
+
+@dataclass
+class KinkCrossing:
+    """A kink of a branch crossed by the problem (:meth:`Problem.continue_beyond`): points of
+    the branch between the last accepted point and the zero (``approach``, in order; they
+    resolve the side where the residual's Jacobian blows up), the ``zero`` and the first point
+    ``beyond`` it."""
+
+    approach: list[np.ndarray]
+    zero: np.ndarray
+    beyond: np.ndarray
 
 
 @dataclass
@@ -297,12 +313,13 @@ class Problem(ABC):
         return {}
 
     def continue_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray, value: float,
-                        ds: float, tol: float) -> tuple[np.ndarray, np.ndarray] | None:
+                        ds: float, tol: float) -> KinkCrossing | None:
         """Where the branch has a kink at a zero of the event function ``name`` (the residual
         is continuous but not differentiable there, e.g. a grazing of a hybrid orbit, whose
-        return map has a square-root singularity), ``(y_zero, y_beyond)``: the zero itself and
-        a first point of the branch beyond it at arclength about ``ds``, computed with the
-        problem's own local parametrisation, each converged to ``tol``.
+        return map has a square-root singularity), a :class:`KinkCrossing`: points of the
+        branch approaching the zero, the zero itself and a first point of the branch beyond it
+        at arclength about ``ds``, computed with the problem's own local parametrisation, each
+        converged to ``tol``.
 
         ``y`` is a point of the branch next to the zero (the located zero, or the last accepted
         point when the engine could not step across), ``tangent`` the direction of travel
@@ -337,6 +354,15 @@ class Problem(ABC):
         return {**CORE_EVENT_KINDS, **self.event_kinds}
 
     # == stability =============================================================================
+    @property
+    def conservative(self) -> bool:
+        """Whether the return map is symplectic (a conservative family): its multipliers then
+        carry Krein signatures, an instability window opens only where two of opposite
+        signature collide, and the engine refines steps only near such collisions
+        (``settings.krein_step_control``). Default: False (the generic motion check
+        on every multiplier near the circle)."""
+        return False
+
     def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
         """Non-trivial Floquet multipliers at ``y`` (``tangent``: unit tangent of the branch);
         None where there are none. Not called when ``analysis.stability`` is false."""
@@ -403,3 +429,24 @@ class Problem(ABC):
         """Problem-specific results added to ``report.json`` under ``problem_results``: a pure
         function of the branches (no state shared with other hooks)."""
         return {}
+
+    # == restart & branch switching (issue 12; :mod:`nsm_continuation.restart`) ===============
+    def period_multiple(self) -> int:
+        """How many base periods an orbit of this instance spans (the returns to the section of
+        a hybrid orbit, ``start.returns``); stored in the restart record of each run."""
+        return 1
+
+    def iterated(self, multiple: int) -> Problem | None:
+        """A new instance of this problem, with the same parameters, unknowns and continued
+        parameter, for orbits of ``multiple`` base periods (the residual of the
+        ``multiple``-times iterated return map); its solutions include this instance's. A
+        switch at a period doubling continues ``iterated(2 * period_multiple())``. None: the
+        problem cannot represent them (the switch is refused before computing)."""
+        return None
+
+    def restart_start(self, y: np.ndarray) -> Any:
+        """The problem's own ``start:`` block that starts from the unknowns ``y`` (e.g. a
+        hybrid ``{guess: {...}}``): a restart runs :meth:`preflight` on it, so the checks of
+        an ordinary start (window, state, budget) apply. None: only the continued parameter's
+        value is checked against the window."""
+        return None

@@ -124,9 +124,125 @@ def change_text(e: dict[str, Any]) -> str:
             text += (f" ({_fmt(e.get('n_outside_before'))} -> "
                      f"{_fmt(e.get('n_outside_after'))} outside)")
         if e.get("parameter_direction") == 0:
-            text += " (as continued: fold)"
+            text += " (as continued: the parameter turns here)"
         return text
     return ""
+
+
+def flow_yaml(value: Any) -> str:
+    """``value`` as one line of YAML flow style (paths quoted where YAML needs it)."""
+    import yaml
+
+    return yaml.safe_dump(value, default_flow_style=True, sort_keys=False,
+                          width=float("inf")).strip().removesuffix("...").strip()
+
+
+#: parameters a grazing-curve hint prefers as the second one (the vocabulary's obstacle
+#: position, then the pendulum's wall distance), else the first other parameter
+CURVE_PREFERENCE = ("gap", "d")
+
+
+def continue_hints(restart: dict[str, Any], folder: str, doubling: bool = True,
+                   curve_parameters: list[str] | None = None) -> list[dict[str, Any]]:
+    """One entry per event of every branch of the restart record: the exact ``start:`` (and,
+    for a grazing curve, ``continuation:``) to paste into a case that continues from there
+    (:mod:`nsm_continuation.restart`). At a period doubling (when the problem can double its
+    period, ``doubling``) and at a branch point: the branch born there (``switch: true``); at a
+    grazing of a hybrid orbit (``curve_parameters``: its problem's parameters): the grazing
+    curve in two parameters; at any other event: the orbit itself, restarted (in any
+    parameter: add ``continuation.parameter``)."""
+    branches = restart.get("branches") or []
+    many = len(branches) > 1
+    continued = restart.get("continued")
+    out = []
+    for br in branches:
+        k = int(br.get("period_multiple", 1) or 1)
+        for ev in br.get("events", []):
+            kind, index = ev["kind"], int(ev["index"])
+            start: dict[str, Any] = {"from": folder}
+            if many:
+                start["branch"] = br["id"]
+            start["event"] = {"kind": kind, "index": index}
+            extra: dict[str, Any] | None = None
+            if kind == "period_doubling" and doubling:
+                start["switch"] = True
+                what = f"the period-{2 * k} family born here"
+            elif kind == "branch_point":
+                start["switch"] = True
+                what = "the other branch through this point"
+            elif kind == "grazing" and curve_parameters and continued in curve_parameters:
+                others = [q for q in curve_parameters if q != continued]
+                second = next((q for q in CURVE_PREFERENCE if q in others),
+                              others[0] if others else None)
+                if second is None:
+                    what = "this orbit, restarted"
+                else:
+                    start.update({"curve": "grazing", "free": continued})
+                    extra = {"parameter": second}
+                    what = (f"the grazing curve in ({continued}, {second}) through this "
+                            f"orbit (set continuation.min/max of {second})")
+            elif kind == "endpoint":
+                what = "this end of the branch, restarted (e.g. with a wider window)"
+            else:
+                what = "this orbit, restarted (any parameter: continuation.parameter)"
+            line = f"start: {flow_yaml(start)}"
+            if extra is not None:
+                line += f"\ncontinuation: {flow_yaml(extra)}"
+            out.append({"branch": br["id"], "kind": kind, "index": index,
+                        "parameter": ev.get("parameter"), "what": what, "yaml": line})
+    return out
+
+
+def _tree_lines(rep: dict[str, Any]) -> list[str]:
+    """The bifurcation diagram's tree (``report.json``'s ``diagram``) and its cascade."""
+    d = rep.get("diagram")
+    if not d:
+        return []
+    par = rep["continuation"]["parameter"]
+    lines = ["## Bifurcation diagram", "",
+             f"Branches born at the detected {', '.join(d['kinds'])} points, followed "
+             f"{d['depth']} generation{'s' if d['depth'] != 1 else ''} deep (breadth first; "
+             "ids in that order):", "",
+             f"| generation | parent branch | event | {par} | child branch | status |",
+             "|---|---|---|---|---|---|"]
+    for n in d["tree"]:
+        ev = n["event"]
+        child = n["child"] if n.get("child") is not None else "-"
+        lines.append(f"| {n['depth']} | {n['parent']} | {ev['kind']} #{ev['index']} | "
+                     f"{_fmt(n['parameter'], 12)} | {child} | {n['status']} |")
+    if not d["tree"]:
+        lines.append("| - | - | no event of these kinds | - | - | - |")
+    c = d.get("period_doubling_cascade")
+    if c:
+        lines += ["", "### Period-doubling cascade", "",
+                  f"| branch | period | {par} at the doubling | interval to the next | ratio |",
+                  "|---|---|---|---|---|"]
+        gaps = [*c["intervals"], None]
+        ratios = [None, *c["ratios"], None]
+        for q, g, r in zip(c["points"], gaps, ratios, strict=False):
+            lines.append(f"| {q['branch']} | {q['period_multiple']} -> {q['to']} | "
+                         f"{_fmt(q['parameter'], 12)} | {_fmt(g, 6)} | {_fmt(r, 5)} |")
+        lines += ["", "ratio: the interval before a doubling over the interval after it "
+                  f"(Feigenbaum's delta = {c['feigenbaum_delta']:.4f} is the limit for a smooth "
+                  "map with a quadratic critical point; the first ratios are not the limit)."]
+    return [*lines, ""]
+
+
+def _continue_lines(rep: dict[str, Any]) -> list[str]:
+    hints = rep.get("continue_from_here") or []
+    if not hints:
+        return []
+    lines = ["## Continue from here", "",
+             "Paste the code of a line (`start:`, and the `continuation:` shown) into a new "
+             "case file and run it: the problem, its parameters and the numerical settings "
+             "are inherited from this run.", ""]
+    for h in hints:
+        value = h["parameter"]
+        at = f" at {_fmt(value, 10)}" if value is not None else ""
+        code = " + ".join(f"`{part}`" for part in h["yaml"].split("\n"))
+        lines.append(f"- branch {h['branch']}, {h['kind']} #{h['index']}{at}: {h['what']}: "
+                     f"{code}")
+    return [*lines, ""]
 
 
 def _table(rows: list[dict[str, Any]]) -> list[str]:
@@ -156,18 +272,23 @@ def markdown(rep: dict[str, Any]) -> str:
         lines += ["## Warnings", ""] + [f"- {w}" for w in rep["warnings"]] + [""]
     t = rep["timings"]
     n_failed = sum(1 for b in rep["branches"] if b["n_points"] == 0)
+    from .diagrams import link_text
+
     lines += ["## Branches", "",
               f"{len(rep['branches'])} branches, {t.get('n_points')} points, "
               f"{_fmt(t.get('total_s'), 3)} s."
               + (f" **{n_failed} start(s) failed**: their rows give the reason."
                  if n_failed else ""), "",
-              "| id | label | points | admissible points | parameter range | termination |",
-              "|---|---|---|---|---|---|"]
+              "| id | label | born at | points | admissible points | parameter range | "
+              "termination |",
+              "|---|---|---|---|---|---|---|"]
     for b in rep["branches"]:
         pr = b["parameter_range"]
         rng = f"{_fmt(pr[0])} .. {_fmt(pr[1])}" if pr else "-"
-        lines.append(f"| {b['id']} | {b['label']} | {b['n_points']} | {b['admissible_points']}"
-                     f" | {rng} | {b['termination']} |")
+        lines.append(f"| {b['id']} | {b['label']} | {link_text(b.get('parent'))} | "
+                     f"{b['n_points']} | {b['admissible_points']} | {rng} | "
+                     f"{b['termination']} |")
+    lines += ["", *_tree_lines(rep)]
     cols = list(rep.get("event_columns") or [])
     par = rep["continuation"]["parameter"]
     shown = [(b["id"], e) for b in rep["branches"] for e in b["events"]
@@ -186,15 +307,18 @@ def markdown(rep: dict[str, Any]) -> str:
         mults = e.get("multipliers") or []
         mam = max((abs(complex(*m)) for m in mults), default=None)
         vals = " | ".join(_fmt(e.get(c), 12) for c in cols)
-        lines.append(f"| {bid} | {e['kind']} | {vals} | {_fmt(mam)} | "
+        # an event of a branch born at another point links to it
+        branch = f"{bid} (from {link_text(e['parent'])})" if e.get("parent") else f"{bid}"
+        lines.append(f"| {branch} | {e['kind']} | {vals} | {_fmt(mam)} | "
                      f"{change_text(e)} | {e['detail']} |")
     if shown and oriented:
         lines += ["", f"Every change (before -> after, in the change column and in the detail) "
                   f"reads in the direction of increasing `{par}`, whichever way the branch was "
                   f"continued: on a part of a branch continued towards decreasing `{par}` the "
                   "recorded order is swapped (`report.json` keeps the continuation order, with "
-                  "`parameter_direction` -1). At a fold the parameter does not move: the change "
-                  "is then in the continuation order, marked \"as continued\"."]
+                  "`parameter_direction` -1). Where the branch turns back in the parameter (a "
+                  "fold, or a grazing at which it turns) the change is in the continuation "
+                  "order, marked \"as continued\"."]
     elif shown:
         lines += ["", "Every change (before -> after) reads in the direction the branch was "
                   "continued."]
@@ -202,6 +326,7 @@ def markdown(rep: dict[str, Any]) -> str:
     meaning = {**MEANING, **(rep.get("event_kinds") or {})}
     lines += [f"- **{k}**: {meaning.get(k, '(meaning not declared)')}"
               for k in sorted(kinds | {"endpoint"})]
+    lines += ["", *_continue_lines(rep)]
     extras = rep.get("problem_results") or {}
     if extras:
         lines += ["", "## Problem-specific results", ""]

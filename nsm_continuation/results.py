@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,7 @@ import numpy as np
 
 from .output import IfExists, OutputTarget
 from .records import Branch, Event, Point
+from .restart import restart_block
 from .runner import RunResult
 
 
@@ -103,24 +105,48 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
     return cols, rows
 
 
-def build_report(res: RunResult) -> dict[str, Any]:
+def run_folder(directory: Path | str) -> str:
+    """The folder a run's files end up in, as a case's ``start.from`` names it: ``directory``
+    itself, or the final folder of a hidden ``.<name>.tmp-*`` sibling being written
+    (:class:`~nsm_continuation.output.OutputTarget`); relative to the working directory when
+    it lies below it."""
+    d = Path(directory)
+    m = re.match(r"^\.(.+)\.tmp-[^/]*$", d.name)
+    if m:
+        d = d.parent / m.group(1)
+    try:
+        return str(d.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(d.resolve())
+
+
+def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
+    """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
+    the ``start:`` lines of ``continue_from_here`` (default: ``runs/<case name>``)."""
+    from .diagrams import parent_link, summary
+
     pr = res.problem
     columns = list(pr.event_columns)
     branches = []
     for br in res.branches:
+        bpr = res.branch_problems.get(br.id, pr)
+        link = parent_link(br)
         events = []
         for ev in br.events:
             rec = event_record(ev)
             for c in columns:  # a column that is an unknown, not a derived quantity
-                if c not in rec and c in pr.variables:
-                    rec[c] = _f(ev.point.y[pr.variables.index(c)])
+                if c not in rec and c in bpr.variables:
+                    rec[c] = _f(ev.point.y[bpr.variables.index(c)])
+            if link is not None:
+                rec["parent"] = link  # the event's branch was born there
             events.append(rec)
         branches.append({
             "id": br.id, "label": br.label, "n_points": br.n_points,
+            "parent": link, "depth": int(br.info.get("depth", 0)),
             "termination": termination_text(br), "termination_by_direction": br.termination,
             "csv": f"branch_{br.id}.csv",
-            "parameter_range": ([float(min(p.y[pr.parameter_index] for p in br.points)),
-                                 float(max(p.y[pr.parameter_index] for p in br.points))]
+            "parameter_range": ([float(min(p.y[bpr.parameter_index] for p in br.points)),
+                                 float(max(p.y[bpr.parameter_index] for p in br.points))]
                                 if br.points else None),
             "admissible_points": int(sum(p.admissible for p in br.points)),
             # BifurcationKit's habit: the trivial multiplier is a free accuracy check
@@ -154,11 +180,34 @@ def build_report(res: RunResult) -> dict[str, Any]:
         "event_kinds": pr.all_event_kinds(),
         "branches": branches,
         "problem_results": pr.report_extras(res.branches),
+        # versioned, machine-readable: what a later case needs to start from any event or
+        # CSV row of this run (start: {from: <this folder>, ...}; nsm_continuation.restart)
+        "restart": restart_block(res),
     }
-    from .report import annotate_parameter_directions
+    diagram = summary(res)
+    if diagram is not None:
+        rep["diagram"] = diagram
+    from .report import annotate_parameter_directions, continue_hints
 
     annotate_parameter_directions(rep, res.branches, pr.parameter_index)
+    rep["continue_from_here"] = continue_hints(
+        rep["restart"], folder if folder is not None else f"runs/{res.case.name}",
+        **hint_context(res))
     return rep
+
+
+def hint_context(res: RunResult) -> dict[str, Any]:
+    """What the ``continue_from_here`` lines need to know of the problem: whether it can
+    switch at a period doubling (``Problem.iterated``), and the parameters a grazing curve
+    could continue (a hybrid problem's; none otherwise)."""
+    from .hybrid.shooting import HybridCaseProblem
+    from .protocol import Problem
+
+    pr = res.problem
+    # a curve's events restart the curve (no grazing curve of a curve)
+    curve_parameters = list(pr.values) if isinstance(pr, HybridCaseProblem) else []
+    return {"doubling": type(pr).iterated is not Problem.iterated,
+            "curve_parameters": curve_parameters}
 
 
 def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
@@ -167,7 +216,7 @@ def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
     from . import report as report_md
 
     directory = Path(directory)
-    rep = build_report(res)
+    rep = build_report(res, run_folder(directory))
     for br in res.branches:
         cols, rows = branch_rows(br, res.problem.variables, res.problem.csv_head)
         with open(directory / f"branch_{br.id}.csv", "w", newline="") as fh:
@@ -179,6 +228,11 @@ def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
         from . import plots as plotting
 
         figures = plotting.make_all(res, directory)
+        if res.case.output.axes is not None or res.tree:
+            from .diagrams import figure
+
+            if figure(res, directory / "diagram.png"):
+                figures.append("diagram.png")
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))

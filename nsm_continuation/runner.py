@@ -10,6 +10,7 @@ from typing import Any
 
 from .algorithms import make_algorithm, unsupported
 from .cases import Case, CaseError
+from .execution import Execution, run_distributed
 from .protocol import Problem, StartPoint
 from .records import Branch
 from .settings import ContinuationSettings
@@ -24,6 +25,12 @@ class RunResult:
     window: tuple[float | None, float | None]
     timings: dict[str, Any] = field(default_factory=dict)
     skipped: list[str] = field(default_factory=list)
+    #: the tree of a bifurcation diagram (``analysis.branch_switching``,
+    #: :mod:`nsm_continuation.diagrams`): one record per event considered
+    tree: list[dict[str, Any]] = field(default_factory=list)
+    #: the problem each branch was computed with, where it is not ``problem`` (a switched
+    #: branch of a diagram: the period-2k problem at a period doubling)
+    branch_problems: dict[int, Problem] = field(default_factory=dict)
 
 
 def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettings,
@@ -87,12 +94,14 @@ def _failed_start(case: Case, problem: Problem, settings: ContinuationSettings,
 
 def run_case(case: Case, problem: Problem, progress: bool = True,
              starts: list[StartPoint] | None = None,
-             poll: Callable[[], None] | None = None) -> RunResult:
+             poll: Callable[[], None] | None = None,
+             execution: Execution | None = None) -> RunResult:
     """Continue every start of ``case`` (or the given ``starts``: explicit start points of a
     curve problem, e.g. from the Python API) with the case's algorithm
     (``continuation.algorithm``, default the problem's first, :mod:`nsm_continuation.algorithms`)
-    and collect the branches. ``poll`` is called after every point (it may raise to stop the
-    run)."""
+    and collect the branches: in this process, or as Dask tasks (``execution``, else the
+    case's ``execution:`` block; :mod:`nsm_continuation.execution`), with the same result.
+    ``poll`` is called after every point (it may raise to stop the run)."""
     settings, window = settings_from_case(case, problem)
     name = case.continuation.algorithm or problem.algorithms[0]
     why = unsupported(name, problem)
@@ -104,7 +113,14 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
                         "lattice problem has no start guess)")
     problem.energy_cap = case.continuation.max_energy
     t0 = time.perf_counter()
+    start_counters: dict[str, Any] = {}
     try:
+        if starts is None and case.restart is not None:
+            # a restart (start: {from: <run>}): the saved point, or the switched branch's
+            # first point (nsm_continuation.restart, nsm_continuation.switching)
+            from .restart import start_points
+
+            starts, start_counters = start_points(case.restart, problem, settings)
         seeds = (algorithm.starts(case.start, window) if starts is None
                  else algorithm.seeds_from_points(starts))
     except ValueError as exc:
@@ -113,18 +129,32 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
     t_setup = time.perf_counter() - t0
     bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
     algorithm.progress = bar
-    branches: list[Branch] = []
-    skipped: list[str] = []
-    per_branch = []
-    for seed in seeds:
-        if algorithm.covered(seed, branches):
-            skipped.append(algorithm.label(seed))
-            continue
-        tb = time.perf_counter()
-        branches.append(algorithm.run_branch(seed, branch_id=len(branches)))
-        per_branch.append(time.perf_counter() - tb)
+    execution = execution or Execution(case.execution.workers, case.execution.scheduler)
+    if execution.distributed and algorithm.distributable and seeds:
+        explicit = starts if (starts is not None or case.restart is not None) else None
+        branches, skipped, per_branch, counters = run_distributed(
+            execution, case.model_dump(mode="json"), algorithm, seeds, explicit, bar, poll)
+    else:
+        branches, skipped, per_branch = [], [], []
+        for seed in seeds:
+            if algorithm.covered(seed, branches):
+                skipped.append(algorithm.label(seed))
+                continue
+            tb = time.perf_counter()
+            branches.append(algorithm.run_branch(seed, branch_id=len(branches)))
+            per_branch.append(time.perf_counter() - tb)
+        counters = algorithm.counters()
     bar.close()
     timings = {"total_s": time.perf_counter() - t0, algorithm.setup_key: t_setup,
                "per_branch_s": per_branch,
-               "n_points": int(sum(b.n_points for b in branches)), **algorithm.counters()}
-    return RunResult(case, problem, branches, settings, window, timings, skipped)
+               "n_points": int(sum(b.n_points for b in branches)), **counters,
+               **start_counters}
+    result = RunResult(case, problem, branches, settings, window, timings, skipped)
+    if case.analysis.branch_switching is not None:
+        # a bifurcation diagram: the branches born at the detected points, recursively
+        # (serially here, after the case's own branches, whichever way those were computed)
+        from .diagrams import grow
+
+        grow(result, poll)
+        timings["total_s"] = time.perf_counter() - t0
+    return result

@@ -156,3 +156,77 @@ def test_classify_crossing_without_leaving_multiplier() -> None:
     s = np.array(STABLE_REST, dtype=complex)
     kind, out = classify_crossing(s, s * (1 - 1e-3), TOL)
     assert kind == "stability_change" and out.size == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# Structured spectra (issue 13 item 1): diagonal plus low rank, Krein definiteness
+# ---------------------------------------------------------------------------------------------
+from nsm_continuation.floquet import (  # noqa: E402
+    KREIN_DEFINITE,
+    collision_distances,
+    krein_definiteness,
+    low_rank_update_eigen,
+)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+@pytest.mark.parametrize("n", [4, 30, 120])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_low_rank_update_eigenvalues_against_dense(k: int, n: int, seed: int) -> None:
+    """``diag(mu) + X Y^T`` with ``mu`` on the unit circle (a rotation) and random ``X, Y``
+    (n x k): every eigenvalue from the secular equation agrees with ``numpy.linalg.eigvals``
+    of the dense matrix to 1e-9 (relative to ``1 + |lambda|``); removing known eigenvalues
+    (two of the dense ones, passed as ``removed``) leaves exactly the others."""
+    rng = np.random.default_rng(seed)
+    mu = np.exp(1j * rng.uniform(-np.pi, np.pi, n))
+    X = (rng.normal(size=(n, k)) + 1j * rng.normal(size=(n, k))) / np.sqrt(n)
+    Y = (rng.normal(size=(n, k)) + 1j * rng.normal(size=(n, k))) / np.sqrt(n)
+    dense = np.linalg.eigvals(np.diag(mu) + X @ Y.T)
+    out = low_rank_update_eigen(mu, X, Y)
+    assert out is not None
+    lam = out[0]
+    cost = np.abs(lam[:, None] - dense[None, :]) / (1.0 + np.abs(dense[None, :]))
+    r, c = linear_sum_assignment(cost)
+    assert cost[r, c].max() <= 1e-9
+    drop = dense[:2]
+    out2 = low_rank_update_eigen(mu, X, Y, removed=tuple(drop))
+    assert out2 is not None and out2[0].size == n - 2
+    rest = dense[2:]
+    cost = np.abs(out2[0][:, None] - rest[None, :]) / (1.0 + np.abs(rest[None, :]))
+    r, c = linear_sum_assignment(cost)
+    assert cost[r, c].max() <= 1e-8
+
+
+def test_krein_definiteness_of_a_symplectic_rotation_pair() -> None:
+    """The unperturbed rotation (``X = Y = 0``) in the eigenbasis: ``kappa = sign(s_m)`` of its
+    own weight; with the Hermitian form ``g = sum s_m |v_m|^2`` of a coupled 2 x 2 Hermitian-
+    pencil model, ``kappa`` is ``g(v)/sum|s||v|^2`` of the dense eigenvectors."""
+    mu = np.exp(1j * np.array([0.4, -0.4, 1.1, -1.1]))
+    s = np.array([1.0, -1.0, 0.5, -0.5])
+    X = np.zeros((4, 1), complex)
+    lam = mu * (1 + 1e-13)
+    assert np.allclose(krein_definiteness(mu, X, X, lam, s), np.sign(s))
+    rng = np.random.default_rng(5)
+    X = 0.05 * (rng.normal(size=(4, 2)) + 1j * rng.normal(size=(4, 2)))
+    Y = 0.05 * (rng.normal(size=(4, 2)) + 1j * rng.normal(size=(4, 2)))
+    lam, V = np.linalg.eig(np.diag(mu) + X @ Y.T)
+    want = (np.abs(V) ** 2 * s[:, None]).sum(0) / (np.abs(V) ** 2 * np.abs(s)[:, None]).sum(0)
+    assert np.allclose(krein_definiteness(mu, X, Y, lam, s), want, atol=1e-9)
+
+
+def test_collision_distances() -> None:
+    """Definite multipliers on the circle: distance to the nearest one of the other signature
+    (their own conjugate included: near +-1 the distance is small); off the circle: to the
+    partner ``1/conj(lambda)``; indefinite on the circle: 0; no Krein data: all 0."""
+    th = np.array([0.5, -0.5, 0.6, -0.6, 3.1, -3.1])
+    m = np.exp(1j * th)
+    k = np.array([1.0, -1.0, 1.0, -1.0, -1.0, 1.0])
+    d = collision_distances(m, k, 1e-7)
+    assert d[0] == pytest.approx(2 * np.sin(0.5), rel=1e-12)      # to exp(-0.5 i)
+    assert d[4] == pytest.approx(2 * np.sin(0.0416), rel=1e-3)     # -1: to its conjugate
+    m2 = np.concatenate([m, [1.1 * np.exp(1j), np.exp(1j) / 1.1, np.exp(2.0j)]])
+    k2 = np.concatenate([k, [0.0, 0.0, 0.1 * KREIN_DEFINITE]])
+    d2 = collision_distances(m2, k2, 1e-7)
+    assert d2[6] == pytest.approx(1.1 - 1 / 1.1, rel=1e-12)
+    assert d2[8] == 0.0
+    assert np.all(collision_distances(m, None, 1e-7) == 0.0)

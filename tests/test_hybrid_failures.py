@@ -234,6 +234,47 @@ def test_newton_near_homoclinic_orbit_ends_with_a_reason():
         assert ev.point.y[-1] == pytest.approx(-31.0017, abs=2e-4)
 
 
+#: the period-1 orbit of sec. 6.3 at torque -31.09 on the section q1 = pi/2
+HOMOCLINIC_GUESS = {"q2": -1.1351634, "q1dot": -3.65803681, "q2dot": 0.2554524}
+
+
+def test_homoclinic_torque_from_the_period_continuation():
+    """The homoclinic torque of sec. 6.3 (the paper's saddle at -31.00166609425), guarded by
+    the well-conditioned formulation: the period prescribed (7.26 -> 50), the torque solved
+    for (``continuation.parameter: period``), the law ``p - p* = a exp(-mu T) + ...`` fitted
+    (:func:`~nsm_continuation.hybrid.presentation.homoclinic_fit`) and extrapolated to p*.
+    At the default tolerances (rtol = chatter_tol = 1e-10) the last periodic torque found by
+    bisection on direct simulations is -31.0016660945425 (benchmarks/README.md); converged
+    (rtol <= 1e-12, chatter_tol <= 1e-12) p* = -31.0016660941 (tests/test_homoclinic.py,
+    the bundled case): all within 1e-9 of the paper's torque."""
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
+
+    from nsm_continuation.hybrid.presentation import homoclinic_fit
+    from nsm_continuation.palc import ContinuationEngine
+    from nsm_continuation.settings import ContinuationSettings
+
+    pb = DoublePendulumProblem({"restitution": 0.9, "d": 0.5, "torque": -31.09})
+    pb.parameter_bounds("period", 7.0, 50.0)
+    (start,) = pb.start_points({"guess": HOMOCLINIC_GUESS, "free_parameter": "torque",
+                                "direction": "increase"})
+    settings = ContinuationSettings(param_min=7.0, param_max=50.0, max_points=40,
+                                    step_initial=0.5, step_max=3.0, newton_tol=1e-9,
+                                    direction=1, event_tol=1e-9)
+    t0 = time.perf_counter()
+    br = ContinuationEngine(pb, settings).run(start)
+    assert time.perf_counter() - t0 < 45.0
+    assert br.termination == {"forward": "bound: period = max"}
+    assert sorted(ev.kind for ev in br.events) == ["endpoint", "homoclinic_approach"]
+    p = np.array([q.y[3] for q in br.points])
+    T = np.array([q.derived["period"] for q in br.points])
+    assert np.all(np.diff(p) > 0) and T[-1] == pytest.approx(50.0, abs=1e-6)
+    fit = homoclinic_fit(p, T)
+    assert fit is not None
+    assert fit["p_star"] == pytest.approx(-31.00166609425, abs=1e-9)       # the paper
+    assert fit["p_star"] == pytest.approx(-31.0016660945425, abs=1e-9)     # bisection
+    assert fit["mu_unstable"] == pytest.approx(0.28879, rel=1e-3)
+
+
 # --------------------------------------------------------------------------- declarations
 def test_mass_matrix_not_positive_definite():
     q, qd, g = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("g")

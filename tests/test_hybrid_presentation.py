@@ -305,7 +305,7 @@ def test_parameter_direction_without_tangent_and_at_a_fold() -> None:
     assert report.parameter_direction(fold, 1) == 0
     e = {"stable_before": True, "stable_after": False, "parameter_direction": 0}
     assert report.change_text(report.in_parameter_order(e)) == \
-        "stable: yes -> no (as continued: fold)"
+        "stable: yes -> no (as continued: the parameter turns here)"
 
 
 def test_reversed_detail() -> None:

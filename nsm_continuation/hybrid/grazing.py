@@ -234,8 +234,8 @@ def _smooth_coordinate(m: float) -> float:
 MARGIN_FLOOR = 1e-10
 
 
-def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 40
-                   ) -> np.ndarray | None:
+def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 40,
+                   path_out: list[np.ndarray] | None = None) -> np.ndarray | None:
     """The grazing point of the branch through ``y`` (a point near it on either side): a
     sequence of margin-fixed solves with the margin divided by 4 each time (the impacting
     side's ``|v|`` halves), predicted along the branch in the coordinate in which it is smooth
@@ -243,7 +243,8 @@ def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 
     by the quadratic through the last three orbits (error ``O(w^3)``, ``w`` that coordinate:
     below 1e-14 in ``y``). Each solve is well conditioned (the ``1/|v|`` term of eq. G1 is
     cancelled by the margin's own gradient); the grazing point itself, where ``|v| = 0``, is
-    never an iterate."""
+    never an iterate. The orbits solved on the way (the branch approaching the grazing, the
+    margin falling fourfold each) are appended to ``path_out``."""
     mg = margin_gradient(sh, y)
     if mg is None:
         return None
@@ -264,6 +265,8 @@ def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 
         zn = solve_margin(sh, guess, target, tol)
         if zn is None:
             return None
+        if path_out is not None:
+            path_out.append(zn)
         z, m = zn, target
     path.append((_smooth_coordinate(m), z))
     (wa, za), (wb, zb), (wc, zc) = path[-3:]

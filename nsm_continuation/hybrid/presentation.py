@@ -25,13 +25,16 @@ impact function ``H`` depends on (``HybridSystem.position``): ``q`` for the impa
 :meth:`HybridPresentation.response_quantities`. A missing extreme gives NaN (a gap in the
 figure, an empty CSV cell), never an error.
 
-**Homoclinic fit.** ``T = c - ln|p - p*| / mu`` is fitted (:func:`homoclinic_fit`) on a branch
-only when (i) the system is autonomous (for a forced system the period is fixed by the clock,
-``2 pi m / omega``, and grows as ``omega`` decreases without any homoclinic orbit) and (ii) the
-branch was ended by the period bound (``continuation.bounds: {period: [.., Tmax]}``, the event
-``homoclinic_approach``): the fit describes how the period diverges, so it is attempted only where
-the run was asked to follow, and did follow, that divergence. It is reported when it succeeds (the
-period at least doubles along the branch and the fitted slope ``1 / mu`` is positive).
+**Homoclinic fit.** ``T = c - ln|p - p*| / mu`` (with its next order, :func:`homoclinic_fit`)
+is fitted on a branch only when (i) the system is autonomous (for a forced system the period is
+fixed by the clock, ``2 pi m / omega``, and grows as ``omega`` decreases without any homoclinic
+orbit) and (ii) the branch was ended by the period bound (``continuation.bounds: {period: [..,
+Tmax]}``, the event ``homoclinic_approach``) or was continued in the period itself
+(``continuation.parameter: period``, the parameter that became an unknown is ``p``): the fit
+describes how the period diverges, so it is attempted only where the run was asked to follow,
+and did follow, that divergence. It is reported when it succeeds (the period at least doubles
+along the branch and the fitted ``mu`` is positive). The points are weighted by their accuracy,
+from the derived ``period_uncertainty`` of a branch continued in the period.
 """
 
 from __future__ import annotations
@@ -56,6 +59,23 @@ class HybridPresentation:
     parameter_index: int
     #: the symbolic declaration (set by the concrete problem's ``__init__``)
     hybrid: HybridSystem
+
+    @property
+    def swept_parameter(self) -> str:
+        """The physical parameter along the branch: the continued one (a problem continued in
+        its period overrides this with the parameter that became an unknown)."""
+        return self.parameter
+
+    @property
+    def swept_index(self) -> int:
+        """Index of :attr:`swept_parameter` among the unknowns."""
+        return self.parameter_index
+
+    @property
+    def continued_in_period(self) -> bool:
+        """Continued in the period (``continuation.parameter: period``), the swept parameter
+        among the unknowns."""
+        return self.parameter == "period" and self.swept_parameter != self.parameter
 
     # ------------------------------------------------------------------ what the system is
     @property
@@ -131,8 +151,9 @@ class HybridPresentation:
     @property
     def fep_axes(self) -> tuple[str, str]:
         """The continued parameter against the response amplitude of the impacting coordinate
-        (forced systems) or the period (autonomous systems)."""
-        return (self.parameter, self.response_key or "period")
+        (forced systems) or the period (autonomous systems); continued in the period, the
+        parameter that became an unknown against the period."""
+        return (self.swept_parameter, self.response_key or "period")
 
     @property
     def fep_labels(self) -> tuple[str, str]:
@@ -140,7 +161,7 @@ class HybridPresentation:
         period (return time to the section)."""
         key, c = self.response_key, self.response_coordinate
         if key is None:
-            return (self.parameter, "period (return time to the section)")
+            return (self.swept_parameter, "period (return time to the section)")
         x = (f"forcing frequency {self.parameter}" if self.frequency_response
              else self.parameter)
         return (x, f"response amplitude of {c}: (max {c} - min {c}) / 2")
@@ -148,8 +169,9 @@ class HybridPresentation:
     @property
     def csv_head(self) -> list[str]:
         """The parameter, then (forced) the response amplitude and the extremes of the impacting
-        coordinate and the impact velocity, the period, then the chattering quantities."""
-        head = [self.parameter]
+        coordinate and the impact velocity, the period, then the chattering quantities
+        (continued in the period: the parameter that became an unknown first)."""
+        head = [self.swept_parameter]
         c = self.response_coordinate
         if self.response_key is not None:
             head += [f"amplitude_{c}", f"max_{c}", f"min_{c}", "min_impact_velocity"]
@@ -187,7 +209,7 @@ class HybridPresentation:
             pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
             if not pts:
                 continue
-            ps = np.array([p.y[self.parameter_index] for p in pts])
+            ps = np.array([p.y[self.swept_index] for p in pts])
             Ts = np.array([p.derived["period"] for p in pts])
             rec: dict[str, Any] = {"label": br.label,
                                    "parameter_range": [float(ps.min()), float(ps.max())],
@@ -198,7 +220,8 @@ class HybridPresentation:
                 rec[f"{self.response_key}_range"] = ([float(amp.min()), float(amp.max())]
                                                       if amp.size else None)
             elif self.homoclinic_fit_applies(br):
-                fit = homoclinic_fit(ps, Ts)
+                fit = homoclinic_fit(ps, Ts, uncertainty=np.array(
+                    [p.derived.get("period_uncertainty", np.nan) for p in pts]))
                 if fit is not None:
                     rec["homoclinic_fit"] = fit
             out.append(rec)
@@ -206,35 +229,133 @@ class HybridPresentation:
 
     def homoclinic_fit_applies(self, branch: Any) -> bool:
         """The declared rule: an autonomous system, and a branch ended by its period bound
-        (a ``homoclinic_approach`` event)."""
-        return not self.forced and any(ev.kind == HOMOCLINIC_KIND for ev in branch.events)
+        (a ``homoclinic_approach`` event) or continued in the period itself (the run was asked
+        to follow the divergence of the period by construction)."""
+        return not self.forced and (self.continued_in_period or any(
+            ev.kind == HOMOCLINIC_KIND for ev in branch.events))
 
 
-def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int = 12) -> dict[str, float] | None:
-    """Fit ``T = c - ln|p - p*| / mu`` on the points of largest period (the logarithmic law of
-    the period near a homoclinic orbit to a saddle with unstable eigenvalue ``mu``); None unless
-    the period at least doubles along the branch. Where it is attempted at all:
-    :meth:`HybridPresentation.homoclinic_fit_applies`."""
+#: relative accuracy floor of a point of the branch in the homoclinic fit (the Newton
+#: tolerance on the period, terms beyond the fitted expansion)
+FIT_RELATIVE_FLOOR = 1e-6
+
+
+def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int | None = None,
+                   uncertainty: np.ndarray | None = None) -> dict[str, Any] | None:
+    """Fit the period law near a homoclinic orbit to a saddle with unstable eigenvalue ``mu``,
+    ``T = c - ln|p - p*| / mu``, with its next order; None unless the period at least doubles
+    along the branch (where it is attempted at all:
+    :meth:`HybridPresentation.homoclinic_fit_applies`).
+
+    **Model.** Near the homoclinic orbit the orbit enters the saddle's neighbourhood at a
+    distance ``u = k (p - p*) (1 + O(p - p*))`` from its stable manifold and spends
+    ``-ln(u / U) / mu(p) + O(u)`` there (smooth linearisation, no resonance: the saddle's
+    stable eigenvalue enters only through ``u^(|mu_s| / mu)``, negligible); ``mu(p) = mu (1 +
+    gamma (p - p*))``. Inverted for ``p`` (the period is the continuation parameter, or is
+    simply the better-conditioned variable):
+
+        ``p - p* = a1 exp(-mu T) + (a2 + a3 T) exp(-2 mu T) + O(T^2 exp(-3 mu T))``,
+
+    the leading term being ``T = c - ln|p - p*| / mu`` with ``c = ln|a1| / mu``; ``a2`` comes
+    from the nonlinearity of the passage and of the entry, ``a3`` from ``d mu / dp``. Linear in
+    ``(p*, a1, a2, a3)`` for a given ``mu``: ``mu`` minimises the weighted residual (a grid,
+    then bounded Brent), the weights iterated with ``p*``; first with the leading term alone
+    (``mu`` anywhere in ``[0.05, 50] / (T range)``), then with the next order within a factor
+    0.7-1.4 of that (a free exponent with the corrections aliases: ``mu / 2`` with ``a1 ~ 0``
+    fits as well).
+
+    **Points and weights.** The points with ``T`` in the upper three quarters of the branch's
+    period range (the expansion fails near the start), all of them up to the largest period:
+    each weighted by ``1 / sigma``, ``sigma = max(eps |p|, mu |p - p*| dT) + 1e-6 |p - p*|``
+    (``dT``: ``uncertainty``, the branch's ``period_uncertainty``, 0 if not given; the relative
+    floor ``FIT_RELATIVE_FLOOR`` covers the Newton tolerance and the neglected terms). With
+    fewer than 8 points the ``a3`` term, with fewer than 7 also ``a2``, is dropped. ``n_last``
+    keeps only the points of largest period.
+
+    Returns ``p_star``, ``mu_unstable`` (with ``mu_unstable_stderr`` from the weighted
+    residual), ``c``, ``rms_residual`` (weighted: ~1 where the weights are the points' real
+    accuracy), ``mu_leading_only`` (the law without the next order, same points), ``n_points``,
+    ``period_range`` (the points used) and ``model``.
+    """
+    from scipy.optimize import minimize_scalar
+
+    ps = np.asarray(ps, dtype=float)
+    Ts = np.asarray(Ts, dtype=float)
+    dTs = (np.zeros_like(Ts) if uncertainty is None
+           else np.nan_to_num(np.asarray(uncertainty, dtype=float), nan=0.0))
+    ok = np.isfinite(ps) & np.isfinite(Ts)
+    ps, Ts, dTs = ps[ok], Ts[ok], dTs[ok]
     if len(Ts) < 6 or Ts.max() < 2 * Ts.min():
         return None
-    order = np.argsort(Ts)[-n_last:]
-    p, T = ps[order], Ts[order]
-    side = np.sign(p[np.argmax(T)] - p[np.argmin(T)])
-    best = None
-    span = max(np.ptp(p), 1e-12)
-    pend = p[np.argmax(T)]
-    for k in np.geomspace(1e-9, 10.0, 400):
-        pstar = pend + side * k * span
-        with np.errstate(divide="ignore"):
-            A = np.column_stack([np.ones_like(p), -np.log(np.abs(p - pstar))])
-        if not np.all(np.isfinite(A)):
-            continue
-        coef, *_ = np.linalg.lstsq(A, T, rcond=None)
-        r = float(np.linalg.norm(A @ coef - T))
-        if coef[1] > 0 and (best is None or r < best[0]):
-            best = (r, pstar, coef)
-    if best is None:
+    keep = Ts >= Ts.min() + 0.25 * (Ts.max() - Ts.min())
+    if n_last is not None:
+        keep &= Ts >= np.sort(Ts)[-min(n_last, len(Ts))]
+    p, T, dT = ps[keep], Ts[keep], dTs[keep]
+    if len(T) < 5:
         return None
-    r, pstar, coef = best
-    return {"p_star": float(pstar), "mu_unstable": float(1.0 / coef[1]),
-            "c": float(coef[0]), "rms_residual": float(r / np.sqrt(len(T)))}
+    eps_p = np.finfo(float).eps * float(np.max(np.abs(p)))
+    T0, span = float(T.min()), float(np.ptp(T))
+
+    def basis(mu: float, terms: int) -> np.ndarray:
+        x = np.exp(-mu * (T - T0))
+        cols = [np.ones_like(T), x, x * x, (T - T0) * x * x][: terms + 1]
+        return np.column_stack(cols)
+
+    def solve(mu: float, w: np.ndarray, terms: int) -> tuple[float, np.ndarray]:
+        B = basis(mu, terms)
+        coef, *_ = np.linalg.lstsq(B * w[:, None], p * w, rcond=None)
+        r = (B @ coef - p) * w
+        return float(r @ r), coef
+
+    def fit(terms: int, lo: float, hi: float, mu: float
+            ) -> tuple[float, np.ndarray, np.ndarray, float] | None:
+        p_star = p[np.argmax(T)]
+        w = np.ones_like(p)
+        for _ in range(4):
+            w = 1.0 / (np.maximum(eps_p, mu * np.abs(p - p_star) * dT)
+                       + FIT_RELATIVE_FLOOR * np.abs(p - p_star) + 1e-300)
+            grid = np.geomspace(lo, hi, 120)
+            vals = [solve(m, w, terms)[0] for m in grid]
+            k = int(np.argmin(vals))
+            res = minimize_scalar(lambda m, w=w: solve(m, w, terms)[0], method="bounded",
+                                  bounds=(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]),
+                                  options={"xatol": 1e-12 * hi})
+            mu = float(res.x)
+            r2, coef = solve(mu, w, terms)
+            p_star = float(coef[0])
+        if not (coef[1] != 0.0 and np.isfinite(mu) and mu > 0):
+            return None
+        return mu, coef, w, r2
+
+    # the leading law first (mu over a wide range); the next order then refines mu near it
+    # (with a free exponent the corrections alias: mu/2 with a1 ~ 0 fits as well)
+    lead = fit(1, 0.05 / span, 50.0 / span, 3.0 / span)
+    if lead is None:
+        return None
+    terms = 3 if len(T) >= 8 else (2 if len(T) >= 7 else 1)
+    out = lead if terms == 1 else fit(terms, 0.7 * lead[0], 1.4 * lead[0], lead[0])
+    if out is None:
+        return None
+    mu, coef, w, r2 = out
+    dof = max(len(T) - (terms + 2), 1)
+    rms = float(np.sqrt(r2 / dof))
+    # standard error of mu from the linearised weighted problem in (p*, a_k, mu)
+    B = basis(mu, terms)
+    dB = np.zeros_like(B)
+    x = np.exp(-mu * (T - T0))
+    tau = T - T0
+    dcols = [np.zeros_like(T), -tau * x, -2 * tau * x * x, -2 * tau * tau * x * x]
+    for j in range(1, terms + 1):
+        dB[:, j] = dcols[j]
+    Jm = np.column_stack([B, dB @ coef]) * w[:, None]
+    try:
+        cov = np.linalg.inv(Jm.T @ Jm) * rms**2
+        mu_err = float(np.sqrt(max(cov[-1, -1], 0.0)))
+    except np.linalg.LinAlgError:
+        mu_err = float("nan")
+    model = ["a1 exp(-mu T)", "a2 exp(-2 mu T)", "a3 T exp(-2 mu T)"][:terms]
+    return {"p_star": float(coef[0]), "mu_unstable": mu, "mu_unstable_stderr": mu_err,
+            "c": float(T0 + np.log(abs(coef[1])) / mu), "rms_residual": rms,
+            "mu_leading_only": float(lead[0]),
+            "n_points": int(len(T)), "period_range": [T0, float(T.max())],
+            "model": "p - p* = " + " + ".join(model)}

@@ -15,6 +15,43 @@ orbit is removed by the section); the free accuracy check is the time-fixed mono
 ``Phi_T = P_x - F J_t`` mapping the flow direction to itself (``trivial_error``).
 After sticking, ``P_x`` loses rank (``H_x P_x = 0``, ``v_x P_x = 0``, sec. 4.4): such orbits have
 zero multipliers, which are exact, not round-off.
+
+**Accuracy of the multipliers** (:meth:`HybridShooting.monodromy_noise`). ``P_x = Phi_T + F(x_T)
+J_t`` is formed from the time-fixed monodromy ``Phi_T``; where ``|Phi_T|`` is large and cancels
+against ``F J_t`` (an orbit passing near a saddle, whose unstable growth ``exp(mu T)`` is absorbed
+in the return time), ``P_x`` carries the integration error of the variational equations relative
+to ``|Phi_T|``, not to ``|P_x|``: measured on the pendulum near its homoclinic orbit (sec. 6.3), the
+computed nontrivial multiplier is ``~ -0.1 rtol |Phi_T|`` (it scales with ``rtol``; the true one is
+``~ 0``), which crossed -1 at period ~72 with ``rtol = 1e-10``: a spurious period doubling. The
+multipliers are therefore declared known only to ``(rtol + 10 eps) |Phi_T|``
+(``FloquetData.matrix_norm`` is raised so that the engine's unit-circle tolerance
+``1e3 eps matrix_norm`` is at least that), and where that noise reaches ``AMBIGUOUS_NOISE`` with a
+multiplier inside the noise band of the circle the multipliers are reported unknown (None).
+
+**Continuation in the period** (``continuation.parameter: period``, :class:`PeriodShooting`). Near
+a homoclinic orbit the period ``T ~ c - ln|p - p*| / mu`` is a hopelessly ill-conditioned function
+of the parameter ``p`` but ``p`` is a well-conditioned function of ``T``: the period becomes the
+continuation parameter and the physical parameter (``start.free_parameter``, e.g. the torque) an
+unknown. Unknowns ``y = (z, p, T)``, residual ``[G(z, p); t_ret(z, p) - T]`` with the exact
+Jacobian ``[[P_z - I, P_p, 0], [J_t,z, J_t,p, -1]]`` (``J_t = dt/dX0`` of the simulation, the
+parameter column from the lifted parameter). The Jacobian error above is rank one along ``J_t``
+(measured: the part orthogonal to ``J_t`` is 2e-5 of it), i.e. in the row space of the time
+equation, which the period formulation enforces separately: it acts as a spurious ``dG/dT``
+of size ``~ 0.1 rtol |F|``, and the tangent's ``dp/dT`` is off by the relative amount
+``~ 0.1 rtol |Phi_T|`` (the size of the spurious multiplier).
+
+How far in double precision (:func:`period_reach`): ``|p - p*| = exp(-mu (T - c))`` and ``p``
+is resolved at best to ``eps |p|`` (6.9e-15 for the torque -31), so the period is uncertain by
+``eps |p| / (mu |p - p*|)`` and has no digit left at ``T_max = c + ln(1 / (eps |p|)) / mu``:
+109.5 for the pendulum (``mu = 0.28879``, ``c = -3.40``); a period of 150 needs
+``|p - p*| ~ 6e-20``, five orders below the spacing of doubles at 31. The simulated return map
+limits earlier: its value carries a noise ~ ``rtol + 4 eps (1 + tau)^2`` (round-off drift while
+sticking for ``tau``, :meth:`HybridShooting.map_noise`; 1e-10 at the default rtol), which the
+fixed point amplifies (x2.6) into the torque: ~1e-11 at rtol <= 1e-11, i.e. ``T_max ~ 85``
+(~73 at rtol 1e-10). The derived ``period_uncertainty`` counts both through the Jacobian, and
+a bound on it ends the branch (the bundled case at 0.5: period 77). The integration error
+(rtol) also limits the Jacobian: relative error ``~ 0.1 rtol |Phi_T|``, 1 near period 75 at
+rtol 1e-10 (Newton and the tangent fail there), ~0.02 at period 77 with rtol 1e-13.
 """
 
 from __future__ import annotations
@@ -27,7 +64,7 @@ import casadi as ca
 import numpy as np
 
 from ..preflight import one_or_many
-from ..protocol import EvaluationError, FloquetData, Problem
+from ..protocol import EvaluationError, FloquetData, KinkCrossing, Problem
 from .grazing import locate_grazing, step_beyond, tangent_beyond
 from .presentation import HybridPresentation
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
@@ -95,6 +132,10 @@ class HybridShooting:
                                                           s.direction))
             except SimulationError as exc:
                 hit = exc.reason
+                if hit.startswith("initial state on the inadmissible side"):
+                    # the orbit touches the surface at the section itself
+                    hit += ("; the orbit grazes at the Poincare section: place the section "
+                            "elsewhere (a forced system: another section phase)")
             except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
                 hit = str(exc)
             self.n_simulations += 1
@@ -133,6 +174,168 @@ class HybridShooting:
         Phi = res.J[:n, :n] - np.outer(FT, res.Jt[:n])
         return float(np.linalg.norm(Phi @ F0 - FT) / max(np.linalg.norm(F0), 1e-300))
 
+    def monodromy_noise(self, y: np.ndarray) -> float:
+        """Absolute accuracy of ``P_z`` (and of its eigenvalues): ``(rtol + 10 eps) |Phi_T|_2``
+        with ``Phi_T = P_x - F(x_T) J_t`` the time-fixed monodromy. The sensitivities are
+        integrated to about the tolerance *relative to* ``|Phi_T|``; where ``|Phi_T|`` is large
+        and cancels in ``P_x = Phi_T + F J_t`` (an orbit lingering near a saddle: ``|Phi_T| ~
+        exp(mu T)``) that error stays in ``P_x``. Measured near the pendulum's homoclinic orbit:
+        the computed multiplier is ``~ 0.1 rtol |Phi_T|`` (rtol 1e-10) to ``0.3 rtol |Phi_T|``
+        (rtol 1e-13), ``~ 5 eps |Phi_T|`` at rtol 1e-14; for an ordinary orbit ``|Phi_T| ~ |P|``
+        and this is ``~ rtol |P|``."""
+        c = self.c
+        res = self.simulate(y)
+        n = c.n
+        FT = np.asarray(c.f(res.X), dtype=float).ravel()[:n]
+        Phi = res.J[:n, :n] - np.outer(FT, res.Jt[:n])
+        rtol = float(self.sim.o.rtol)
+        return float((rtol + 10.0 * np.finfo(float).eps) * np.linalg.norm(Phi, 2))
+
+    def time_resolution(self, y: np.ndarray) -> float:
+        """How finely the return time can be set through the unknowns: ``eps sum_j |dt/dX0_j|
+        |X0_j|`` over the section coordinates and the lifted parameters (the rounding of each
+        unknown; the fixed section coordinate is a constant of the problem). Near a homoclinic
+        orbit it is dominated by the parameter, ``eps |p| / (mu |p - p*|)``."""
+        c = self.c
+        res = self.simulate(y)
+        X0 = self.x0(y)
+        cols = self.free_idx + list(range(c.n, c.N))
+        return float(np.finfo(float).eps * np.sum(np.abs(res.Jt[cols] * X0[cols])))
+
+    def map_noise(self, y: np.ndarray) -> float:
+        """Absolute noise of the simulated section state (the value of ``G``):
+        ``rtol + 4 eps (1 + tau)^2`` with ``tau`` the sticking time. The round-off of each
+        sticking step kicks the state off the sticking manifold along its neutral Jordan block
+        (``H' = v``, ``v' = 0``; the state is not projected back while sticking), so the drift
+        grows as ``tau^2``. Measured on the double pendulum near its homoclinic orbit (sec. 6.3:
+        deviation from a quadratic of ``G`` along 21 section states 1e-13 apart, at ``tau`` =
+        10, 31, 61, for every rtol from 1e-11 to 1e-14): 2 eps ``(1 + tau)^2`` in ``q2`` (the
+        coordinate the period depends on most), 0.8 eps in ``q1dot``, 7.5 eps in ``q2dot``;
+        ~1e-10 at rtol 1e-10."""
+        res = self.simulate(y)
+        eps = np.finfo(float).eps
+        return float(self.sim.o.rtol + 4.0 * eps * (1.0 + res.sticking_time) ** 2)
+
+    def period_uncertainty(self, y: np.ndarray) -> float:
+        """Uncertainty of the period of the orbit through ``y`` as a function of the parameter
+        (the periodic orbit at the computed parameter has this period to within it): the
+        orbit solved at a prescribed period ``T`` (``[G; t - T] = 0`` in ``(z, p)``, Jacobian
+        ``A``) moves by ``-A^-1 dF`` under errors ``dF`` of the residual, its parameter by
+        ``w . dF`` (``w = e_p^T A^-1``), which is the period error ``w . dF / w_t`` along the
+        branch (``dp/dT = w_t``). With ``dF = (map_noise, ..., time_resolution)``:
+        ``dT = time_resolution + map_noise sum_j |w_j| / |w_t|``. Near a homoclinic orbit
+        ``dT ~ dp / (mu |p - p*|)`` grows like ``exp(mu T)``."""
+        c = self.c
+        res = self.simulate(y)
+        _, J = self.residual_jacobian(y)
+        cols = self.free_idx + list(range(c.n, c.N))
+        m = J.shape[0]
+        A = np.vstack([J[:, : m + 1], res.Jt[cols][None, : m + 1]])
+        e_p = np.zeros(m + 1)
+        e_p[m] = 1.0
+        try:
+            w = np.linalg.solve(A.T, e_p)
+        except np.linalg.LinAlgError:
+            return float("inf")
+        dT = self.time_resolution(y)
+        if w[m] == 0.0 or not np.all(np.isfinite(w)):
+            return float("inf")
+        return float(dT + self.map_noise(y) * np.sum(np.abs(w[:m])) / abs(w[m]))
+
+
+class PeriodShooting:
+    """The shooting problem with the period prescribed (``continuation.parameter: period``).
+
+    Unknowns ``y = (z, p, T)``: the section coordinates ``z``, the freed parameter ``p`` (lifted
+    into the state, its column of the Jacobian exact) and the period ``T``, the continuation
+    parameter. Residual ``[G(z, p); t_ret(z, p) - T]`` (``G`` of :class:`HybridShooting`,
+    ``t_ret`` the simulated return time) with the exact Jacobian
+    ``[[G_z, G_p, 0], [J_t,z, J_t,p, -1]]`` (``J_t = dt/dX0``, :attr:`SimResult.Jt`). Every other
+    member takes the augmented ``y`` and works on ``y[:-1]`` with the wrapped
+    :class:`HybridShooting` (one cache: the same ``(z, p)`` at another ``T`` is not simulated
+    again).
+    """
+
+    def __init__(self, inner: HybridShooting) -> None:
+        self.inner = inner
+        self.c = inner.c
+        self.section = inner.section
+        self.sim = inner.sim
+        self.free_idx = inner.free_idx
+
+    @property
+    def n_simulations(self) -> int:
+        return self.inner.n_simulations
+
+    @staticmethod
+    def shooting_unknowns(y: np.ndarray) -> np.ndarray:
+        """``(z, p)``: the unknowns of the wrapped problem (``y`` without the period)."""
+        return np.asarray(y, dtype=float)[:-1]
+
+    def x0(self, y: np.ndarray) -> np.ndarray:
+        return self.inner.x0(self.shooting_unknowns(y))
+
+    def simulate(self, y: np.ndarray) -> SimResult:
+        return self.inner.simulate(self.shooting_unknowns(y))
+
+    def residual_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``[G; r_T]`` and its Jacobian. ``r_T`` is ``t_ret - T`` less the resolution of the
+        return time (:meth:`HybridShooting.time_resolution`, ``dt``): ``sign(t - T) max(|t - T|
+        - dt, 0)``. Where ``dt`` exceeds the Newton tolerance (near a homoclinic orbit, ``dt ~
+        eps |p| / (mu |p - p*|)``) no representable unknowns give ``t = T`` more closely; the
+        time equation is then satisfied to that resolution (the derived ``period`` is the
+        simulated ``t``), and a bound on ``period_uncertainty`` (which also counts the noise of
+        the simulated map) ends the branch before the period is lost in it."""
+        c = self.c
+        yy = self.shooting_unknowns(y)
+        g, J = self.inner.residual_jacobian(yy)
+        res = self.inner.simulate(yy)
+        cols = self.free_idx + list(range(c.n, c.N))
+        m = g.size
+        A = np.zeros((m + 1, J.shape[1] + 1))
+        A[:m, :-1] = J
+        A[m, :-1] = res.Jt[cols]
+        A[m, -1] = -1.0
+        r = res.t - float(np.asarray(y, dtype=float)[-1])
+        dT = self.inner.time_resolution(yy)
+        return np.append(g, np.sign(r) * max(abs(r) - dT, 0.0)), A
+
+    def poincare_jacobian(self, y: np.ndarray) -> np.ndarray:
+        return self.inner.poincare_jacobian(self.shooting_unknowns(y))
+
+    def trivial_error(self, y: np.ndarray) -> float:
+        return self.inner.trivial_error(self.shooting_unknowns(y))
+
+    def monodromy_noise(self, y: np.ndarray) -> float:
+        return self.inner.monodromy_noise(self.shooting_unknowns(y))
+
+    def period_uncertainty(self, y: np.ndarray) -> float:
+        return self.inner.period_uncertainty(self.shooting_unknowns(y))
+
+    def time_resolution(self, y: np.ndarray) -> float:
+        return self.inner.time_resolution(self.shooting_unknowns(y))
+
+
+#: the name of the continuation parameter that prescribes the period (:class:`PeriodShooting`)
+PERIOD = "period"
+
+#: multipliers whose accuracy (:meth:`HybridShooting.monodromy_noise`) is at least this, with one
+#: of them inside that noise band of the unit circle, cannot be classified: reported unknown
+AMBIGUOUS_NOISE = 1e-2
+
+
+def period_reach(c: float, mu: float, p: float, resolution: float | None = None) -> float:
+    """The largest period a periodic orbit near a homoclinic orbit can be given in double
+    precision: with ``|p - p*| = exp(-mu (T - c))`` and the parameter resolved only to
+    ``resolution`` (default ``eps |p|``, the spacing of doubles near ``p``), the period is
+    uncertain by ``resolution / (mu |p - p*|)`` and has no digit left (uncertain by ``1 / mu``)
+    at ``T_max = c + ln(1 / resolution) / mu``. The pendulum of sec. 6.3 (``p = -31.0017``,
+    ``mu = 0.28879``, ``c = -3.40``): ``T_max = 109.5`` with ``eps |p|``, ~85 with the ~1e-11
+    to which the simulated map resolves the torque; a period of 150 needs ``|p - p*| ~ 6e-20``.
+    """
+    res = float(np.finfo(float).eps * abs(p)) if resolution is None else float(resolution)
+    return float(c + np.log(1.0 / res) / mu)
+
 
 class HybridShootingProblem(HybridPresentation, Problem):
     """Base class of shooting problems on a hybrid system (the concrete problem builds
@@ -150,9 +353,11 @@ class HybridShootingProblem(HybridPresentation, Problem):
                          "incomplete chattering (the branch of orbits with sticking ends; "
                          "located where the sticking time reaches its floor, extrapolated to "
                          "zero)",
-        "impact_sequence_change": "the sequence of events over one period changes (an impact "
-                                  "is gained or lost, or the number of impacts resolved before "
-                                  "the chatter map changes)",
+        "impact_sequence_change": "the sequence of events over one period changes other than "
+                                  "at a grazing (notation: I an impact, C a completed "
+                                  "chattering sequence with the impacts just before it, S a "
+                                  "release from sticking, - no event; how many impacts the "
+                                  "simulator resolves before the chatter map is no change)",
         "homoclinic_approach": "the period grows without bound: the orbit approaches a "
                                "homoclinic orbit of a saddle (limit parameter from a fit "
                                "T ~ -ln|p - p*|/mu)",
@@ -167,7 +372,10 @@ class HybridShootingProblem(HybridPresentation, Problem):
     #: a bound on the period ends the branch near a homoclinic orbit, one on the sticking time
     #: where sticking is lost
     bound_kinds: ClassVar[dict[str, str]] = {"period": "homoclinic_approach",
-                                             "sticking_time": "sticking_lost"}
+                                             "sticking_time": "sticking_lost",
+                                             # continued in the period: where it is no
+                                             # longer resolved in double precision
+                                             "period_uncertainty": "homoclinic_approach"}
     def residual(self, y: Any) -> Any:  # pragma: no cover - numeric problem
         raise NotImplementedError("hybrid shooting problems evaluate numerically")
 
@@ -192,14 +400,23 @@ class HybridShootingProblem(HybridPresentation, Problem):
         return None
 
     def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
+        """The eigenvalues of ``P_z``, known to ``noise`` =
+        :meth:`HybridShooting.monodromy_noise` (``FloquetData.noise``: the engine counts a
+        multiplier outside the circle only beyond ``1 + noise``, so no crossing is reported
+        that the integration error could make),
+        and where ``noise >= AMBIGUOUS_NOISE`` with a multiplier inside ``||lambda| - 1| <=
+        noise`` stability cannot be decided: None (unknown)."""
         try:
             P = self.shooting.poincare_jacobian(y)
             triv = self.shooting.trivial_error(y)
+            noise = self.shooting.monodromy_noise(y)
         except ShootingFailure:
             return None
         mult = np.linalg.eigvals(P)
+        if noise >= AMBIGUOUS_NOISE and np.any(np.abs(np.abs(mult) - 1.0) <= noise):
+            return None
         return FloquetData(multipliers=mult, trivial_error=triv,
-                           matrix_norm=float(np.linalg.norm(P, 2)))
+                           matrix_norm=float(np.linalg.norm(P, 2)), noise=float(noise))
 
     def sim(self, y: np.ndarray) -> SimResult | None:
         try:
@@ -246,7 +463,7 @@ class HybridShootingProblem(HybridPresentation, Problem):
         return {} if not np.isfinite(g) else {"grazing_margin": g}
 
     def continue_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray, value: float,
-                        ds: float, tol: float) -> tuple[np.ndarray, np.ndarray] | None:
+                        ds: float, tol: float) -> KinkCrossing | None:
         """At a grazing (zero of ``grazing_margin``): the grazing orbit, located on the margin
         by margin-fixed solves from ``y`` (:func:`.grazing.locate_grazing`), and the first
         orbit beyond it from the discontinuity-map normal form (:func:`.grazing.step_beyond`,
@@ -256,11 +473,17 @@ class HybridShootingProblem(HybridPresentation, Problem):
             return None
         y = np.asarray(y, dtype=float)
         tangent = np.asarray(tangent, dtype=float)
-        yg = locate_grazing(self.shooting, y, tol)
+        path: list[np.ndarray] = []
+        yg = locate_grazing(self.shooting, y, tol, path_out=path)
         if yg is None:
             return None
         y1 = step_beyond(self.shooting, yg, tangent, from_impacting=value < 0, ds=ds, tol=tol)
-        return None if y1 is None else (yg, y1)
+        if y1 is None:
+            return None
+        # the approach, kept while it still moves (|v| halves per orbit: down to 1e-3 of the
+        # first one it resolves the side where the Jacobian grows like 1/|v|)
+        keep = [z for k, z in enumerate(path) if k < 10]
+        return KinkCrossing(keep, yg, y1)
 
     def tangent_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray,
                        value_before: float) -> np.ndarray | None:
@@ -303,6 +526,7 @@ from typing import Literal  # noqa: E402
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter  # noqa: E402
 
 from ..protocol import StartPoint  # noqa: E402
+from ..vocabulary import canonical_name  # noqa: E402
 from .system import HybridDeclarationError, HybridSystem  # noqa: E402
 
 
@@ -344,6 +568,10 @@ class HybridStartSpec(BaseModel):
     returns: int = Field(1, ge=1)
     direction: Literal["both", "increase", "decrease"] = "both"
     label: str | None = None
+    #: with ``continuation.parameter: period``: the parameter that becomes an unknown (the
+    #: period is prescribed along the branch), e.g. ``torque``; default the problem's
+    #: ``period_partner``. Not allowed when continuing in a parameter.
+    free_parameter: str | None = None
 
 
 #: one start mapping or a list of them
@@ -374,10 +602,15 @@ class HybridCaseProblem(HybridShootingProblem):
         self.hybrid: HybridSystem = self.system()
         self.returns = 1
         self._compiled_for: str | None = None
+        #: continuing in the period: the parameter that is an unknown (:meth:`_set_period`)
+        self.free_parameter: str | None = None
         self.set_parameter(self.default_parameter)
 
     # -- to implement -----------------------------------------------------------------------
     default_parameter: ClassVar[str] = ""
+    #: ``continuation.parameter: period``: the parameter that becomes an unknown when the start
+    #: block names none (``start.free_parameter``); None: the start must name it
+    period_partner: ClassVar[str | None] = None
     #: fields of ``Parameters`` that set up the computation (numerics, the section) rather
     #: than the system: not CasADi parameters, and not continued
     setting_fields: ClassVar[tuple[str, ...]] = ("integrator",)
@@ -508,6 +741,14 @@ class HybridCaseProblem(HybridShootingProblem):
         """
         from ..preflight import as_list, check_budget
 
+        if self.parameter == PERIOD:
+            self._period_preflight(start, window, max_points)
+            return
+        for i, s in as_list(START_ADAPTER.validate_python(start if start is not None else {})):
+            if s.free_parameter is not None:
+                raise ValueError(f"start{'' if i is None else f'[{i}]'}.free_parameter: only "
+                                 "with continuation.parameter: period (the parameter that "
+                                 f"becomes an unknown); this case continues in {self.parameter}")
         lo, hi = window
         name = self.parameter
         self._check_window(lo, hi)
@@ -585,15 +826,25 @@ class HybridCaseProblem(HybridShootingProblem):
     def monitor_names(self) -> list[str]:
         """The keys of :meth:`derived` at a simulated point."""
         extremes = [f"{m}_{name}" for name in self.hybrid.state_names for m in ("min", "max")]
-        return [self.parameter, "period", "sticking_time", "n_impacts_before_chatter",
-                "n_sticking_phases", "n_impacts", "min_impact_velocity", "grazing_margin",
-                *extremes, *(f"amplitude_{c}" for c in self.configuration_names)]
+        names = [self.parameter, "period", "sticking_time", "n_impacts_before_chatter",
+                 "n_sticking_phases", "n_impacts", "min_impact_velocity", "grazing_margin",
+                 *extremes, *(f"amplitude_{c}" for c in self.configuration_names)]
+        if self.parameter == PERIOD:
+            # the free parameter (any parameter may be named by the start block, which is read
+            # after the bounds are checked; a bound on one that stays fixed never fires) and the
+            # resolution of the period
+            names += [k for k in self.values if k not in names] + ["period_uncertainty"]
+        return names
 
     # -- generic ----------------------------------------------------------------------------
     def set_parameter(self, name: str, returns: int | None = None) -> None:
+        if name == PERIOD and PERIOD not in self.values:
+            self._set_period(self.free_parameter or self.period_partner, returns)
+            return
         if name not in self.values:
+            also = "" if self.forced else f", or {PERIOD}"
             raise ValueError(f"continuation.parameter: {name!r} is not a parameter of "
-                             f"{self.name!r} (one of {sorted(self.values)})")
+                             f"{self.name!r} (one of {sorted(self.values)}{also})")
         returns = self.returns if returns is None else returns
         if self._compiled_for == name and returns == self.returns:
             return
@@ -614,6 +865,159 @@ class HybridCaseProblem(HybridShootingProblem):
                          ) -> tuple[float | None, float | None]:
         self.set_parameter(name)
         return lo, hi
+
+    # -- continuation in the period (PeriodShooting) ------------------------------------------
+    def _set_period(self, partner: str | None, returns: int | None = None) -> None:
+        """Continue in the period with ``partner`` (a parameter) among the unknowns:
+        ``variables = (section coordinates, partner, period)``, ``parameter = period``, the
+        shooting problem a :class:`PeriodShooting` around the one of ``partner``. With
+        ``partner`` None (no ``period_partner``, the start block not read yet) the layout is
+        set and the partner is chosen by :meth:`start_points` / :meth:`preflight`."""
+        if self.forced:
+            raise ValueError(f"continuation.parameter: {PERIOD}: the period of a forced system "
+                             f"is fixed by its clock ({self.hybrid.forcing_frequency}); continue "
+                             f"in {self.hybrid.forcing_frequency} instead")
+        names = self.hybrid.state_names
+        if partner is None:
+            self.parameter = PERIOD
+            self.returns = self.returns if returns is None else returns
+            self.variables = ([names[i] for i in self.shooting.free_idx]
+                              + ["free_parameter", PERIOD])
+            self._compiled_for = f"{PERIOD}:"
+            return
+        partner = canonical_name(self.Parameters, partner)
+        if partner == PERIOD or partner not in self.values:
+            raise ValueError(f"start.free_parameter: {partner!r} is not a parameter of "
+                             f"{self.name!r} (one of {sorted(self.values)})")
+        returns = self.returns if returns is None else returns
+        if self._compiled_for == f"{PERIOD}:{partner}" and returns == self.returns:
+            return
+        self.set_parameter(partner, returns)          # the shooting problem in the partner
+        self.shooting = PeriodShooting(self.shooting)  # type: ignore[assignment]
+        self.parameter = PERIOD
+        self.free_parameter = partner
+        self.variables = [names[i] for i in self.shooting.free_idx] + [partner, PERIOD]
+        self._compiled_for = f"{PERIOD}:{partner}"
+
+    @property
+    def swept_parameter(self) -> str:
+        """The physical parameter along the branch: the continued one, or the free parameter
+        when continued in the period."""
+        if self.parameter == PERIOD and self.free_parameter is not None:
+            return self.free_parameter
+        return self.parameter
+
+    @property
+    def swept_index(self) -> int:
+        return self.variables.index(self.swept_parameter)
+
+    def _period_partner_of(self, start: Any) -> str:
+        """The free parameter of a period continuation named by the start block (every start
+        the same), or the problem's ``period_partner``."""
+        from ..preflight import as_list
+
+        items = as_list(START_ADAPTER.validate_python(start if start is not None else {}))
+        named = {s.free_parameter for _, s in items if s.free_parameter is not None}
+        if len(named) > 1:
+            raise ValueError(f"start.free_parameter: every start of a continuation in the period "
+                             f"frees the same parameter (got {sorted(named)})")
+        partner = named.pop() if named else self.period_partner
+        partner = None if partner is None else canonical_name(self.Parameters, partner)
+        if partner is None:
+            raise ValueError(f"start.free_parameter: continuing in the {PERIOD} needs the "
+                             "parameter that becomes an unknown (e.g. free_parameter: torque)")
+        if partner == PERIOD or partner not in self.values:
+            raise ValueError(f"start.free_parameter: {partner!r} is not a parameter of "
+                             f"{self.name!r} (one of {sorted(self.values)})")
+        return partner
+
+    def _period_preflight(self, start: Any, window: tuple[float | None, float | None],
+                          max_points: int) -> None:
+        """Preflight of a continuation in the period: a positive window, one free parameter
+        for every start, and the starts checked as starts of a continuation in that parameter
+        at its value (the orbit is found there, its period is the first value of the
+        branch)."""
+        for side, bound in (("min", window[0]), ("max", window[1])):
+            if bound is not None and not bound > 0:
+                raise ValueError(f"continuation.{side}: the period must be positive "
+                                 f"(got {bound:g})")
+        from ..preflight import as_list
+
+        partner = self._period_partner_of(start)
+        p0 = self.values[partner]
+        items = [s.model_copy(update={"free_parameter": None}) for _, s in
+                 as_list(START_ADAPTER.validate_python(start if start is not None else {}))]
+        try:
+            self.set_parameter(partner)
+            self.preflight(items if len(items) > 1 else items[0], (p0, p0), max_points)
+        finally:
+            self._set_period(partner)
+
+    def _period_start_points(self, start: Any) -> list[StartPoint]:
+        """Starts of a continuation in the period: each orbit as for a continuation in the
+        free parameter at its value (``parameters.<free>``), corrected there by Newton on the
+        section coordinates, then ``y = (z, p0, T0)`` with ``T0`` its simulated period."""
+        partner = self._period_partner_of(start)
+        specs = START_ADAPTER.validate_python(start if start is not None else {})
+        specs = specs if isinstance(specs, list) else [specs]
+        out = []
+        for s in specs:
+            self.set_parameter(partner, s.returns)
+            (sp,) = HybridCaseProblem.start_points(
+                self, s.model_copy(update={"free_parameter": None}))
+            y = np.asarray(sp.y, dtype=float).copy()
+            sh = self.shooting
+            m = len(sh.free_idx)
+            for _ in range(8):  # Newton at fixed parameter on the section coordinates
+                try:
+                    g, J = sh.residual_jacobian(y)
+                    dz = np.linalg.solve(J[:, :m], -g)
+                except (ShootingFailure, np.linalg.LinAlgError):
+                    break
+                y[:m] += dz
+                if np.linalg.norm(dz, np.inf) <= 1e-12 * (1.0 + np.linalg.norm(y, np.inf)):
+                    break
+            try:
+                T0 = float(sh.simulate(y).t)
+            except ShootingFailure:
+                y = np.asarray(sp.y, dtype=float)
+                try:
+                    T0 = float(sh.simulate(y).t)
+                except ShootingFailure as exc:
+                    raise ValueError(f"start: the start orbit does not return to the section "
+                                     f"({exc})") from None
+            self._set_period(partner, s.returns)
+            out.append(StartPoint(np.append(y, [T0]), sp.label, sp.direction,
+                                  {**sp.info, "free_parameter": partner, PERIOD: T0}))
+        return out
+
+    def derived(self, y: np.ndarray) -> dict[str, float]:
+        """The hybrid derived quantities; continued in the period, also the free parameter
+        (its value at the point) and ``period_uncertainty``
+        (:meth:`HybridShooting.period_uncertainty`)."""
+        out = super().derived(y)
+        if self.parameter == PERIOD and self.free_parameter is not None:
+            out[self.free_parameter] = float(np.asarray(y, dtype=float)[-2])
+            try:
+                out["period_uncertainty"] = self.shooting.period_uncertainty(
+                    np.asarray(y, dtype=float))
+            except ShootingFailure:
+                out["period_uncertainty"] = np.nan
+        return out
+
+    def continue_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray, value: float,
+                        ds: float, tol: float) -> Any:
+        """Through a grazing as :meth:`HybridShootingProblem.continue_beyond`; not when
+        continued in the period (the grazing normal form works on ``(z, p)``)."""
+        if self.parameter == PERIOD:
+            return None
+        return super().continue_beyond(name, y, tangent, value, ds, tol)
+
+    def tangent_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray,
+                       value_before: float) -> np.ndarray | None:
+        if self.parameter == PERIOD:
+            return None
+        return super().tangent_beyond(name, y, tangent, value_before)
 
     def transient(self, X: np.ndarray, returns: int) -> np.ndarray:
         """State on the section after ``returns`` section crossings from ``X`` (no
@@ -640,6 +1044,8 @@ class HybridCaseProblem(HybridShootingProblem):
 
     def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
                      ) -> list[StartPoint]:
+        if self.parameter == PERIOD:
+            return self._period_start_points(start)
         specs = START_ADAPTER.validate_python(start if start is not None else {})
         specs = specs if isinstance(specs, list) else [specs]
         out = []
@@ -679,9 +1085,37 @@ class HybridCaseProblem(HybridShootingProblem):
                                                 "n_state": c.n}))
         return out
 
+    # -- restart & branch switching (nsm_continuation.restart) -------------------------------
+    def period_multiple(self) -> int:
+        """The returns to the section per period (``start.returns``)."""
+        return int(self.returns)
+
+    def iterated(self, multiple: int) -> HybridCaseProblem:
+        """The same system, continued in the same parameter, with ``multiple`` returns to the
+        section per period (the ``multiple``-times iterated return map)."""
+        new = type(self)(self.params)
+        new.set_parameter(self.parameter, multiple)
+        return new
+
+    def restart_start(self, y: np.ndarray) -> dict[str, Any]:
+        """``{guess: <section coordinates of y>, returns: k}`` (and ``free_parameter`` for a
+        continuation in the period, whose unknowns end with that parameter and the period)."""
+        in_period = self.parameter == PERIOD and self.free_parameter is not None
+        n_state = len(self.variables) - (2 if in_period else 1)
+        names = list(self.variables[:n_state])
+        block: dict[str, Any] = {
+            "guess": {n: float(v) for n, v in zip(names, y[:n_state], strict=True)},
+            "returns": self.period_multiple()}
+        if in_period:
+            block["free_parameter"] = self.free_parameter
+        return block
+
     def summary(self) -> dict[str, Any]:
         sec = self.shooting.section
-        return {"parameters": dict(self.values), "integrator": self.integrator.model_dump(),
-                "section": {"coordinate": self.hybrid.state_names[sec.index],
-                            "value": sec.value, "shift_per_period": sec.shift},
-                "unknowns": list(self.variables)}
+        out = {"parameters": dict(self.values), "integrator": self.integrator.model_dump(),
+               "section": {"coordinate": self.hybrid.state_names[sec.index],
+                           "value": sec.value, "shift_per_period": sec.shift},
+               "unknowns": list(self.variables)}
+        if self.parameter == PERIOD:
+            out["continued_in_period"] = {"free_parameter": self.free_parameter}
+        return out

@@ -67,7 +67,13 @@ from pydantic import (
     model_validator,
 )
 
-from nsm_continuation.floquet import deflate_known_eigenvector, restrict_to_section
+from nsm_continuation.floquet import (
+    KreinFloquetData,
+    deflate_known_eigenvector,
+    krein_definiteness,
+    low_rank_update_eigen,
+    restrict_to_section,
+)
 from nsm_continuation.preflight import (
     STRICT,
     as_list,
@@ -261,6 +267,12 @@ class NDofImpactProblem(Problem):
         self.symbolic = "SX" if N <= 30 else "MX"
         #: (the branches, their static grazing spectrum): see :meth:`static_grazing_spectrum`
         self._spectrum_cache: tuple[list[Any], list[dict[str, Any]]] | None = None
+        #: multipliers of the last :meth:`floquet` calls with their period: the start of the
+        #: next call is the set computed at the nearest period (event location bisects
+        #: inside a step: the nearest point computed so far is the best start)
+        self._multiplier_memory: list[tuple[float, np.ndarray]] = []
+        #: :meth:`floquet` calls answered by the dense method (structured iteration failed)
+        self.floquet_fallbacks = 0
 
     # ------------------------------------------------------------------ sizes and preflight
     #: memory of a run in doubles per N^2: M, K, P, P^-1 and the eigensolver's copies; the
@@ -274,6 +286,10 @@ class NDofImpactProblem(Problem):
     #: at N = 100, 4 s at N = 200, ~45 s at N = 1000)
     SECONDS_PER_POINT_N2: ClassVar[float] = 1e-4
     SECONDS_PER_POINT_N3: ClassVar[float] = 4e-8
+    #: up to this many dofs the multipliers are the dense eigenvalues (:meth:`floquet_dense`:
+    #: below ~40 dofs LAPACK beats the O(N^2) iteration's per-sweep overhead), above it they
+    #: come from the structure (:meth:`floquet`); the Krein definiteness always does
+    DENSE_MULTIPLIERS_UP_TO: ClassVar[int] = 40
     #: largest relative error of omega_1^2 accepted from the modal analysis, ~ eps (w_N/w_1)^2
     MODAL_RESOLUTION: ClassVar[float] = 1e-6
 
@@ -579,9 +595,199 @@ class NDofImpactProblem(Problem):
         gradT = -G[self.c, :] / denom
         return G + np.outer(dGx, gradT)
 
+    def return_map_structure(self, y: np.ndarray) -> dict[str, np.ndarray]:
+        """The linearised first return map (3.5)/(A.8) as a rotation plus a rank-two term.
+
+        Energy coordinates ``z = (xi, eta)``, ``xi = Omega P^-1 u``, ``eta = P^-1 u'`` (the
+        energy is ``|z|^2 / 2``, the symplectic form ``omega = sum_j d xi_j ^ d eta_j / w_j``).
+        In them the flight over ``T`` is the orthogonal block rotation ``D`` (block ``j``:
+        ``[[cos w_j T, sin w_j T], [-sin w_j T, cos w_j T]]``, eigenvalues ``exp(+-i w_j T)``,
+        eigenvectors ``(1, +-i)/sqrt 2``), the impact ``u_c' -> -u_c'`` is
+        ``J = I - 2 e_b a_eta^T`` (``b = P^-1 e_c``, ``a = P^T e_c``: a Householder reflector
+        when ``M_ck = 0``), and the period gradient (A.7) ``grad T = -h^T D / (h^T f)``
+        (``h``: the row of ``u_c``, ``f``: the vector field at the pre-impact state ``D z0``) so
+        that (A.8) reads ``DF = J (I - f h^T / h^T f) D``: the *saltation* form,
+
+        ``DF = (I + U V^T) D``,  ``U = [-2 e_b, -J f / (h^T f)]``,  ``V = [a_eta, h]``.
+
+        In the eigenbasis ``Q`` of ``D`` this is ``diag(mu) + X Y^T`` with ``mu_(j,+-) =
+        exp(+-i w_j T)``, ``X = Q^H U``, ``Y = diag(mu) Q^T V`` (n x 2): the input of
+        :func:`~nsm_continuation.floquet.low_rank_update_eigen`. The symplectic form's Hermitian
+        form ``-i omega(conj v, v)`` is diagonal there, with weights ``+-1/w_j``
+        (``krein_weights``). Also returned: ``D``'s angles, ``U``, ``V`` (for
+        :meth:`return_map_apply`) and ``z0``.
+        """
+        u0, du0, T = self.state(y)
+        w, Pi = self.omega, self.Pinv
+        a = self.P[self.c, :]
+        b = Pi[:, self.c]
+        xi0, eta0 = w * (Pi @ u0), Pi @ du0
+        th = w * T
+        c, s = np.cos(th), np.sin(th)
+        xim, etam = c * xi0 + s * eta0, -s * xi0 + c * eta0  # pre-impact state D z0
+        fxi, feta = w * etam, -w * xim                         # vector field there
+        hf = float(a @ etam)                                   # h^T f = u_c'-(T) = -v
+        Jfeta = feta - 2.0 * b * float(a @ feta)
+        zero = np.zeros_like(w)
+        U = np.stack([np.concatenate([zero, -2.0 * b]),
+                      np.concatenate([fxi, Jfeta]) / -hf], axis=1)
+        V = np.stack([np.concatenate([zero, a]), np.concatenate([a / w, zero])], axis=1)
+        r2 = np.sqrt(0.5)
+        ep, em = np.exp(1j * th), np.exp(-1j * th)
+        n = w.size
+        Uxi, Ueta = U[:n], U[n:]
+        Vxi, Veta = V[:n], V[n:]
+        X = np.concatenate([(Uxi - 1j * Ueta) * r2, (Uxi + 1j * Ueta) * r2])
+        Y = np.concatenate([(Vxi + 1j * Veta) * (r2 * ep)[:, None],
+                            (Vxi - 1j * Veta) * (r2 * em)[:, None]])
+        return {"mu": np.concatenate([ep, em]), "X": X, "Y": Y,
+                "krein_weights": np.concatenate([1.0 / w, -1.0 / w]), "angles": th,
+                "U": U, "V": V, "z0": np.concatenate([xi0, eta0])}
+
+    @staticmethod
+    def return_map_apply(st: dict[str, np.ndarray], z: np.ndarray) -> np.ndarray:
+        """``DF z = (I + U V^T) D z`` in energy coordinates, O(N) (``st`` from
+        :meth:`return_map_structure`)."""
+        n = st["angles"].size
+        c, s = np.cos(st["angles"]), np.sin(st["angles"])
+        Dz = np.concatenate([c * z[:n] + s * z[n:], -s * z[:n] + c * z[n:]])
+        return Dz + st["U"] @ (st["V"].T @ Dz)
+
+    def energy_coordinates(self, du: np.ndarray, ddu: np.ndarray) -> np.ndarray:
+        """``z = (Omega P^-1 u, P^-1 u')`` of a physical state (or perturbation)."""
+        return np.concatenate([self.omega * (self.Pinv @ du), self.Pinv @ ddu])
+
+    @property
+    def conservative(self) -> bool:
+        """Whether the return map is symplectic (Krein signatures apply: :mod:`palc` step
+        control): the impact conserves energy iff ``M_ck = 0`` for ``k != c`` (Prop. 6.1)
+        (:attr:`nsm_continuation.protocol.Problem.conservative`)."""
+        return self.g != 0.0 and not np.any(np.delete(self.M[self.c, :], self.c) != 0.0)
+
     def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
-        """Eigenvalues of the linearised first return map (3.5) with the extraneous 0 (section
-        normal, removed by restriction) and 1 (family direction, deflated) removed (sec. 6.1)."""
+        """Non-trivial multipliers of the linearised first return map (3.5), from its structure
+        (:meth:`return_map_structure`, O(N^2)): the roots of
+        ``det(DF_W - lam) = prod_m (mu_m - lam) det(I_3 + Y^T (diag(mu) - lam)^-1 X)``, with
+        ``DF_W = DF - t l^T / (l^T t)`` Wielandt's deflation of the trivial ``1`` to ``0``
+        (:meth:`_deflated_update`: right eigenvector the branch tangent ``t``, eq. 6.5, left
+        one ``grad E``), less the double root ``0`` (that one and the section normal's,
+        sec. 6.1), divided out of the characteristic polynomial exactly
+        (:func:`~nsm_continuation.floquet.low_rank_update_eigen`). Up to
+        ``DENSE_MULTIPLIERS_UP_TO`` dofs the dense eigenvalues (:meth:`floquet_dense`) are
+        used instead. With them the Krein definiteness of each multiplier, computed when
+        first asked (:class:`~nsm_continuation.floquet.KreinFloquetData`; its sign is the Krein
+        signature on the unit circle). ``trivial_error`` is ``|DF t - t| / |t|`` plus
+        ``|h^T DF|`` (the section row, eq. A.10), both O(N). The iteration starts from the
+        multipliers computed at the nearest period among the last calls; it falls back to
+        :meth:`floquet_dense` when it does not converge (counted in ``floquet_fallbacks``)."""
+        u0, du0, _ = self.state(y)
+        # at (numerically) exact grazing the return map is not differentiable (sec. 6, [21]):
+        # DF ~ 1/v, so no multipliers are reported there
+        if self.g == 0.0 or abs(du0[self.c]) <= 1e-9 * abs(self.g) * self.omega[0]:
+            return None
+        du, ddu, _ = self.state(tangent)
+        r = self.energy_coordinates(du, ddu)
+        if np.linalg.norm(r) == 0.0:
+            return None
+        if self.N <= self.DENSE_MULTIPLIERS_UP_TO:
+            # small chains: the dense eigenvalues are cheaper than the iteration's overhead;
+            # the Krein definiteness is computed at them from the structure (no iteration),
+            # when asked for
+            dense = self.floquet_dense(y, tangent)
+            if dense is None:
+                return None
+            mult = np.asarray(dense.multipliers, dtype=complex)
+
+            def source() -> np.ndarray:
+                return self._krein_dense(y, mult)
+
+            return KreinFloquetData(mult, trivial_error=dense.trivial_error,
+                                    matrix_norm=dense.matrix_norm, krein_source=source)
+        st = self.return_map_structure(y)
+        X, Y, removed = self._deflated_update(st, r)
+        out = None
+        for guess in (self._nearest_guess(float(y[-1])), None):
+            if out is None:
+                out = low_rank_update_eigen(st["mu"], X, Y, removed=removed, guess=guess)
+        if out is None:
+            self.floquet_fallbacks += 1
+            return self.floquet_dense(y, tangent)
+        mult, _, _ = out
+        self._remember_multipliers(float(y[-1]), mult)
+        res = np.linalg.norm(self.return_map_apply(st, r) - r) / np.linalg.norm(r)
+        U, V = st["U"], st["V"]
+        # |h^T DF| / |h|: h^T U = (0, -1) and V[:, 1] = h make the section row vanish
+        h = V[:, 1]
+        sec = float(np.linalg.norm(h @ U + np.array([0.0, 1.0]))) * float(np.linalg.norm(V))
+        # Frobenius norm of DF = (I + U V^T) D (D orthogonal), in O(N)
+        n2 = U.shape[0] + 2.0 * np.trace(V.T @ U) + float(np.sum((U.T @ U) * (V.T @ V)))
+        mult = np.asarray(mult, dtype=complex)
+        return KreinFloquetData(
+            mult, trivial_error=float(res + sec), matrix_norm=float(np.sqrt(max(n2, 0.0))),
+            krein_source=lambda: krein_definiteness(st["mu"], X, Y, mult, st["krein_weights"]))
+
+    def _krein_dense(self, y: np.ndarray, mult: np.ndarray) -> np.ndarray:
+        """Krein definiteness of the multipliers ``mult`` from the dense eigenvectors of
+        ``DF = (I + U V^T) D`` in energy coordinates (small chains: one LAPACK call beats the
+        per-root work of :func:`~nsm_continuation.floquet.krein_definiteness`):
+        ``kappa = g(v) / |v|^2``, ``g(v) = -i omega(conj v, v) = 2 sum_j Im(conj xi_j eta_j)
+        / w_j``, ``|v|^2 = sum_j (|xi_j|^2 + |eta_j|^2) / w_j``; each multiplier takes the
+        eigenvector of the nearest eigenvalue."""
+        st = self.return_map_structure(y)
+        n = self.N
+        c, s = np.cos(st["angles"]), np.sin(st["angles"])
+        D = np.block([[np.diag(c), np.diag(s)], [-np.diag(s), np.diag(c)]])
+        A = D + st["U"] @ (st["V"].T @ D)
+        lam, V = np.linalg.eig(A)
+        V = V[:, np.argmin(np.abs(lam[None, :] - np.asarray(mult)[:, None]), axis=1)]
+        xi, eta = V[:n], V[n:]
+        iw = 1.0 / self.omega[:, None]
+        g = 2.0 * np.sum(np.imag(np.conj(xi) * eta) * iw, axis=0)
+        nrm = np.sum((np.abs(xi) ** 2 + np.abs(eta) ** 2) * iw, axis=0)
+        return g / nrm
+
+    #: how many multiplier sets :meth:`floquet` remembers as starts
+    MULTIPLIER_MEMORY: ClassVar[int] = 8
+
+    def _nearest_guess(self, T: float) -> np.ndarray | None:
+        if not self._multiplier_memory:
+            return None
+        return min(self._multiplier_memory, key=lambda tm: abs(tm[0] - T))[1]
+
+    def _remember_multipliers(self, T: float, mult: np.ndarray) -> None:
+        self._multiplier_memory.append((T, mult))
+        del self._multiplier_memory[:-self.MULTIPLIER_MEMORY]
+
+    @staticmethod
+    def _deflated_update(st: dict[str, np.ndarray], r: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, tuple[float, ...]]:
+        """``(X, Y, removed)`` of the map whose non-trivial spectrum is sought.
+
+        The trivial multiplier 1 has the right eigenvector ``r = dz0/ds`` (the branch tangent,
+        eq. 6.5) and the left eigenvector ``l = grad E = z0`` (energy conservation, proof of
+        Corollary 3.1). Wielandt's deflation ``DF - r l^T / (l^T r)`` moves it to 0 and keeps
+        every other eigenvalue (``l`` is orthogonal to their right eigenvectors): one more
+        column of the update, and the removed roots are ``0, 0`` (section normal and the
+        deflated 1), far from the unit circle where the multipliers that matter lie. (Dividing
+        the 1 out of the characteristic polynomial instead leaves a cluster of three roots at
+        +1 at a fold, resolved only to ~eps^(1/3).) Where ``l^T r = dE/ds`` vanishes (an
+        energy extremum along the branch: 1 is then defective) the 1 is divided out."""
+        z0 = st["z0"]
+        lr = float(z0 @ r)
+        if abs(lr) <= 1e-8 * np.linalg.norm(z0) * np.linalg.norm(r):
+            return st["X"], st["Y"], (0.0, 1.0)
+        n = z0.size // 2
+        r2 = np.sqrt(0.5)
+        qr = np.concatenate([(r[:n] - 1j * r[n:]) * r2, (r[:n] + 1j * r[n:]) * r2]) / -lr
+        ql = np.concatenate([(z0[:n] + 1j * z0[n:]) * r2, (z0[:n] - 1j * z0[n:]) * r2])
+        return (np.concatenate([st["X"], qr[:, None]], axis=1),
+                np.concatenate([st["Y"], ql[:, None]], axis=1), (0.0, 0.0))
+
+    def floquet_dense(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
+        """The dense method (the oracle of :meth:`floquet`, O(N^3)): eigenvalues of ``DF`` (A.8)
+        in physical coordinates restricted to the section (its row ``c`` vanishes, removing
+        the extraneous 0) with the family direction deflated by a Householder reflector
+        (removing the 1, eq. 6.5)."""
         u0, du0, _ = self.state(y)
         # at (numerically) exact grazing the return map is not differentiable (sec. 6, [21]):
         # DF ~ 1/v, so no multipliers are reported there
@@ -631,6 +837,10 @@ class NDofImpactProblem(Problem):
     def parameter_orientation(self, name: str) -> int:
         """``T = 2 pi / omega`` falls as ``omega`` grows."""
         return -1 if name == "omega" else 1
+
+    def restart_start(self, y: np.ndarray) -> dict[str, Any]:
+        """A restart is checked as a start at its period ``{T: ...}`` (window, sizes)."""
+        return {"T": float(y[-1])}
 
     def grazing_start(self, j: int, k: int) -> np.ndarray:
         """The linear grazing orbit (2.14) of mode ``j`` (0-based) at ``T = k T_j``: a point of

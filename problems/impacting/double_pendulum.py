@@ -80,6 +80,9 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
     name: ClassVar[str] = "double_pendulum"
     Parameters: ClassVar[type[BaseModel]] = DoublePendulumParameters
     default_parameter: ClassVar[str] = "restitution"
+    #: continued in the period (``continuation.parameter: period``, sec. 6.3), the torque is
+    #: solved for unless ``start.free_parameter`` names another parameter
+    period_partner: ClassVar[str | None] = "torque"
 
     def system(self) -> HybridSystem:
         q = ca.SX.sym("q", 2)
@@ -124,20 +127,21 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
         if not starts:
             return None
         c = self.shooting.c
-        guess = np.append(starts[0], y[len(y) - 1:])
+        name = self.swept_parameter  # the lifted parameter (the torque when continued in T)
+        p = float(y[self.swept_index])
+        guess = np.append(starts[0], [p])
         eq = sticking_equilibrium(c, guess)
         x = np.asarray(eq["x"])
         Mq = np.asarray(c.system._mass(x[:2], *[
-            self.values[k] if k != self.parameter else float(y[-1])
-            for k in c.system.params]), dtype=float)
+            self.values[k] if k != name else p for k in c.system.params]), dtype=float)
         L1, L2 = self.values["L1"], self.values["L2"]
         N = np.array([L1 * np.cos(x[0]), L2 * np.cos(x[1])])
-        e = self.values["restitution"] if self.parameter != "restitution" else float(y[-1])
+        e = self.values["restitution"] if name != "restitution" else p
         # eq. (60) multiplies N by lambda; eq. (10) multiplies W: lambda_60 = lambda_10 (1 + e)
         # / (N^T M^-1 N)
         lam60 = eq["lambda"] * (1 + e) / float(N @ np.linalg.solve(Mq, N))
         X, Y = self.lower_mass(x)
-        return {self.parameter: float(y[-1]), "q1": float(x[0]), "q2": float(x[1]),
+        return {name: p, "q1": float(x[0]), "q2": float(x[1]),
                 "lambda_eq60": lam60, "X": float(X[0]), "Y": float(Y[0]),
                 "eigenvalues": [float(v.real) for v in eq["eigenvalues"]],
                 "saddle": eq["saddle"], "converged": eq["converged"],

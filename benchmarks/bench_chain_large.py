@@ -1,0 +1,219 @@
+"""Large chains with stability: the 200-dof mode-1 branch, one point at N = 1000, and the
+paper's 5-dof branch 1 (issue 13, targets of item "200-dof chain ... < 30 s", "N = 1000:
+< 0.1 s per continuation point with multipliers", "branch 1 with all 27 events < 0.15 s").
+
+* ``N = 200``: the chain of eq. (2.17) with ``m = 1/N``, ``k = N`` (paper's scaling), gap 1,
+  ``start: {mode: 1}``, omega in [0.5, 3], stability and bifurcations on, through
+  ``nsm_continuation.continuation`` (the runner, as a YAML case); wall time, points, events by
+  kind, Floquet calls answered by the dense fallback, termination; with ``--oracle M`` the
+  located crossings are checked against the number of multipliers outside the circle on ``M``
+  closed-form orbits of the same period range (no continuation): every grid interval where
+  that number changes should contain a located crossing.
+* ``N = 1000``: the same chain, one converged point of branch 1; the parts of one
+  continuation point timed separately (best of repeats): residual + Jacobian, one bordered
+  Newton step (dense LU of size N + 2), the tangent, the multipliers from the structure
+  (:meth:`NDofImpactProblem.floquet`, O(N^2), warm start from a point 1e-9 T away, and cold)
+  against the dense eigenvalues (:meth:`NDofImpactProblem.floquet_dense`, O(N^3)), and the
+  exact admissibility test.
+* ``N = 5`` (the paper's chain, ``m = 0.2``, ``k = 5``): branch 1 from ``0.99 T_1`` down to
+  ``0.90 T_1`` with detection on (the window of ``bench_engine_vs_pycont.py``), wall time and
+  events, with the Krein-aware step control and with the generic motion check.
+
+BLAS pinned to one thread (see benchmarks/README.md). Machine: 2 cores (shared), see
+``/work/.library/env``; the numbers change with the load: rerun to refresh.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import collections  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
+
+import nsm_continuation as nsm  # noqa: E402
+from nsm_continuation.palc import ContinuationEngine  # noqa: E402
+from nsm_continuation.protocol import StartPoint  # noqa: E402
+from nsm_continuation.settings import ContinuationSettings  # noqa: E402
+
+
+def best(fun: Callable[[], Any], repeat: int = 3) -> float:
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fun()
+        ts.append(time.perf_counter() - t0)
+    return min(ts)
+
+
+def paper_scaled_chain(n: int) -> NDofImpactProblem:
+    return NDofImpactProblem({"chain": {"dofs": n, "mass": 1.0 / n, "stiffness": float(n)},
+                              "gap": 1.0})
+
+
+def branch_200(n: int, max_points: int) -> tuple[dict[str, Any], list[float], Any]:
+    pb = paper_scaled_chain(n)
+    t0 = time.perf_counter()
+    res = nsm.continuation(pb, {"mode": 1}, parameter="omega", min=0.5, max=3.0,
+                           max_points=max_points,
+                           analysis={"stability": True, "bifurcations": True})
+    wall = time.perf_counter() - t0
+    br = res.branches[0]
+    kinds = collections.Counter(ev.kind for ev in res.events)
+    # the period of each located crossing (T is the problem's own parameter, the last unknown)
+    crossings = sorted(float(ev.point.y[-1]) for ev in res.events
+                       if ev.kind in ("neimark_sacker", "period_doubling", "fold"))
+    T = 2 * np.pi / np.asarray(br["omega"])
+    return ({"wall [s]": round(wall, 2), "points": len(br["omega"]),
+             "T range": (float(T.min()), float(T.max())),
+             "events": dict(kinds), "termination": br.termination,
+             "Floquet calls answered densely": pb.floquet_fallbacks},
+            crossings, (float(T.min()), float(T.max())))
+
+
+def oracle_coverage(n: int, t_range: tuple[float, float], samples: int,
+                    crossings: list[float]) -> dict[str, Any]:
+    """Independent check of the crossings: the number of multipliers outside the circle
+    (``> 1 + 1e-7``) on a uniform grid of ``samples`` periods of the branch (closed-form orbits
+    (4.2), dense eigenvalues for N <= 40 else the structured ones, no continuation, no step
+    control), and how many grid intervals where that count changes contain a located
+    crossing. An interval with a change and no located crossing is a window the engine
+    missed (at the grid's resolution)."""
+    pb = paper_scaled_chain(n)
+    Ts = np.linspace(t_range[0], t_range[1], samples)
+    counts = []
+    for T in Ts:
+        u0, du0 = pb.closed_form(T)
+        y = pb.y_from_state(u0, du0, T)
+        if not all(v >= 0 for v in pb.admissibility(y).values()):
+            counts.append(-1)
+            continue
+        t = np.linalg.svd(pb.jacobian(y))[2][-1]
+        fl = pb.floquet(y, t)
+        if fl is None:  # at (numerical) grazing: no multipliers
+            counts.append(-1)
+            continue
+        tol = max(1e-7, 1e3 * np.finfo(float).eps * fl.matrix_norm)
+        counts.append(int(np.sum(np.abs(fl.multipliers) > 1 + tol)))
+    c = np.array(counts)
+    x = np.asarray(crossings)
+    changed = missed = 0
+    for i in range(samples - 1):
+        if c[i] < 0 or c[i + 1] < 0 or c[i] == c[i + 1]:
+            continue
+        changed += 1
+        if not np.any((x >= Ts[i]) & (x <= Ts[i + 1])):
+            missed += 1
+    return {"grid step": float(Ts[1] - Ts[0]), "intervals with a count change": changed,
+            "of them without a located crossing": missed}
+
+
+def point_1000(n: int) -> dict[str, float]:
+    pb = paper_scaled_chain(n)
+    eng = ContinuationEngine(pb, ContinuationSettings(stability_on_phantom=True))
+    T = pb.T_lin[0] * (1 - 1e-5)
+    u0, du0 = pb.closed_form(T)
+    p0, why = eng.correct_start(StartPoint(pb.y_from_state(u0, du0, T), "b1", -1))
+    if p0 is None:
+        raise RuntimeError(why)
+    y, t = p0.y, p0.tangent
+    T2 = T * (1 - 1e-9)
+    u2, du2 = pb.closed_form(T2)
+    y2 = pb.y_from_state(u2, du2, T2)
+    out: dict[str, float] = {}
+    out["G + J"] = best(lambda: (pb.evaluate(y), pb.jacobian(y)))
+    out["Newton step"] = best(lambda: eng.correct(y, t, y, 0.0))
+    out["tangent"] = best(lambda: eng.tangent(y, t))
+
+    def warm() -> None:
+        pb.floquet(y, t)       # leaves its multipliers as the next start
+        t0 = time.perf_counter()
+        pb.floquet(y2, t)
+        warm_times.append(time.perf_counter() - t0)
+
+    warm_times: list[float] = []
+    for _ in range(3):
+        warm()
+    out["Floquet structured (warm)"] = min(warm_times)
+
+    def cold() -> None:
+        pb._multiplier_memory.clear()
+        pb.floquet(y, t)
+
+    out["Floquet structured (cold)"] = best(cold)
+    out["Floquet dense"] = best(lambda: pb.floquet_dense(y, t), repeat=1)
+    out["admissibility"] = best(lambda: pb.admissibility(y), repeat=2)
+    fs, fd = pb.floquet(y, t), pb.floquet_dense(y, t)
+    from scipy.optimize import linear_sum_assignment
+
+    cost = np.abs(fs.multipliers[:, None] - fd.multipliers[None, :])
+    r, c = linear_sum_assignment(cost)
+    out["max |structured - dense|"] = float(cost[r, c].max())
+    return out
+
+
+def branch1_paper(krein: bool) -> dict[str, Any]:
+    pb = NDofImpactProblem({"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
+    T1 = pb.T_lin[0]
+    st = ContinuationSettings(step_initial=1e-2, step_max=0.2, step_min=1e-6,
+                              param_min=0.90 * T1, param_max=0.99 * T1, direction=-1,
+                              newton_tol=1e-8, krein_step_control=krein)
+    u0, du0 = pb.closed_form(0.99 * T1)
+    start = StartPoint(pb.y_from_state(u0, du0, 0.99 * T1), "branch 1", -1)
+    times, n_ev, kinds, npts = [], 0, None, 0
+    for _ in range(3):
+        pb._multiplier_memory.clear()
+        eng = ContinuationEngine(pb, st)
+        t0 = time.perf_counter()
+        br = eng.run(start)
+        times.append(time.perf_counter() - t0)
+        ev = [e for e in br.events if e.kind != "endpoint"]
+        n_ev, npts = len(ev), len(br.points)
+        kinds = dict(collections.Counter(e.kind for e in ev))
+    return {"wall": min(times), "points": npts, "events": n_ev, "kinds": kinds}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n-branch", type=int, default=200)
+    ap.add_argument("--n-point", type=int, default=1000)
+    ap.add_argument("--max-points", type=int, default=3000)
+    ap.add_argument("--skip", nargs="*", default=[], choices=["branch", "point", "paper"])
+    ap.add_argument("--oracle", type=int, default=0,
+                    help="check the branch's crossings against this many sampled orbits")
+    args = ap.parse_args(argv)
+    print(f"BLAS threads: OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, "
+          f"cores: {os.cpu_count()}, load: {os.getloadavg()}")
+    if "paper" not in args.skip:
+        print("\n5-dof paper chain, branch 1, [0.90, 0.99] T_1, detection on")
+        print(f"{'step control':<22}{'wall [s]':>10}{'points':>8}{'events':>8}  kinds")
+        for krein in (True, False):
+            r = branch1_paper(krein)
+            print(f"{'Krein-aware' if krein else 'generic motion':<22}{r['wall']:>10.3f}"
+                  f"{r['points']:>8}{r['events']:>8}  {r['kinds']}")
+    if "point" not in args.skip:
+        print(f"\nN = {args.n_point}: one continuation point, parts (best of repeats) [s]")
+        for k, v in point_1000(args.n_point).items():
+            print(f"  {k:<30}{v:>12.4g}")
+    if "branch" not in args.skip:
+        print(f"\nN = {args.n_branch}: mode-1 branch, omega in [0.5, 3], stability + "
+              f"bifurcations, max_points {args.max_points}")
+        r, crossings, t_range = branch_200(args.n_branch, args.max_points)
+        for k, v in r.items():
+            print(f"  {k}: {v}")
+        if args.oracle:
+            print(f"  oracle ({args.oracle} closed-form orbits on the branch's T range):")
+            for k, v in oracle_coverage(args.n_branch, t_range, args.oracle, crossings).items():
+                print(f"    {k}: {v}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,198 @@
+"""Branches as Dask tasks (nsm_continuation/execution.py): the same result as a serial run, to
+the last digit, on a local cluster of worker processes and on a cluster started as separate
+``dask scheduler`` / ``dask worker`` processes; a worker killed mid-run; a failed task.
+
+Oracle: the serial run of the same case (branches, ids, order, every point and every event).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("distributed")
+
+import nsm_continuation as nsm  # noqa: E402
+from nsm_continuation import cli  # noqa: E402
+from nsm_continuation.execution import merge_in_seed_order  # noqa: E402
+from nsm_continuation.records import Branch  # noqa: E402
+
+#: a frequency-energy plot of a 3-dof chain: 12 independent branches
+CASE: dict[str, Any] = {
+    "name": "fep3", "problem": "ndof_impact",
+    "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+    "start": {"all": True, "max_subharmonic": 2},
+    "continuation": {"parameter": "omega", "min": 0.3, "max": 2.5, "max_points": 60},
+    "analysis": {"stability": True},
+    "output": {"plots": False, "progress": False},
+}
+
+
+def same_branches(a: list[Branch], b: list[Branch]) -> None:
+    assert [(x.id, x.label, x.n_points) for x in a] == [(x.id, x.label, x.n_points) for x in b]
+    for x, y in zip(a, b, strict=True):
+        assert np.array_equal(np.array([p.y for p in x.points]), np.array([p.y for p in y.points]))
+        assert [(e.kind, e.detail) for e in x.events] == [(e.kind, e.detail) for e in y.events]
+        assert all(np.array_equal(e.point.y, f.point.y) for e, f in zip(x.events, y.events,
+                                                                          strict=True))
+        assert x.termination == y.termination
+
+
+@pytest.fixture(scope="module")
+def serial() -> Any:
+    return nsm.run(CASE)
+
+
+def test_local_cluster_gives_the_serial_result(serial: Any) -> None:
+    res = nsm.run(CASE, workers=2)
+    assert len(serial.run_result.branches) >= 10
+    same_branches(serial.run_result.branches, res.run_result.branches)
+
+
+def test_merge_applies_the_serial_rule_and_records_a_failed_task() -> None:
+    """In seed order, a seed on an accepted branch is skipped and the ids are renumbered; a
+    task that raised is a branch without points whose termination names the failure."""
+
+    class Alg:
+        def covered(self, seed: int, branches: list[Branch]) -> bool:
+            return seed == 1  # as if seed 1 lay on branch 0
+
+        def label(self, seed: int) -> str:
+            return f"seed {seed}"
+
+    def br(i: int) -> Branch:
+        return Branch(i, f"seed {i}", [], [], {"forward": "max_points"})
+
+    results = [(br(0), 1.0, {"n": 2}, None), (br(1), 1.0, {"n": 3}, None),
+               (None, 0.0, {}, "RuntimeError: boom"), (br(3), 2.0, {"n": 5}, None)]
+    branches, skipped, per, counters = merge_in_seed_order(Alg(), [0, 1, 2, 3], results)
+    assert [b.id for b in branches] == [0, 1, 2] and skipped == ["seed 1"]
+    assert branches[1].termination == {"task": "task failed on a worker: RuntimeError: boom"}
+    assert branches[2].label == "seed 3" and counters == {"n": 7} and per == [1.0, 0.0, 2.0]
+
+
+def test_cli_workers_flag_validated(tmp_path: Path, capsys: Any) -> None:
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(CASE))
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["run", str(path), "--workers", "0", "--out", str(tmp_path / "o")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--workers" in err
+    assert not (tmp_path / "o").exists()
+    bad = {**CASE, "execution": {"scheduler": "localhost:8786"}}
+    path.write_text(yaml.safe_dump(bad))
+    assert cli.main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err.startswith("error: execution.scheduler")
+
+
+# --------------------------------------------------------------------------- separate processes
+def _dask() -> str:
+    exe = shutil.which("dask")
+    if exe is None:
+        pytest.skip("the dask command is not installed")
+    return exe
+
+
+@pytest.fixture()
+def cluster(tmp_path: Path):
+    """``dask scheduler`` and two ``dask worker`` processes on localhost."""
+    dask = _dask()
+    sched_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    procs = [subprocess.Popen([dask, "scheduler", "--scheduler-file", str(sched_file),
+                               "--port", "0", "--no-dashboard", "--host", "127.0.0.1"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
+    for _ in range(60):
+        if sched_file.exists() and sched_file.stat().st_size:
+            break
+        time.sleep(0.25)
+    address = json.loads(sched_file.read_text())["address"]
+    for _ in range(2):
+        procs.append(subprocess.Popen([dask, "worker", address, "--nthreads", "1",
+                                       "--no-dashboard", "--no-nanny"],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                      env=env))
+    from dask.distributed import Client
+
+    with Client(address, timeout="20s") as client:
+        client.wait_for_workers(2, timeout=60)
+    yield address, procs
+    for p in procs:
+        p.kill()
+        p.wait()
+
+
+def _cli_run(case: dict[str, Any], out: Path, *extra: str) -> dict[str, Any]:
+    path = out.parent / f"{out.name}.yaml"
+    path.write_text(yaml.safe_dump(case))
+    proc = subprocess.run([sys.executable, "-m", "nsm_continuation.cli", "run", str(path),
+                           "--out", str(out), "--quiet", *extra],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((out / "report.json").read_text())
+
+
+def _comparable(report: dict[str, Any]) -> Any:
+    return [{k: v for k, v in b.items()} for b in report["branches"]]
+
+
+def test_scheduler_and_worker_processes_give_the_serial_outputs(cluster: Any,
+                                                               tmp_path: Path) -> None:
+    """``--scheduler`` on a cluster of separate processes: report.json's branches and
+    every CSV are byte-identical to the serial run's."""
+    address, _ = cluster
+    ser = _cli_run(CASE, tmp_path / "serial")
+    dist = _cli_run(CASE, tmp_path / "dask", "--scheduler", address)
+    assert _comparable(ser) == _comparable(dist)
+    for b in ser["branches"]:
+        name = b["csv"]
+        assert (tmp_path / "serial" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes()
+
+
+def test_a_worker_killed_mid_run_changes_nothing(cluster: Any, tmp_path: Path) -> None:
+    """One of the two workers is killed while the run's tasks are running: Dask runs its
+    tasks again on the other, and the outputs are the serial run's."""
+    address, procs = cluster
+    case = {**CASE, "continuation": {**CASE["continuation"], "max_points": 150}}
+    ser = _cli_run(case, tmp_path / "serial")
+    path = tmp_path / "dask.yaml"
+    path.write_text(yaml.safe_dump(case))
+    run = subprocess.Popen([sys.executable, "-m", "nsm_continuation.cli", "run", str(path),
+                            "--out", str(tmp_path / "dask"), "--quiet", "--scheduler", address],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(3.0)
+    assert run.poll() is None, "the run ended before the worker could be killed"
+    procs[1].send_signal(signal.SIGKILL)
+    out, err = run.communicate(timeout=600)
+    assert run.returncode == 0, err
+    dist = json.loads((tmp_path / "dask" / "report.json").read_text())
+    assert _comparable(ser) == _comparable(dist)
+
+
+def test_sigint_cancels_the_tasks_and_writes_nothing(tmp_path: Path) -> None:
+    """SIGINT during a distributed run: exit 130, the tasks cancelled, no output folder."""
+    case = {**CASE, "continuation": {**CASE["continuation"], "max_points": 400}}
+    path = tmp_path / "case.yaml"
+    path.write_text(yaml.safe_dump(case))
+    run = subprocess.Popen([sys.executable, "-m", "nsm_continuation.cli", "run", str(path),
+                            "--out", str(tmp_path / "out"), "--quiet", "--workers", "2"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(6.0)
+    assert run.poll() is None, "the run ended before the signal"
+    run.send_signal(signal.SIGINT)
+    _, err = run.communicate(timeout=120)
+    assert run.returncode == 130, err
+    assert not (tmp_path / "out").exists()
+    assert not any(p.name.startswith(".out") for p in tmp_path.iterdir())
