@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 
 import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation.hybrid.grazing import locate_grazing, step_beyond  # noqa: E402
-from problems.impacting.impact_oscillator import ImpactOscillatorProblem  # noqa: E402
+from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem  # noqa: E402
 
 GAP = -0.5
 

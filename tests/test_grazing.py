@@ -18,7 +18,7 @@ import pytest
 from scipy.optimize import fsolve
 
 from nsm_continuation.hybrid.grazing import locate_grazing, normal_form, step_beyond
-from problems.impacting.impact_oscillator import ImpactOscillatorProblem
+from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 
 GAP, E = -0.5, 0.8
 OMEGA_G = np.sqrt(3.0)  # zeta = 0: 1 / (omega^2 - 1) = 1/2
@@ -154,7 +154,7 @@ def test_step_beyond_lands_on_the_closed_form_orbits(ds: float) -> None:
 def test_sequence_notation_is_structural() -> None:
     """A single impact after which the flight is integrated in the scaled system (a < 0 at
     the impact) is ``I``, as one with a > 0: no false sequence change (was ``IB1``)."""
-    from problems.impacting.two_mass_chain import TwoMassChainProblem
+    from nsm_continuation.problems.impacting.two_mass_chain import TwoMassChainProblem
     base = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "gap": 0.5,
             "restitution": 0.8}
     for omega in (0.62, 0.67):
