@@ -50,8 +50,9 @@ def main() -> None:
     over = {"output.plots": False}
     t_ser, r_ser = timed(nsm.load_case(fep, over))
     t_loc, r_loc = timed(nsm.load_case(fep, over), workers=2)
+    one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=None, env=one) as cluster, Client(cluster) as client:
         client.wait_for_workers(2)
         addr = cluster.scheduler_address
         timed(nsm.load_case(default, over), scheduler=addr)  # warm the workers' imports

@@ -111,8 +111,10 @@ def _client(execution: Execution) -> Any:
 
     if execution.scheduler:
         return Client(execution.scheduler, timeout="10s"), None
+    # one thread per worker, BLAS included: N workers on N cores, not N x (BLAS threads)
+    one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
     cluster = LocalCluster(n_workers=int(execution.workers or 1), threads_per_worker=1,
-                           processes=True, dashboard_address=None, silence_logs=40)
+                           processes=True, dashboard_address=None, silence_logs=40, env=one)
     return Client(cluster), cluster
 
 
