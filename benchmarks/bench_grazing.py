@@ -25,9 +25,10 @@ from scipy.optimize import brentq
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem  # noqa: E402
+
 import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation.hybrid.grazing import locate_grazing, step_beyond  # noqa: E402
-from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem  # noqa: E402
 
 GAP = -0.5
 

@@ -44,6 +44,19 @@ from .settings import ContinuationSettings
 Window = tuple[float | None, float | None]
 
 
+def outside_bound(p: Point, settings: ContinuationSettings) -> str | None:
+    """The bound on a derived quantity (``continuation.bounds``) that ``p`` violates, as
+    ``"name = max"`` / ``"name = min"``, or None: for the algorithms that do not locate bounds
+    on the curve (pycont-lite's points, a sweep's grid values)."""
+    for name, (lo, hi) in settings.derived_bounds.items():
+        v = p.derived.get(name, np.nan)
+        if hi is not None and v > hi:
+            return f"{name} = max"
+        if lo is not None and v < lo:
+            return f"{name} = min"
+    return None
+
+
 class Algorithm(ABC):
     """A continuation algorithm for one problem and one set of settings.
 
@@ -285,7 +298,7 @@ class PycontLite(_CurveAlgorithm):
             reason = f"pycont-lite: {ends.get(side, 'ended')}"
             k = k0
             while 0 <= k + step < len(points):
-                bound = self._outside_bound(points[k + step])
+                bound = outside_bound(points[k + step], self.settings)
                 if bound is not None:
                     reason = f"bound: {bound} (pycont-lite points beyond it dropped)"
                     break
@@ -314,16 +327,6 @@ class PycontLite(_CurveAlgorithm):
             out.append(self.engine.analyse(y, t, float(s[k])))
             t_prev = t
         return out
-
-    def _outside_bound(self, p: Point) -> str | None:
-        """The bound on a derived quantity ``p`` violates (pycont-lite does not know them)."""
-        for name, (lo, hi) in self.settings.derived_bounds.items():
-            v = p.derived.get(name, np.nan)
-            if hi is not None and v > hi:
-                return f"{name} = max"
-            if lo is not None and v < lo:
-                return f"{name} = min"
-        return None
 
     def counters(self) -> dict[str, Any]:
         return {"pycont_residual_evaluations": self.n_pycont_evaluations,
@@ -478,7 +481,7 @@ class Sweep(Algorithm):
             point, state = pr.sweep_point(seed, float(value), state)
             self.n_evaluations += 1
             point.s = abs(float(value) - float(grid[0]))
-            bound = self._outside_bound(point)
+            bound = outside_bound(point, self.settings)
             if bound is not None:
                 return f"bound: {bound} at {pr.parameter} = {value:.6g} (value not kept)"
             if kind is not None and points and point.signature != points[-1].signature:
@@ -488,16 +491,6 @@ class Sweep(Algorithm):
             points.append(point)
             self._tick(1)
         return f"end of the grid ({len(grid)} values of {pr.parameter})"
-
-    def _outside_bound(self, p: Point) -> str | None:
-        """The bound on a derived quantity ``p`` violates, or None."""
-        for name, (lo, hi) in self.settings.derived_bounds.items():
-            v = p.derived.get(name, np.nan)
-            if hi is not None and v > hi:
-                return f"{name} above {hi:g}"
-            if lo is not None and v < lo:
-                return f"{name} below {lo:g}"
-        return None
 
     def counters(self) -> dict[str, Any]:
         return {"sweep_points_solved": self.n_evaluations}

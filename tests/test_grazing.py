@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 from scipy.optimize import fsolve
 
 from nsm_continuation.hybrid.grazing import locate_grazing, normal_form, step_beyond
-from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 
 GAP, E = -0.5, 0.8
 OMEGA_G = np.sqrt(3.0)  # zeta = 0: 1 / (omega^2 - 1) = 1/2

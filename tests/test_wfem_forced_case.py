@@ -145,7 +145,7 @@ def test_sweep_events_bounds_and_direction() -> None:
     first_above = int(np.argmax(br["energy_ratio"] > cap))
     assert len(cb) == first_above
     np.testing.assert_array_equal(cb["energy"], br["energy"][:first_above])
-    assert cb.termination["increase"].startswith("bound: energy_ratio above")
+    assert cb.termination["increase"].startswith("bound: energy_ratio = max")
     down = nsm.run(WALL, {**over, "continuation.direction": "decrease"}).branches[0]
     assert np.all(np.diff(down["omega_ratio"]) < 0)
 
