@@ -256,8 +256,14 @@ class Result:
         """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
         folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
         Returns the directory written."""
-        return write_outputs(self.run_result, Path(directory), plots=plots,
-                             if_exists="overwrite" if overwrite else "error")
+        from .output import OutputError
+
+        try:
+            return write_outputs(self.run_result, Path(directory), plots=plots,
+                                 if_exists="overwrite" if overwrite else "error")
+        except OutputError as exc:  # the CLI's advice, in this API's words
+            raise OutputError(str(exc).replace("pass --overwrite", "pass overwrite=True")
+                              ) from None
 
     def restart(self, *, branch: int | None = None, event: Any = None, point: int | None = None,
                 switch: bool | str = False, amplitude: float | None = None,

@@ -104,3 +104,22 @@ def test_plot_draws_on_a_given_axes():
     drawn = np.concatenate([ln.get_xdata() for ln in lines])
     assert np.isclose(drawn.min(), omega.min()) and np.isclose(drawn.max(), omega.max())
     plt.close(fig)
+
+
+def test_save_refusal_speaks_the_api(tmp_path) -> None:
+    """Saving twice into one folder is refused with the API's own advice (overwrite=True),
+    and overwrite=True then replaces the run."""
+    import pytest
+
+    import nsm_continuation as nsm
+
+    case = {"name": "d", "problem": "ndof_impact",
+            "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+            "start": {"T": 5.0},
+            "continuation": {"parameter": "omega", "min": 0.5, "max": 3.0, "max_points": 4},
+            "analysis": {"stability": False}}
+    res = nsm.run(case)
+    res.save(tmp_path / "o", plots=False)
+    with pytest.raises(nsm.CaseError, match="pass overwrite=True"):
+        res.save(tmp_path / "o", plots=False)
+    assert res.save(tmp_path / "o", plots=False, overwrite=True) == tmp_path / "o"
