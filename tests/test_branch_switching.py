@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 import yaml
+from oracles.normal_forms import MuParameters, Pitchfork, Transcritical
 from pydantic import BaseModel
 from scipy.integrate import solve_ivp
 
@@ -32,38 +33,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 # ------------------------------------------------------------------ closed-form test problems
-class MuParameters(BaseModel):
-    model_config = STRICT
-    mu0: float = -0.5
-
-
-class Transcritical(Problem):
-    """``G(x, mu) = x (mu - x)``: the trivial branch and ``x = mu`` cross at the origin."""
-
-    name: ClassVar[str] = "test_transcritical"
-    Parameters: ClassVar[type[BaseModel]] = MuParameters
-
-    def __init__(self, params: BaseModel) -> None:
-        super().__init__(params)
-        self.variables = ["x", "mu"]
-        self.parameter = "mu"
-
-    def residual(self, y: Any) -> Any:
-        return y[0] * (y[1] - y[0])
-
-    def start_points(self, start: Any, window: Any = (None, None)) -> list[StartPoint]:
-        return [StartPoint(np.array([0.0, self.params.mu0]), "trivial", 1)]
-
-
-class Pitchfork(Transcritical):
-    """``G(x, mu) = x (mu - x^2)``: the branch ``mu = x^2`` leaves the trivial one at 0."""
-
-    name: ClassVar[str] = "test_pitchfork"
-
-    def residual(self, y: Any) -> Any:
-        return y[0] * (y[1] - y[0] ** 2)
-
-
 def trivial_run(cls: type[Problem]) -> Any:
     problem = cls(MuParameters())
     return nsm.continuation(problem, {}, parameter="mu", min=-0.5, max=0.5, max_points=60,

@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 import yaml
+from oracles.normal_forms import MuParameters, Transcritical
 from pydantic import BaseModel
 from scipy.optimize import fsolve
 
@@ -71,29 +72,6 @@ class Logistic(Problem):
     def start_points(self, start: Any, window: Any = (None, None)) -> list[StartPoint]:
         r = self.params.r
         return [StartPoint(np.array([1 - 1 / r, r]), "fixed point", 1)]
-
-
-class MuParameters(BaseModel):
-    model_config = STRICT
-    mu0: float = -0.5
-
-
-class Transcritical(Problem):
-    """``x (mu - x) = 0``: the trivial branch and ``x = mu`` cross at the origin."""
-
-    name: ClassVar[str] = "test_diagram_transcritical"
-    Parameters: ClassVar[type[BaseModel]] = MuParameters
-
-    def __init__(self, params: BaseModel) -> None:
-        super().__init__(params)
-        self.variables = ["x", "mu"]
-        self.parameter = "mu"
-
-    def residual(self, y: Any) -> Any:
-        return y[0] * (y[1] - y[0])
-
-    def start_points(self, start: Any, window: Any = (None, None)) -> list[StartPoint]:
-        return [StartPoint(np.array([0.0, self.params.mu0]), "trivial", 1)]
 
 
 def iterate(x: float, r: float, n: int) -> float:
