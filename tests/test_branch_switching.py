@@ -14,19 +14,23 @@ from __future__ import annotations
 import csv
 import json
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 import pytest
 import yaml
-from oracles.normal_forms import MuParameters, Pitchfork, Transcritical
-from pydantic import BaseModel
+from oracles.normal_forms import (
+    LogisticMap,
+    LogisticParameters,
+    MuParameters,
+    Pitchfork,
+    Transcritical,
+)
 from scipy.integrate import solve_ivp
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
-from nsm_continuation.preflight import STRICT
-from nsm_continuation.protocol import Problem, StartPoint
+from nsm_continuation.protocol import Problem
 from nsm_continuation.switching import other_direction
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -196,55 +200,6 @@ def test_period_doubling_switch_gives_genuine_period_two_orbits(flip: tuple[Any,
 
 
 # ------------------------------------------------------------------ a map with declared hooks
-class LogisticParameters(BaseModel):
-    model_config = STRICT
-    r: float = 2.8
-
-
-class LogisticMap(Problem):
-    """Period-``k`` points of the logistic map ``f(x) = r x (1 - x)``: ``f^k(x) - x = 0``. It
-    declares the switching hooks itself (:meth:`Problem.period_multiple`,
-    :meth:`Problem.iterated`) and its multiplier ``(f^k)'(x)``. Closed forms: the fixed point
-    ``1 - 1/r`` doubles at ``r = 3`` into ``x = (r + 1 +- sqrt((r - 3)(r + 1))) / (2 r)``, which
-    doubles at ``r = 1 + sqrt(6)``."""
-
-    name: ClassVar[str] = "test_logistic"
-    Parameters: ClassVar[type[BaseModel]] = LogisticParameters
-
-    def __init__(self, params: BaseModel, k: int = 1) -> None:
-        super().__init__(params)
-        self.k = k
-        self.variables = ["x", "r"]
-        self.parameter = "r"
-
-    def _fk(self, x: Any, r: Any) -> Any:
-        for _ in range(self.k):
-            x = r * x * (1 - x)
-        return x
-
-    def residual(self, y: Any) -> Any:
-        return self._fk(y[0], y[1]) - y[0]
-
-    def period_multiple(self) -> int:
-        return self.k
-
-    def iterated(self, multiple: int) -> Problem | None:
-        return LogisticMap(self.params, multiple)
-
-    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> Any:
-        from nsm_continuation.protocol import FloquetData
-
-        x, r, d = float(y[0]), float(y[1]), 1.0
-        for _ in range(self.k):
-            d *= r * (1 - 2 * x)
-            x = r * x * (1 - x)
-        return FloquetData(np.array([d]))
-
-    def start_points(self, start: Any, window: Any = (None, None)) -> list[StartPoint]:
-        r = self.params.r
-        return [StartPoint(np.array([1 - 1 / r, r]), "fixed point", 1)]
-
-
 def test_period_doubling_cascade_of_a_map_with_declared_hooks(tmp_path: Path,
                                                              monkeypatch: Any) -> None:
     """Fixed point -> period 2 (at r = 3) -> period 4 (at r = 1 + sqrt 6) -> its doubling at

@@ -15,63 +15,19 @@ from __future__ import annotations
 import csv
 import json
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 import pytest
 import yaml
-from oracles.normal_forms import MuParameters, Transcritical
-from pydantic import BaseModel
+from oracles.normal_forms import LogisticMap as Logistic
+from oracles.normal_forms import LogisticParameters, MuParameters, Transcritical
 from scipy.optimize import fsolve
 
 import nsm_continuation as nsm
 from nsm_continuation import cli, registry
-from nsm_continuation.preflight import STRICT
-from nsm_continuation.protocol import FloquetData, Problem, StartPoint
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-class LogisticParameters(BaseModel):
-    model_config = STRICT
-    r: float = 2.8
-
-
-class Logistic(Problem):
-    """Period-``k`` points of ``f(x) = r x (1 - x)``: ``f^k(x) - x = 0``, with the switching
-    hooks (``period_multiple``, ``iterated``) and the multiplier ``(f^k)'(x)``."""
-
-    name: ClassVar[str] = "test_diagram_logistic"
-    Parameters: ClassVar[type[BaseModel]] = LogisticParameters
-
-    def __init__(self, params: BaseModel, k: int = 1) -> None:
-        super().__init__(params)
-        self.k = k
-        self.variables = ["x", "r"]
-        self.parameter = "r"
-
-    def residual(self, y: Any) -> Any:
-        x = y[0]
-        for _ in range(self.k):
-            x = y[1] * x * (1 - x)
-        return x - y[0]
-
-    def period_multiple(self) -> int:
-        return self.k
-
-    def iterated(self, multiple: int) -> Problem | None:
-        return Logistic(self.params, multiple)
-
-    def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData:
-        x, r, d = float(y[0]), float(y[1]), 1.0
-        for _ in range(self.k):
-            d *= r * (1 - 2 * x)
-            x = r * x * (1 - x)
-        return FloquetData(np.array([d]))
-
-    def start_points(self, start: Any, window: Any = (None, None)) -> list[StartPoint]:
-        r = self.params.r
-        return [StartPoint(np.array([1 - 1 / r, r]), "fixed point", 1)]
 
 
 def iterate(x: float, r: float, n: int) -> float:
