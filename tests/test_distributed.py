@@ -39,6 +39,25 @@ CASE: dict[str, Any] = {
 }
 
 
+def _wait_for(condition: Any, timeout: float = 120.0) -> None:
+    """Poll ``condition`` every 50 ms until it holds (a state, not a guessed sleep: CI
+    machines differ in speed)."""
+    end = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < end, "condition not reached in time"
+        time.sleep(0.05)
+
+
+def _busy(proc: Any) -> bool:
+    """A child process computing (a worker with a task), not one waiting."""
+    import psutil
+
+    try:
+        return proc.cpu_percent(interval=0.1) > 50.0
+    except psutil.Error:
+        return False
+
+
 def same_branches(a: list[Branch], b: list[Branch]) -> None:
     assert [(x.id, x.label, x.n_points) for x in a] == [(x.id, x.label, x.n_points) for x in b]
     for x, y in zip(a, b, strict=True):
@@ -172,7 +191,11 @@ def test_a_worker_killed_mid_run_changes_nothing(cluster: Any, tmp_path: Path) -
     run = subprocess.Popen([sys.executable, "-m", "nsm_continuation.cli", "run", str(path),
                             "--out", str(tmp_path / "dask"), "--quiet", "--scheduler", address],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(3.0)
+    from dask.distributed import Client
+
+    with Client(address, timeout="20s") as client:  # kill while both workers hold tasks
+        _wait_for(lambda: sum(bool(t) for t in client.processing().values()) >= 2
+                  or run.poll() is not None)
     assert run.poll() is None, "the run ended before the worker could be killed"
     procs[1].send_signal(signal.SIGKILL)
     out, err = run.communicate(timeout=600)
@@ -183,13 +206,21 @@ def test_a_worker_killed_mid_run_changes_nothing(cluster: Any, tmp_path: Path) -
 
 def test_sigint_cancels_the_tasks_and_writes_nothing(tmp_path: Path) -> None:
     """SIGINT during a distributed run: exit 130, the tasks cancelled, no output folder."""
-    case = {**CASE, "continuation": {**CASE["continuation"], "max_points": 400}}
+    # a run of minutes: 4 dofs, subharmonics to 3, 3000 points per branch
+    case = {**CASE, "parameters": {**CASE["parameters"], "chain": {"dofs": 4, "mass": 1.0,
+                                                                   "stiffness": 1.0}},
+            "start": {"all": True, "max_subharmonic": 3},
+            "continuation": {**CASE["continuation"], "max_points": 3000}}
     path = tmp_path / "case.yaml"
     path.write_text(yaml.safe_dump(case))
     run = subprocess.Popen([sys.executable, "-m", "nsm_continuation.cli", "run", str(path),
                             "--out", str(tmp_path / "out"), "--quiet", "--workers", "2"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(6.0)
+    import psutil
+
+    parent = psutil.Process(run.pid)  # signal once the local cluster's workers are busy
+    _wait_for(lambda: run.poll() is not None
+              or sum(_busy(p) for p in parent.children(recursive=True)) >= 2)
     assert run.poll() is None, "the run ended before the signal"
     run.send_signal(signal.SIGINT)
     _, err = run.communicate(timeout=120)
