@@ -215,6 +215,30 @@ class PseudoArclength(_CurveAlgorithm):
                 "events_not_located_on_their_arc": self.engine.unlocated_events}
 
 
+class LocatedEvents(_CurveAlgorithm):
+    """Two-parameter curves of codimension-one points as sequences of located events
+    (:mod:`nsm_continuation.event_curves`, eq. L1): problems of type
+    :class:`~nsm_continuation.event_curves.LocatedCurve` only."""
+
+    name: ClassVar[str] = "located_events"
+    #: one curve per run, started from a saved event (nothing to spread over workers)
+    distributable: ClassVar[bool] = False
+
+    def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
+        from .event_curves import CurveTracer, LocatedCurve
+
+        super().__init__(problem, settings)
+        assert isinstance(problem, LocatedCurve)
+        self.tracer = CurveTracer(problem, settings, progress=self._tick)
+
+    def run_branch(self, seed: Any, branch_id: int) -> Branch:
+        return self.tracer.run(seed, branch_id=branch_id)
+
+    def counters(self) -> dict[str, Any]:
+        return {"base_continuations": self.tracer.n_base_runs,
+                "base_points": self.tracer.n_base_points}
+
+
 class Lattice(Algorithm):
     """Continuation on an integer lattice (:mod:`nsm_continuation.lattice`)."""
 
@@ -502,6 +526,7 @@ ALGORITHMS: dict[str, type[Algorithm]] = {
     "lattice": Lattice,
     "pycont": PycontLite,
     "sweep": Sweep,
+    "located_events": LocatedEvents,
 }
 
 
@@ -527,6 +552,6 @@ def make_algorithm(name: str, problem: Problem, settings: ContinuationSettings) 
     return ALGORITHMS[name](problem, settings)
 
 
-__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "PseudoArclength", "PycontLite",
+__all__ = ["ALGORITHMS", "Algorithm", "Lattice", "LocatedEvents", "PseudoArclength", "PycontLite",
            "StartTangentEngine", "Sweep", "SweepProblem", "SweepSeed", "TangentStart",
            "make_algorithm", "sweep_point_record", "unsupported"]

@@ -270,7 +270,8 @@ class Result:
                 direction: str | None = None, parameters: Mapping[str, Any] | None = None,
                 name: str | None = None, analysis: Mapping[str, Any] | None = None,
                 curve: str | None = None, free: str | None = None,
-                margin: float | None = None, **settings: Any) -> Result:
+                margin: float | None = None, method: str | None = None,
+                **settings: Any) -> Result:
         """Continue again from a point of this result (:mod:`nsm_continuation.restart`), as a
         case with ``start: {from: <this run>, ...}`` would from its saved folder.
 
@@ -278,9 +279,13 @@ class Result:
         "index": n}``, or one of :attr:`events` (its branch and place are taken from it);
         ``point``: a row of the branch (its CSV row); ``switch=True`` follows the branch that
         bifurcates there (:mod:`nsm_continuation.switching`: the period-2 family at a period
-        doubling, the other branch at a branch point); ``curve="grazing"`` with ``free=...``
-        continues the grazing event in two parameters (:mod:`nsm_continuation.hybrid.codim1`:
-        ``free`` solved for, ``parameter=...`` continued). ``parameters`` override this run's,
+        doubling, the other branch at a branch point); ``curve=<kind>`` continues the event in
+        two parameters, ``free`` (the parameter this run continued) solved for and
+        ``parameter=...`` continued: ``"grazing"`` by the augmented system
+        (:mod:`nsm_continuation.hybrid.codim1`), ``"period_doubling"``, ``"fold"``,
+        ``"neimark_sacker"``, ``"sticking_lost"`` (and ``"grazing"`` with
+        ``method="located"``) as located events (:mod:`nsm_continuation.event_curves`).
+        ``parameters`` override this run's,
         ``settings`` are keys of the ``continuation:`` block (``parameter`` may be any
         parameter of the problem; the rest of the block is inherited when it is the same),
         ``analysis`` keys of ``analysis:``. Nothing is written (:meth:`save`)."""
@@ -295,7 +300,8 @@ class Result:
         start: dict[str, Any] = {"from": f"<result {self.case.name}>"}
         for key, value in (("branch", branch), ("event", event), ("point", point),
                            ("amplitude", amplitude), ("direction", direction),
-                           ("curve", curve), ("free", free), ("margin", margin)):
+                           ("curve", curve), ("free", free), ("margin", margin),
+                           ("method", method)):
             if value is not None:
                 start[key] = dict(value) if isinstance(value, Mapping) else value
         if switch is not False:

@@ -446,8 +446,12 @@ def validate(raw: dict[str, Any], *, restart_record: Any = None,
         why = unsupported(c.algorithm, problem)
         if why is not None:
             raise CaseError(f"continuation.algorithm: {why}")
+    # a two-parameter curve continues its own parameter (checked with the curve, in
+    # _validate_restart), which the base problem may not be able to continue
+    curve = resolved is not None and rs.curve_of(resolved[0], resolved[1]) is not None
     try:
-        window = problem.parameter_bounds(c.parameter, c.min, c.max)
+        window = ((c.min, c.max) if curve
+                  else problem.parameter_bounds(c.parameter, c.min, c.max))
     except ValueError as exc:
         raise CaseError(_keyed("continuation.parameter", str(exc))) from None
     monitors = problem.monitor_names()
@@ -493,9 +497,9 @@ def _check_diagram(case: Case, problem: Problem) -> None:
     spec = case.analysis.branch_switching
     if spec is None:
         return
-    from .hybrid.codim1 import GrazingCurve
+    from .event_curves import CodimOneCurve
 
-    if isinstance(problem, GrazingCurve):
+    if isinstance(problem, CodimOneCurve):
         raise CaseError("analysis.branch_switching: a two-parameter curve (start.curve) has no "
                         "branches born on it to follow; switch on the orbits' runs instead")
     from .algorithms import ALGORITHMS
@@ -524,7 +528,7 @@ def _validate_restart(case: Case, problem: Problem, resolved: tuple[Any, ...],
     ``case``. Returns the problem to continue."""
     from . import restart as rs
     from .algorithms import ALGORITHMS
-    from .hybrid.codim1 import GrazingCurve
+    from .event_curves import CodimOneCurve
 
     spec, record, sel, _ = resolved
     c = case.continuation
@@ -554,8 +558,8 @@ def _validate_restart(case: Case, problem: Problem, resolved: tuple[Any, ...],
         direction=rs.direction_of(spec, target, c.parameter),
         overridden=any(record.restart.get("parameters", {}).get(k) != v
                        for k, v in user_params.items()),
-        curve=target.curve_kind if isinstance(target, GrazingCurve) else None,
-        free=target.free if isinstance(target, GrazingCurve) else None)
+        curve=target.curve_kind if isinstance(target, CodimOneCurve) else None,
+        free=target.free if isinstance(target, CodimOneCurve) else None)
     return target
 
 

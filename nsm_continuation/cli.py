@@ -16,21 +16,28 @@ import argparse
 import os
 import signal
 import sys
-import tempfile
-import traceback
 import warnings
-from importlib import resources
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
-from . import __version__, cases, registry
-from .execution import Execution
-from .output import OutputTarget
+from . import __version__
+
+if TYPE_CHECKING:
+    from .cases import Case
+    from .execution import Execution
+    from .output import OutputTarget
+
+# Everything else is imported where it is used: ``--version``, ``--help`` and ``list`` start
+# without pydantic, CasADi or NumPy, and no path imports matplotlib or Dask unless it plots
+# (:mod:`nsm_continuation.plots`, from ``results.write_files``) or distributes
+# (:mod:`nsm_continuation.execution`); ``tests/test_startup.py`` checks it.
 
 DEFAULT_CASE = "default_case.yaml"
 
 
 def _default_case_path() -> Path:
+    from importlib import resources
+
     return Path(str(resources.files("nsm_continuation").joinpath(DEFAULT_CASE)))
 
 
@@ -118,6 +125,9 @@ def _poll() -> None:
 
 
 def _bug(exc: BaseException) -> int:
+    import tempfile
+    import traceback
+
     fd, path = tempfile.mkstemp(prefix="nsm-continuation-crash-", suffix=".txt")
     with os.fdopen(fd, "w") as fh:
         traceback.print_exception(exc, file=fh)
@@ -136,19 +146,24 @@ def _positive_int(text: str) -> int:
     return n
 
 
-def _execution(args: argparse.Namespace, case: cases.Case) -> Execution:
+def _execution(args: argparse.Namespace, case: Case) -> Execution:
     """``--workers`` / ``--scheduler`` over the case's ``execution:`` block."""
+    from .execution import Execution
+
     if args.workers or args.scheduler:
         return Execution(args.workers, args.scheduler)
     return Execution(case.execution.workers, case.execution.scheduler)
 
 
-def _target(args: argparse.Namespace, case: cases.Case) -> OutputTarget:
+def _target(args: argparse.Namespace, case: Case) -> OutputTarget:
+    from .output import OutputTarget
+
     out = Path(args.out or case.output.dir or Path("runs") / case.name)
     return OutputTarget(out, "overwrite" if args.overwrite else case.output.if_exists)
 
 
 def _run(args: argparse.Namespace, path: str) -> int:
+    from . import cases
     from .results import build_report, termination_text, write_files
     from .runner import run_case
 
@@ -184,11 +199,15 @@ def _run(args: argparse.Namespace, path: str) -> int:
 
 def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "list":
+        from . import registry
+
         for name, target in registry.available().items():
             print(f"{name}\t{target}")
         return 0
     path = args.case or str(_default_case_path())
     if args.command == "validate":
+        from . import cases
+
         case, problem = cases.load(path, args.overrides)
         _target(args, case).check()  # where the run would write (nothing is created)
         print(f"{path}: valid ({case.problem}, {len(problem.variables)} unknowns)")
@@ -196,6 +215,14 @@ def _dispatch(args: argparse.Namespace) -> int:
             print(f"warning: {w}")
         return 0
     return _run(args, path)
+
+
+def _is_case_error(exc: Exception) -> bool:
+    """Bad input (:class:`~nsm_continuation.cases.CaseError`, exit status 2). Without importing
+    :mod:`nsm_continuation.cases` (pydantic, CasADi) when nothing did: then no CaseError can
+    have been raised."""
+    cases = sys.modules.get(f"{__package__}.cases")
+    return cases is not None and isinstance(exc, cases.CaseError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -218,9 +245,6 @@ def main(argv: list[str] | None = None) -> int:
             # numpy's RuntimeWarnings are numerical noise here: results carry their reasons
             warnings.simplefilter("ignore", RuntimeWarning)
             return _dispatch(args)
-    except cases.CaseError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("interrupted: nothing written (any previous result is intact)", file=sys.stderr)
         return 130
@@ -228,6 +252,9 @@ def main(argv: list[str] | None = None) -> int:
         print("terminated: nothing written (any previous result is intact)", file=sys.stderr)
         return 143
     except Exception as exc:
+        if _is_case_error(exc):
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
         return _bug(exc)
     finally:
         for sig, handler in previous.items():

@@ -10,6 +10,14 @@ title and scale come from the problem's declared presentation members (``fep_axe
 Conventions (as in Legrand et al. 2017, Fig. 3.2, 6.1, 6.2): admissible orbits thick, phantom
 (non-admissible) orbits thin grey; admissible-stable black, admissible-unstable red; unstable
 intervals shaded light red on the multiplier plots; the unit circle drawn in the complex plane.
+
+Cost (issue 13, ``benchmarks/bench_startup.py``): this module, hence matplotlib, is imported only
+when a run writes figures. A figure written to a file is created at its file resolution
+(:data:`DPI`), so the layout pass (``tight_layout``) and ``savefig`` share one renderer and its
+text and mathtext caches instead of laying every label out twice. The multiplier clouds (23,360
+markers per panel for Fig. 3.2) are drawn by :func:`_scatter`, the same picture up to the
+anti-aliasing of marker rims at about a third of the drawing time, and the unstable intervals
+by :func:`_vertical_bands`, pixel for pixel what ``axvspan`` draws, as one artist per panel.
 """
 
 from __future__ import annotations
@@ -21,11 +29,17 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
 from .protocol import Problem  # noqa: E402
 from .records import Branch, Point  # noqa: E402
 from .runner import RunResult  # noqa: E402
+
+#: resolution of the figures written to files [dots per inch]
+DPI = 130
+#: size of the branch diagram [inches]
+DIAGRAM_SIZE = (11, 5.5)
 
 MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
            "neimark_sacker": ("o", "tab:green"), "branch_point": ("X", "tab:orange"),
@@ -57,11 +71,61 @@ def _segments(problem: Problem, br: Branch, xk: str, yk: str):
             start = i
 
 
+def _figure(**kw):
+    """``plt.subplots`` for a figure written to a file: created at the file's resolution."""
+    return plt.subplots(dpi=DPI, **kw)
+
+
+def _save(fig: plt.Figure, path: Path) -> None:
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+
+
+def _scatter(ax: plt.Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, s: float, **kw):
+    """``ax.scatter(x, y, c=c, s=s, **kw)``, the same picture at less cost:
+
+    * of points with identical ``(x, y, c)`` only the last, the one on top, is drawn (a
+      complex-conjugate pair has the same modulus and real part: the two upper multiplier
+      panels of Fig. 3.2 draw 13,891 markers instead of 23,360); what changes is the
+      anti-aliased rim of such a marker, which two coincident draws made a little more opaque.
+      Points with a non-finite coordinate or colour are dropped, as ``scatter`` drops them;
+    * each marker is a filled disc of the default marker's outer diameter (``sqrt(s)`` plus
+      the 1 pt edge ``scatter`` strokes in the face colour), so Agg fills each marker instead
+      of filling and stroking it.
+
+    On the Fig. 3.2 multipliers (three panels) the drawing takes 0.21 s instead of 0.58 s.
+    """
+    x, y, c = (np.asarray(a, dtype=float) for a in (x, y, c))
+    ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(c)
+    x, y, c = x[ok], y[ok], c[ok]
+    if x.size > 1:
+        rows = np.stack([x, y, c], axis=1)[::-1]
+        _, first = np.unique(rows, axis=0, return_index=True)
+        keep = np.sort(x.size - 1 - first)  # last occurrences, in drawing order
+        x, y, c = x[keep], y[keep], c[keep]
+    edge = plt.rcParams["patch.linewidth"]  # scatter's default edge width [pt]
+    return ax.scatter(x, y, c=c, s=(np.sqrt(s) + edge) ** 2, linewidths=0, **kw)
+
+
+def _vertical_bands(ax: plt.Axes, spans: list[tuple[float, float]], **kw) -> None:
+    """``ax.axvspan(lo, hi, lw=0, **kw)`` for every ``(lo, hi)`` of ``spans``: the same pixels
+    and the same autoscaling of x, as one artist instead of one patch per interval (Fig. 3.2:
+    38 intervals on each of three panels)."""
+    if not spans:
+        return
+    verts = [[(lo, 0.0), (lo, 1.0), (hi, 1.0), (hi, 0.0)] for lo, hi in spans]
+    ax.add_collection(PolyCollection(verts, transform=ax.get_xaxis_transform(), linewidths=0,
+                                     **kw), autolim=False)
+    ax.update_datalim([(min(lo for lo, _ in spans), 0.0), (max(hi for _, hi in spans), 0.0)],
+                      updatey=False)
+    ax.autoscale_view(scaley=False)
+
+
 def fep(res: RunResult, path: Path) -> None:
     """The branch diagram of a run (:func:`diagram`) saved to ``path``."""
-    fig = diagram(res)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    fig, ax = _figure(figsize=DIAGRAM_SIZE)
+    diagram(res, ax)
+    _save(fig, path)
 
 
 def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
@@ -72,7 +136,7 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     xk, yk = pr.fep_axes
     log = pr.diagram_yscale == "log"
     if ax is None:
-        fig, ax = plt.subplots(figsize=(11, 5.5))
+        fig, ax = plt.subplots(figsize=DIAGRAM_SIZE)
     else:
         fig = ax.figure
     xs: list[float] = []
@@ -138,8 +202,8 @@ def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
     black, unstable red, phantom thin grey; the second and later keys of a panel dashed), saved
     to ``path``. Quantities missing at a point are NaN: a gap, never an error."""
     xk = problem.parameter
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.3 * len(panels) + 0.8), sharex=True,
-                             squeeze=False)
+    fig, axes = _figure(nrows=len(panels), ncols=1, figsize=(9, 2.3 * len(panels) + 0.8),
+                        sharex=True, squeeze=False)
     for ax, (keys, ylabel) in zip(axes[:, 0], panels, strict=True):
         for j, yk in enumerate(keys):
             ls = "-" if j == 0 else (0, (4, 1.5))
@@ -157,8 +221,7 @@ def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
     axes[-1, 0].set_xlabel(xlabel)
     axes[0, 0].set_title(f"{title}: black stable, red unstable, grey phantom", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def _unstable_spans(problem: Problem, br: Branch, xk: str) -> list[tuple[float, float]]:
@@ -183,19 +246,17 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
     data = [(br, [p for p in br.points if p.multipliers is not None]) for br in res.branches]
     if not any(pts for _, pts in data):
         return False
-    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
-    for br, pts in data:
-        if not pts:
-            continue
-        for a, b in _unstable_spans(pr, br, xk):
-            for ax in axes:
-                ax.axvspan(min(a, b), max(a, b), color="tab:red", alpha=0.12, lw=0)
+    fig, axes = _figure(nrows=3, ncols=1, figsize=(9, 8), sharex=True)
+    spans = [(min(a, b), max(a, b)) for br, pts in data if pts
+             for a, b in _unstable_spans(pr, br, xk)]
+    for ax in axes:
+        _vertical_bands(ax, spans, color="tab:red", alpha=0.12)
     allp = [p for _, pts in data for p in pts]
     x = np.concatenate([np.full(p.multipliers.size, quantity(pr, p, xk)) for p in allp])
     m = np.concatenate([p.multipliers for p in allp])
     c = np.abs(m.real)
     for ax, val in zip(axes, (np.abs(m), m.real, m.imag), strict=True):
-        ax.scatter(x, val, c=c, cmap="viridis", vmin=0, vmax=1, s=4)
+        _scatter(ax, x, val, c, s=4, cmap="viridis", vmin=0, vmax=1)
     axes[0].axhline(1.0, color="k", lw=0.8)
     axes[0].set_yscale("log")
     # multipliers of near-grazing orbits grow like 1/v: keep the unit circle readable
@@ -216,8 +277,7 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
     for ax in axes:
         ax.grid(alpha=0.25)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    _save(fig, path)
     return True
 
 
@@ -228,12 +288,12 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
     pts = [p for br in res.branches for p in br.points if p.multipliers is not None]
     if not pts:
         return False
-    fig, ax = plt.subplots(figsize=(6.2, 5.6))
+    fig, ax = _figure(figsize=(6.2, 5.6))
     th = np.linspace(0, 2 * np.pi, 400)
     ax.plot(np.cos(th), np.sin(th), color="k", lw=0.8)
     z = np.concatenate([p.multipliers for p in pts])
     w = np.concatenate([np.full(p.multipliers.size, quantity(pr, p, xk)) for p in pts])
-    sc = ax.scatter(z.real, z.imag, c=w, cmap="plasma", s=5)
+    sc = _scatter(ax, z.real, z.imag, w, s=5, cmap="plasma")
     fig.colorbar(sc, ax=ax, label=pr.fep_labels[0])
     r = min(max(1.6, float(np.percentile(np.abs(z), 98)) * 1.1), 4.0)
     ax.set_xlim(-r, r)
@@ -244,8 +304,7 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
     ax.set_title("Floquet multipliers in the complex plane")
     ax.grid(alpha=0.25)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    _save(fig, path)
     return True
 
 

@@ -444,6 +444,14 @@ class Problem(ABC):
         problem cannot represent them (the switch is refused before computing)."""
         return None
 
+    def with_parameters(self, values: dict[str, float]) -> Problem | None:
+        """A new instance of this problem with the parameters ``values`` (name -> value)
+        changed and the same unknowns, continued parameter and period multiple: the base
+        problem at one value of the second parameter of a two-parameter curve
+        (:mod:`nsm_continuation.event_curves`). None: the problem cannot (the curve is refused
+        before computing)."""
+        return None
+
     def restart_start(self, y: np.ndarray) -> Any:
         """The problem's own ``start:`` block that starts from the unknowns ``y`` (e.g. a
         hybrid ``{guess: {...}}``): a restart runs :meth:`preflight` on it, so the checks of

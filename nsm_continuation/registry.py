@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import importlib
 from importlib.metadata import entry_points
+from typing import TYPE_CHECKING
 
-from .protocol import Problem
+if TYPE_CHECKING:  # imported by get(): listing the problems does not load CasADi
+    from .protocol import Problem
 
 GROUP = "nsm_continuation.problems"
 class UnknownProblemError(LookupError):
@@ -33,6 +35,8 @@ def available() -> dict[str, str]:
 
 def get(name: str) -> type[Problem]:
     """The Problem class registered under ``name``."""
+    from .protocol import Problem
+
     targets = available()
     if name not in targets:
         raise UnknownProblemError(

@@ -101,7 +101,13 @@ class RestartSpec(BaseModel):
     label: str | None = None
     #: continue a curve of codimension-one points in two parameters from the point instead of
     #: its orbit (:mod:`nsm_continuation.hybrid.codim1`): ``grazing`` (eq. C1)
-    curve: Literal["grazing"] | None = None
+    curve: Literal["grazing", "period_doubling", "fold", "neimark_sacker",
+                   "sticking_lost"] | None = None
+    #: how the curve is solved: ``augmented`` (the grazing curve's system C1, exact gradient;
+    #: grazing only) or ``located`` (:mod:`nsm_continuation.event_curves`, L1: each point an
+    #: event located by a continuation of the base problem; the other kinds only). Implied by
+    #: the kind; named for clarity or refused when it does not fit
+    method: Literal["augmented", "located"] | None = None
     #: the curve's second parameter, solved for while ``continuation.parameter`` is continued
     #: (default: the parameter the run continued)
     free: Annotated[str, Field(min_length=1)] | None = None
@@ -151,10 +157,17 @@ def parse_spec(start: Any) -> RestartSpec:
     elif spec.amplitude is not None:
         raise _case_error("start.amplitude: only used with start.switch")
     if spec.curve is None:
-        for key in ("free", "margin"):
+        for key in ("free", "margin", "method"):
             if getattr(spec, key) is not None:
                 raise _case_error(f"start.{key}: only used with start.curve (a two-parameter "
                                   "curve: curve: grazing)")
+    elif spec.method == "augmented" and spec.curve != "grazing":
+        raise _case_error(f"start.method: the augmented system is built for grazing curves; a "
+                          f"{spec.curve} curve is continued by the located method (drop "
+                          "start.method)")
+    elif spec.margin is not None and (spec.curve != "grazing" or spec.method == "located"):
+        raise _case_error("start.margin: only used with the augmented grazing curve (curve: "
+                          "grazing, method: augmented)")
     elif spec.switch is not False:
         raise _case_error("start.curve: a curve continues the event itself in two parameters; "
                           "it is not a branch switch (drop start.switch)")
@@ -194,9 +207,9 @@ def restart_block(res: RunResult) -> dict[str, Any]:
     except AttributeError:  # a problem whose parameters are not a pydantic model
         parameters = dict(res.case.parameters)
     # a two-parameter curve is a run of its base problem, with what rebuilds the curve
-    from .hybrid.codim1 import GrazingCurve
+    from .event_curves import CodimOneCurve
 
-    curve_block = pr.restart_curve() if isinstance(pr, GrazingCurve) else None
+    curve_block = pr.restart_curve() if isinstance(pr, CodimOneCurve) else None
     problem_name = curve_block.pop("base_problem") if curve_block else pr.name
     branches = []
     for br in res.branches:
@@ -481,6 +494,16 @@ def merged_parameters(record: RunRecord, sel: Selection, user: dict[str, Any]
     return _deep_merge(params, user)
 
 
+def _parameter_value(params: dict[str, Any], name: str) -> float | None:
+    """The number ``name`` in ``parameters:``, at the top or one level down (the chain's
+    ``chain: {stiffness: ...}``); None if there is none."""
+    for where in (params, *(v for v in params.values() if isinstance(v, dict))):
+        v = where.get(name)
+        if isinstance(v, int | float) and not isinstance(v, bool):
+            return float(v)
+    return None
+
+
 def map_unknowns(problem: Problem, sel: Selection, user: dict[str, Any],
                  params: dict[str, Any]) -> np.ndarray:
     """The restart point in the unknowns of ``problem`` (which may continue another
@@ -494,9 +517,8 @@ def map_unknowns(problem: Problem, sel: Selection, user: dict[str, Any],
             y[k] = float(user[name])
         elif name in old:
             y[k] = sel.y[old.index(name)]
-        elif name in params and isinstance(params[name], int | float) \
-                and not isinstance(params[name], bool):
-            y[k] = float(params[name])
+        elif _parameter_value(params, name) is not None:
+            y[k] = float(_parameter_value(params, name))  # type: ignore[arg-type]
         else:
             raise _case_error(f"start.from: the unknown {name!r} of problem {problem.name!r} is "
                               f"neither an unknown of the run ({', '.join(old)}) nor a "
@@ -562,17 +584,62 @@ class Restart:
         return out
 
 
-def curve_of(spec: RestartSpec, record: RunRecord) -> tuple[str | None, str | None, float | None]:
-    """``(kind, free parameter, margin)`` of the curve a restart continues: the case's
-    ``start.curve`` / ``start.free`` / ``start.margin``, else the run's own when the run is a
-    curve (a restart from a curve continues it), else no curve."""
+@dataclass
+class CurveSpec:
+    """The curve a restart continues (:func:`curve_of`)."""
+
+    kind: str
+    free: str
+    #: ``augmented`` (C1, grazing) or ``located`` (L1); None: the kind's (:func:`configure`)
+    method: str | None
+    margin: float | None
+
+
+def curve_of(spec: RestartSpec, record: RunRecord) -> CurveSpec | None:
+    """The curve a restart continues: the case's ``start.curve`` / ``free`` / ``method`` /
+    ``margin``, else the run's own when the run is a curve (a restart from a curve continues
+    it), else None."""
     saved = record.restart.get("curve") or {}
     kind = spec.curve or saved.get("kind")
     if kind is None:
-        return None, None, None
+        return None
     free = spec.free or saved.get("free") or record.restart.get("continued")
     margin = spec.margin if spec.margin is not None else saved.get("margin")
-    return kind, free, margin
+    method = spec.method or saved.get("method")
+    return CurveSpec(str(kind), str(free), method, margin)
+
+
+def located_curve(problem: Problem, sel: Selection, record: RunRecord, parameter: str,
+                  curve: CurveSpec) -> Problem:
+    """The curve of ``curve.kind`` points of ``problem`` through the selected event, by the
+    located method (:class:`~nsm_continuation.event_curves.LocatedCurve`, eq. L1); one-line
+    :class:`CaseError` naming the key where it cannot be built."""
+    from .event_curves import LocatedCurve
+
+    if not record.restart.get("curve"):
+        kind = sel.event["kind"] if sel.event is not None else None
+        if kind != curve.kind:
+            what = (f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} event" if kind is not None
+                    else "a CSV row (start.point)")
+            raise _case_error(f"start.curve: a {curve.kind} curve starts from a {curve.kind} "
+                              f"event of the run (start.event: {curve.kind}), not from {what}")
+    continued = record.restart.get("continued")
+    if not record.restart.get("curve") and curve.free != continued:
+        raise _case_error(f"start.free: the located {curve.kind} curve solves for the "
+                          f"parameter the run continued ({continued}), not {curve.free!r}")
+    saved = (record.restart.get("curve") or {}).get("base_settings")
+    try:
+        if saved is None:  # a run of the base problem: its own settings
+            from .cases import ContinuationSpec
+
+            c = ContinuationSpec.model_validate(record.case_input.get("continuation") or {})
+            saved = {"newton_tol": c.newton_tol, "step_initial": c.step.initial,
+                     "derived_bounds": {k: list(v) for k, v in c.bounds.items()}}
+        return LocatedCurve(problem, curve.kind, curve.free, parameter, saved)
+    except ValueError as exc:
+        msg = str(exc)
+        raise _case_error(msg if msg.startswith(("start.", "continuation."))
+                          else f"start.curve: {msg}") from None
 
 
 def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRecord,
@@ -624,11 +691,23 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
     if base is None:
         raise _case_error(f"start.from: {sel.what} of {record.label} is an orbit of {k} base "
                           f"periods, which problem {problem.name!r} cannot represent")
-    kind, free, margin = curve_of(spec, record)
-    if kind is not None:
-        assert free is not None
-        curve = grazing_curve(base, sel, spec, record, parameter or base.parameter, free,
-                              margin)
+    cs = curve_of(spec, record)
+    if cs is not None:
+        from .hybrid.shooting import HybridCaseProblem
+
+        hybrid = isinstance(base, HybridCaseProblem)
+        if cs.kind == "grazing" and hybrid and cs.method == "located":
+            raise _case_error("start.method: the grazing curve of a hybrid orbit is continued "
+                              "by its augmented system (C1): at a grazing the family of orbits "
+                              "has a nonsmooth fold that a continuation of the base problem "
+                              "does not locate reliably (drop start.method)")
+        if cs.method is None:
+            cs.method = "augmented" if cs.kind == "grazing" and hybrid else "located"
+        if cs.method == "located":
+            curve = located_curve(base, sel, record, parameter or base.parameter, cs)
+        else:
+            curve = grazing_curve(base, sel, spec, record, parameter or base.parameter,
+                                  cs.free, cs.margin)
         return curve, curve
     if spec.switch is False or spec.event_kind != "period_doubling":
         return base, base
@@ -699,6 +778,11 @@ def start_points(r: Restart, problem: Problem, settings: Any) -> tuple[list[Any]
         return switch_start(r, problem, settings)
     y = np.array(r.y, dtype=float)
     t = r.selection.tangent if r.same_unknowns and not r.overridden else None
+    from .event_curves import LocatedCurve
+
+    if isinstance(problem, LocatedCurve):
+        # the base branch's tangent, where the event is located again (none from a curve)
+        t = None if r.record.restart.get("curve") else r.selection.tangent
     ev = r.selection.event
     if t is not None and ev is not None and ev["kind"] == "branch_point":
         # the tangent is not unique at a branch point: start just beside it on this branch

@@ -28,6 +28,8 @@ def _f(x: Any) -> Any:
         return int(x)
     if isinstance(x, (np.bool_,)):
         return bool(x)
+    if isinstance(x, (set, frozenset)):
+        return sorted(x)
     return x
 
 

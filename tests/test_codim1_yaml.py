@@ -119,7 +119,7 @@ def test_grazing_curve_from_yaml_is_the_closed_form(base_run: tuple[float, Any, 
     assert rep["problem"] == "grazing_curve" and rep["continuation"]["parameter"] == "gap"
     assert rep["restart"]["problem"] == "impact_oscillator"
     assert rep["restart"]["curve"] == {"kind": "grazing", "free": "omega",
-                                       "margin": DEFAULT_MARGIN}
+                                       "method": "augmented", "margin": DEFAULT_MARGIN}
     assert rep["branches"][0]["info"]["curve"] == "grazing"
     assert rep["branches"][0]["parent"]["event"] == {"kind": "grazing", "index": 0}
     assert "fep.png" in rep["figures"]
@@ -168,8 +168,10 @@ BAD = [
      "start.switch: switching is defined at period_doubling and branch_point events"),
     ("free without curve", {"event": "grazing", "free": "omega"}, {},
      "start.free: only used with start.curve"),
-    ("unknown curve", {"event": "grazing", "curve": "fold"}, {},
+    ("unknown curve", {"event": "grazing", "curve": "cusp"}, {},
      "start.curve: Input should be 'grazing'"),
+    ("curve of another kind", {"event": "grazing", "curve": "fold"}, {},
+     "start.curve: a fold curve starts from a fold event of the run"),
 ]
 
 
@@ -191,10 +193,11 @@ def test_bad_curve_one_line_exit_2_nothing_written(undamped: tuple[float, Any, P
     assert sorted(p.name for p in tmp_path.iterdir()) == before
 
 
-def test_a_curve_of_a_problem_that_is_not_hybrid_is_refused(tmp_path: Path,
-                                                             capsys: Any) -> None:
-    """The chain (``ndof_impact``, not a hybrid system): a grazing curve from its run is
-    refused before computing, naming start.curve."""
+def test_a_chain_curve_from_a_point_that_is_no_grazing_is_refused(tmp_path: Path,
+                                                                  capsys: Any) -> None:
+    """The chain (``ndof_impact``, not a hybrid system) has located grazing curves
+    (:mod:`nsm_continuation.event_curves`); one asked from the branch's end point (no grazing
+    there) is refused before computing, naming start.curve."""
     res = nsm.run(Path(__file__).resolve().parents[1] / "yaml_cases" / "ndof_default.yaml",
                   {"continuation.min": 1.42, "continuation.max": 1.49,
                    "continuation.max_points": 3, "output.plots": False,
@@ -203,13 +206,12 @@ def test_a_curve_of_a_problem_that_is_not_hybrid_is_refused(tmp_path: Path,
     path = tmp_path / "case.yaml"
     path.write_text(yaml.safe_dump({"start": {"from": str(tmp_path / "chain"),
                                               "event": {"kind": "endpoint", "index": 0},
-                                              "curve": "grazing", "free": "gap"},
-                                    "continuation": {"parameter": "omega"}}))
+                                              "curve": "grazing"},
+                                    "continuation": {"parameter": "stiffness"}}))
     assert cli.main(["validate", str(path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == ("error: start.curve: problem 'ndof_impact' is not a hybrid system; grazing "
-                   "curves are continued for the orbits of hybrid problems (impact_oscillator, "
-                   "two_mass_chain, double_pendulum, ...)")
+    assert err == ("error: start.curve: a grazing curve starts from a grazing event of the run "
+                   "(start.event: grazing), not from an endpoint event")
 
 
 def test_the_reports_grazing_line_pasted_runs_the_curve(undamped: tuple[float, Any, Path],

@@ -42,7 +42,8 @@ import casadi as ca
 import numpy as np
 from pydantic import BaseModel
 
-from ..protocol import EvaluationError, Problem
+from ..event_curves import CodimOneCurve
+from ..protocol import EvaluationError
 from .grazing import margin_gradient
 from .shooting import HybridCaseProblem, HybridShooting, Section, ShootingFailure
 
@@ -52,7 +53,7 @@ SHIFT = "_grazing_curve_shift"
 DEFAULT_MARGIN = 1e-9
 
 
-class GrazingCurve(Problem):
+class GrazingCurve(CodimOneCurve):
     """Grazing orbits of ``base`` with ``free`` solved for and ``parameter`` continued (C1)."""
 
     name: ClassVar[str] = "grazing_curve"
@@ -230,8 +231,7 @@ class GrazingCurve(Problem):
 
     def restart_curve(self) -> dict[str, Any]:
         """What a restart record keeps to build this curve again."""
-        return {"kind": "grazing", "free": self.free, "margin": self.margin,
-                "base_problem": self.base.name}
+        return {**super().restart_curve(), "method": "augmented", "margin": self.margin}
 
 
 def grazing_curve_start(curve: GrazingCurve, y_grazing: np.ndarray) -> np.ndarray:

@@ -1097,6 +1097,23 @@ class HybridCaseProblem(HybridShootingProblem):
         new.set_parameter(self.parameter, multiple)
         return new
 
+    def with_parameters(self, values: dict[str, float]) -> HybridCaseProblem:
+        """The same system with ``values`` changed, continued in the same parameter (or in the
+        period with the same free parameter) with the same number of returns."""
+        data = self.params.model_dump()
+        for name, value in values.items():
+            if name not in self.values:
+                raise ValueError(f"{name!r} is not a parameter of {self.name!r} (one of "
+                                 f"{sorted(self.values)})")
+            data[name] = float(value)
+        new = type(self)(self.Parameters.model_validate(data))
+        if self.parameter == PERIOD and self.free_parameter is not None:
+            new.free_parameter = self.free_parameter
+            new._set_period(self.free_parameter, self.returns)
+        else:
+            new.set_parameter(self.parameter, self.returns)
+        return new
+
     def restart_start(self, y: np.ndarray) -> dict[str, Any]:
         """``{guess: <section coordinates of y>, returns: k}`` (and ``free_parameter`` for a
         continuation in the period, whose unknowns end with that parameter and the period)."""

@@ -838,6 +838,31 @@ class NDofImpactProblem(Problem):
         """``T = 2 pi / omega`` falls as ``omega`` grows."""
         return -1 if name == "omega" else 1
 
+    #: parameters :meth:`with_parameters` can change (a chain's uniform mass or stiffness)
+    CHANGEABLE: ClassVar[tuple[str, ...]] = ("gap", "mass", "stiffness")
+
+    def with_parameters(self, values: dict[str, float]) -> NDofImpactProblem:
+        """The chain with ``gap``, or its uniform ``mass`` or ``stiffness`` (``chain.mass``,
+        ``chain.stiffness``: one value for every spring) changed, continued in the same
+        parameter (``T`` or ``omega``)."""
+        data = self.params.model_dump()
+        for name, value in values.items():
+            if name not in self.CHANGEABLE:
+                raise ValueError(f"{name!r} is not a parameter of {self.name!r} that a "
+                                 f"two-parameter curve can vary (one of {self.CHANGEABLE})")
+            if name == "gap":
+                data["gap"] = float(value)
+                continue
+            chain = data.get("chain")
+            if chain is None or isinstance(chain[name], list):
+                raise ValueError(f"chain.{name}: a two-parameter curve varies a chain's "
+                                 f"{name} given as one value for every dof (not a list or "
+                                 "matrices)")
+            chain[name] = float(value)
+        new = type(self)(NDofParameters.model_validate(data))
+        new._orientation = self._orientation
+        return new
+
     def restart_start(self, y: np.ndarray) -> dict[str, Any]:
         """A restart is checked as a start at its period ``{T: ...}`` (window, sizes)."""
         return {"T": float(y[-1])}
@@ -1087,7 +1112,8 @@ class NDofImpactProblem(Problem):
         T = np.linspace(lo, hi, 20000)
         wn = self.w_N(T)
         kmax = self.SUBHARMONIC_KMAX
-        fig, ax = plt.subplots(figsize=(9, 4.5))
+        # created at the file's dpi: tight_layout and savefig lay the text out once
+        fig, ax = plt.subplots(figsize=(9, 4.5), dpi=130)
         poles = self.poles(lo, hi, kmax)
         wn_plot = np.where(np.abs(wn) > 50 * np.median(np.abs(wn)), np.nan, wn)
         ax.plot(T, wn_plot, color="k", lw=1.0)

@@ -1,0 +1,201 @@
+"""Two-parameter curves of located events (issue 12, item 3; nsm_continuation/event_curves.py,
+eq. L1): period-doubling and grazing curves of the undamped forced impact oscillator.
+
+Oracle, independent of the simulator and the engine: the closed-form period-1 orbit and its
+period-doubling condition (tests/oracles/impact_oscillator.py, eqs. O1-O2), whose zero set in
+the (omega, gap) plane is a U-shaped curve with its tip at gap = -0.65176597 (the two period
+doublings of the orbit meet there).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from oracles.impact_oscillator import period_doubling_function, section_state
+from scipy.optimize import brentq, minimize_scalar
+
+import nsm_continuation as nsm
+from nsm_continuation import cli
+
+R = 0.8
+#: the closed-form slope of (O2) in omega is ~3: 1e-7 in (O2) is ~3e-8 in omega
+PD_TOL = 1e-7
+
+
+def base_case(gap: float, omega: float, lo: float, name: str) -> dict[str, Any]:
+    """The stable high-velocity orbit at ``omega`` (from its closed form) continued down in
+    omega to ``lo``."""
+    q, qdot = section_state(omega, gap, R)
+    return {"name": name, "problem": "impact_oscillator",
+            "parameters": {"zeta": 0.0, "omega": omega, "gap": gap, "restitution": R,
+                           "section_phase": float(np.pi)},
+            "start": {"guess": {"q": float(q), "qdot": float(qdot)}},
+            "continuation": {"parameter": "omega", "min": lo, "max": omega,
+                             "direction": "decrease",
+                             "step": {"initial": 0.005, "min": 1e-9, "max": 0.01},
+                             "max_points": 40, "newton_tol": 1e-10},
+            "analysis": {"stability": True, "bifurcations": True, "event_tol": 1e-10},
+            "output": {"plots": False, "progress": False}}
+
+
+def pd_omega(gap: float, lo: float, hi: float) -> float:
+    return brentq(lambda w: period_doubling_function(w, gap, R), lo, hi, xtol=1e-14)
+
+
+@pytest.fixture(scope="module")
+def pd_run() -> Any:
+    """Gap -0.5: the period doubling at omega = 1.0949764 (closed form)."""
+    return nsm.run(base_case(-0.5, 1.11, 1.085, "pd_base"))
+
+
+def curve_points(res: Any) -> list[tuple[float, float, float]]:
+    br = res.run_result.branches[0]
+    return [(p.derived["omega"], p.derived["gap"], p.derived["condition"]) for p in br.points]
+
+
+def test_base_run_period_doubling_on_the_closed_form(pd_run: Any) -> None:
+    (ev,) = [e for e in pd_run.events if e.kind == "period_doubling"]
+    assert ev.parameter == pytest.approx(pd_omega(-0.5, 1.09, 1.1), abs=1e-8)
+
+
+def test_period_doubling_curve_lies_on_the_closed_form(pd_run: Any) -> None:
+    """Every point of the curve in (gap, omega) satisfies (O2) to 1e-7 (~3e-8 in omega), and
+    its multiplier is at -1 to the located tolerance; the curve reaches both bounds."""
+    cur = pd_run.restart(event="period_doubling", curve="period_doubling", parameter="gap",
+                         min=-0.53, max=-0.47,
+                         step={"initial": 0.01, "min": 1e-6, "max": 0.02}, max_points=12)
+    br = cur.run_result.branches[0]
+    assert set(br.termination.values()) == {"bound reached: gap"}
+    pts = curve_points(cur)
+    assert len(pts) >= 5
+    gaps = [g for _, g, _ in pts]
+    assert min(gaps) == pytest.approx(-0.53) and max(gaps) == pytest.approx(-0.47)
+    for omega, gap, cond in pts:
+        assert abs(period_doubling_function(omega, gap, R)) < PD_TOL, (omega, gap)
+        assert cond < 1e-8
+    assert cur.run_result.problem.curve_kind == "period_doubling"
+
+
+def test_period_doubling_curve_goes_round_its_turn() -> None:
+    """From the upper period doubling at gap = -0.645 towards larger |gap|: the curve turns
+    back in gap at the closed-form tip (-0.6517660, where both period doublings meet) and
+    comes back along the lower one, every point on (O2)."""
+    base = nsm.run(base_case(-0.645, 1.05, 1.04, "pd_base_turn"))
+    cur = base.restart(event="period_doubling", curve="period_doubling", parameter="gap",
+                       min=-0.655, max=-0.645, direction="decrease",
+                       step={"initial": 0.002, "min": 1e-6, "max": 0.004}, max_points=30)
+    pts = curve_points(cur)
+    gap_tip = brentq(lambda g: minimize_scalar(
+        lambda w: period_doubling_function(w, g, R), bounds=(1.02, 1.06), method="bounded",
+        options={"xatol": 1e-12}).fun, -0.66, -0.645, xtol=1e-14)
+    omegas = np.array([w for w, _, _ in pts])
+    gaps = np.array([g for _, g, _ in pts])
+    lower = pd_omega(-0.645, 1.02, 1.0364)
+    assert gap_tip <= gaps.min() < gap_tip + 2e-3           # round the tip, not past it
+    assert omegas[0] == pytest.approx(pd_omega(-0.645, 1.0364, 1.05), abs=1e-7)
+    assert omegas[-1] == pytest.approx(lower, abs=1e-7)     # back at gap = -0.645, below
+    assert gaps[-1] == pytest.approx(-0.645)
+    for omega, gap, _ in pts:
+        assert abs(period_doubling_function(omega, gap, R)) < PD_TOL, (omega, gap)
+
+
+# ---------------------------------------------------------------------- YAML and refusals
+def _yaml(tmp_path: Path, name: str, start: dict[str, Any], **cont: Any) -> int:
+    case = {"name": name, "start": start,
+            "continuation": {"parameter": "gap", "min": -0.52, "max": -0.48, **cont},
+            "output": {"plots": False, "progress": False}}
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(case))
+    return cli.main(["run", str(path), "--out", str(tmp_path / name), "--quiet"])
+
+
+@pytest.fixture(scope="module")
+def saved(pd_run: Any, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("runs") / "pd_base"
+    pd_run.save(folder, plots=False)
+    return folder
+
+
+def test_yaml_period_doubling_curve(saved: Path, tmp_path: Path) -> None:
+    """``start: {from, event: period_doubling, curve: period_doubling}`` from YAML: the CSV
+    holds the curve, report.json names the curve, and a restart of the curve continues it."""
+    start = {"from": str(saved), "event": "period_doubling", "curve": "period_doubling"}
+    assert _yaml(tmp_path, "pdc", start, step={"initial": 0.02, "max": 0.02},
+                 max_points=6) == 0
+    import json
+
+    rep = json.loads((tmp_path / "pdc" / "report.json").read_text())
+    assert rep["restart"]["curve"]["kind"] == "period_doubling"
+    assert rep["restart"]["problem"] == "impact_oscillator"
+    rows = (tmp_path / "pdc" / "branch_0.csv").read_text().splitlines()
+    assert rows[0].startswith("gap,omega,condition")
+    for row in rows[1:]:
+        gap, omega = (float(v) for v in row.split(",")[:2])
+        assert abs(period_doubling_function(omega, gap, R)) < PD_TOL
+    # a restart from the curve's end continues the curve (its kind, free parameter and the
+    # base run's settings are in the curve's report)
+    again = {"from": str(tmp_path / "pdc"), "event": {"kind": "endpoint", "index": 1}}
+    assert _yaml(tmp_path, "pdc2", again, min=-0.52, max=-0.46, direction="increase",
+                 step={"initial": 0.02, "max": 0.02}, max_points=6) == 0
+    rows = (tmp_path / "pdc2" / "branch_0.csv").read_text().splitlines()[1:]
+    gaps = [float(r.split(",")[0]) for r in rows]
+    assert max(gaps) == pytest.approx(-0.46)
+    for row in rows:
+        gap, omega = (float(v) for v in row.split(",")[:2])
+        assert abs(period_doubling_function(omega, gap, R)) < PD_TOL
+
+
+@pytest.mark.parametrize("extra, key", [
+    ({"method": "augmented"}, "start.method"),
+    ({"curve": "grazing", "method": "located"}, "start.method"),
+    ({"margin": 1e-9}, "start.margin"),
+    ({"free": "restitution"}, "start.free"),
+])
+def test_refused_before_computing(saved: Path, tmp_path: Path, capsys: Any,
+                                  extra: dict[str, Any], key: str) -> None:
+    start = {"from": str(saved), "event": "period_doubling", "curve": "period_doubling",
+             **extra}
+    assert _yaml(tmp_path, "bad", start) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and key in err[0], err
+    assert not (tmp_path / "bad").exists()
+
+
+def test_curve_from_an_event_of_another_kind_is_refused(saved: Path, tmp_path: Path,
+                                                       capsys: Any) -> None:
+    start = {"from": str(saved), "event": "period_doubling", "curve": "fold"}
+    assert _yaml(tmp_path, "bad2", start) == 2
+    assert "start.curve" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- the chain's point B
+def test_chain_nonlinear_grazing_curve_follows_the_time_scaling() -> None:
+    """Point B of Fig. 5.1 (the nonlinear grazing orbit ending branch 1 of the 5-dof chain)
+    in (stiffness, omega): a uniform stiffness k scales time by sqrt(k) and leaves the orbits'
+    shapes (M u'' + k K1 u = 0 with the same wall), so omega_B(k) = omega_B(5) sqrt(k / 5)
+    exactly; every point is at zero clearance (the admissibility test located)."""
+    case = {"name": "chain_b", "problem": "ndof_impact",
+            "parameters": {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0},
+            "start": {"mode": 1, "subharmonic": 1},
+            "continuation": {"parameter": "omega", "min": 1.0, "max": 11.0,
+                             "step": {"initial": 0.005, "min": 1e-9, "max": 0.5},
+                             "max_points": 400},
+            "analysis": {"stop_on_inadmissible": True, "stability": False},
+            "output": {"plots": False, "progress": False}}
+    base = nsm.run(case)
+    (ev,) = [e for e in base.events if e.kind == "grazing"]
+    omega_b = float(ev.point.derived["omega"])
+    cur = base.restart(event="grazing", curve="grazing", parameter="stiffness", min=4.0,
+                       max=6.0, step={"initial": 0.1, "min": 1e-6, "max": 0.5}, max_points=30)
+    br = cur.run_result.branches[0]
+    assert set(br.termination.values()) == {"bound reached: stiffness"}
+    ks = [p.derived["stiffness"] for p in br.points]
+    assert min(ks) == pytest.approx(4.0) and max(ks) == pytest.approx(6.0)
+    for p in br.points:
+        k = p.derived["stiffness"]
+        assert p.derived["omega"] == pytest.approx(omega_b * np.sqrt(k / 5.0), rel=1e-9)
+        assert p.derived["condition"] < 1e-9
