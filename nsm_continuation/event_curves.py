@@ -25,7 +25,9 @@ does exactly:
   (``|lambda| - 1`` for multiplier crossings, the test function for admissibility events);
   of the events of the curve's kind (and, for a test or event function, the same function)
   the one nearest the prediction is the next point;
-* none in the window: the window is widened (x4, once), then ``h`` is halved.
+* none in the window, or one farther from the prediction than a quarter of the step (another
+  zero of the condition: the secant's error is ``O(h^2)``): the window is widened (x4, once),
+  then ``h`` is halved.
 
 Fixing the parameter that moves most is what lets the curve go round its turns (the U-shaped
 period-doubling curve of the impact oscillator in ``(omega, gap)``: ``tests/test_event_curves.py``);
@@ -76,6 +78,8 @@ CURVE_KINDS: dict[str, str] = {
 STEP_GROWTH = 1.5
 WINDOW_GROWTH = 4.0
 WINDOW_WIDENINGS = 1
+#: largest distance of a located point from the secant prediction, relative to the step
+CONTINUITY = 0.25
 #: the first step is step.initial divided by this
 FIRST_STEP_FRACTION = 10.0
 #: points of each base continuation (both ways from the prediction)
@@ -385,6 +389,15 @@ class CurveTracer:
                 along, edge = "p", True
         return y, along, edge
 
+    @staticmethod
+    def _continues(last: _Located, y_pred: np.ndarray, got: _Located) -> bool:
+        """Whether ``got`` continues the curve: within ``CONTINUITY`` of the step from the
+        secant's prediction in the ``(p, q)`` plane (the secant's error is ``O(h^2)``; a point
+        farther off is another zero of the condition, e.g. another tangency of the chain's
+        orbit, which the step then halves away from)."""
+        step = float(np.linalg.norm(y_pred[-2:] - last.y[-2:]))
+        return float(np.linalg.norm(got.y[-2:] - y_pred[-2:])) <= CONTINUITY * step
+
     def _half(self, first: _Located, sign: int, width0: float) -> tuple[list[_Located], str]:
         st = self.settings
         pts = [first]
@@ -406,6 +419,10 @@ class CurveTracer:
                 if got is not None:
                     break
                 width *= WINDOW_GROWTH
+            if got is not None and len(pts) >= 2 and not self._continues(last, y_pred, got):
+                got, why = None, (f"the {self.curve.curve_kind} located at "
+                                  f"{self.curve.parameter} = {got.y[-1]:.10g} is off the "
+                                  "secant prediction (another zero of its condition)")
             if got is None:
                 h /= 2.0
                 if h < st.step_min:
