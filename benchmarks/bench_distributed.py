@@ -9,8 +9,8 @@ Prints the wall time of
 3. per-task costs, from which it estimates a 100-dof FEP on 64 cores.
 
 Run: ``python benchmarks/bench_distributed.py`` (2 cores, Python 3.11; the machine in
-``/work/.library/env``). The lattice scan of the bar (Fig. 12) is one task today (its seeds
-come from one scan of the window): it is not distributed.
+``/work/.library/env``). The lattice scan of the bar (Fig. 12), split into pieces of its seed
+search: ``benchmarks/bench_distributed_lattice.py``.
 """
 
 from __future__ import annotations

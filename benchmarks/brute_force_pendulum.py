@@ -28,9 +28,15 @@ Charts (``benchmarks/results/``, git-ignored): ``brute_force_fig8b.png``,
 ``brute_force_summary.json`` and stdout.
 
 ``--quick``: coarse grids, short transients (< 1 min on 2 cores); the default is the full run
-(~4.5-5.5 min on 2 shared cores; measured numbers in ``benchmarks/README.md``). ``--jobs``
-(default 2): the four tasks (Fig. 8(b), Fig. 9 overview, Fig. 9 zoom, Fig. 10) run in parallel
-processes. ``--only fig8b fig9 fig10``: a subset.
+(~4.5-5.5 min on 2 shared cores; measured numbers in ``benchmarks/README.md``). The sweeps are
+Dask tasks (issue 14), the same tasks whatever runs them: Fig. 8(b), Fig. 9(b) up, Fig. 9(b)
+down, Fig. 9(c) zoom and Fig. 10 (each a chain of values warm-started from the previous one,
+so not split further); ``--workers N`` (default 2) runs them on a local cluster of N
+single-threaded worker processes (:func:`nsm_continuation.execution.start_client`, as
+``nsm-continuation run --workers``), ``--scheduler tcp://HOST:8786`` on an existing cluster,
+``--workers 1`` in this process. The results are merged by name, so the numbers do not depend
+on where or in which order the tasks ran. ``--jobs N`` is a deprecated alias of ``--workers``.
+``--only fig8b fig9 fig10``: a subset.
 """
 
 from __future__ import annotations
@@ -44,7 +50,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
-from concurrent.futures import ProcessPoolExecutor  # noqa: E402
+from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
@@ -61,6 +67,7 @@ from nsm_continuation.problems.impacting.brute_force import (  # noqa: E402
 )
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
+from nsm_continuation.execution import Execution, start_client  # noqa: E402
 from nsm_continuation.hybrid.simulate import SimulationError  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -202,8 +209,9 @@ def _fig9_start(tr0: int) -> np.ndarray:
     return sweep("d", [0.5009], FIG9, tr0, 4, converge_tol=1e-11)[0].state
 
 
-def run_fig9_overview(quick: bool) -> dict[str, Any]:
-    """Fig. 9(b): two sweeps from the period-2 orbit at d = 0.5009, up and down."""
+def run_fig9_overview(quick: bool, side: str) -> dict[str, Any]:
+    """Fig. 9(b): one of the two sweeps (``side``: ``up`` or ``down``) from the period-2
+    orbit at d = 0.5009 (each task finds that orbit itself: the same state for both)."""
     t0 = time.perf_counter()
     d0 = 0.5009
     if quick:
@@ -211,9 +219,9 @@ def run_fig9_overview(quick: bool) -> dict[str, Any]:
     else:
         up, down, tr0, tr, rec = grid(d0, 0.5020, 2.5e-5), grid(0.5000, d0, 4e-5)[::-1], 150, 40, 24
     X0 = _fig9_start(tr0)
-    pts_up = sweep("d", up, FIG9, tr, rec, initial=X0, converge_tol=1e-10, progress=not quick)
-    pts_dn = sweep("d", down, FIG9, tr, rec, initial=X0, converge_tol=1e-10, progress=not quick)
-    return {"up": pts_up, "down": pts_dn, "total_s": time.perf_counter() - t0}
+    pts = sweep("d", up if side == "up" else down, FIG9, tr, rec, initial=X0,
+                converge_tol=1e-10, progress=not quick)
+    return {side: pts, "total_s": time.perf_counter() - t0}
 
 
 def classify_pd(p: SweepPoint) -> str:
@@ -438,45 +446,75 @@ def plot_fig10(res: dict[str, Any], path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------------- driver
-RUNNERS = {"fig8b": run_fig8, "fig9": run_fig9_overview, "fig9zoom": run_fig9_zoom,
-           "fig10": run_fig10}
-SCENARIOS = {"fig8b": ["fig8b"], "fig9": ["fig9", "fig9zoom"], "fig10": ["fig10"]}
+#: the tasks: each a chain of sweeps (warm-started value to value), independent of the others
+RUNNERS = {"fig8b": run_fig8, "fig9up": partial(run_fig9_overview, side="up"),
+           "fig9down": partial(run_fig9_overview, side="down"),
+           "fig9zoom": run_fig9_zoom, "fig10": run_fig10}
+SCENARIOS = {"fig8b": ["fig8b"], "fig9": ["fig9up", "fig9down", "fig9zoom"], "fig10": ["fig10"]}
+#: longest first, so that the workers balance
+ORDER = ("fig9zoom", "fig8b", "fig10", "fig9up", "fig9down")
 
 
-def _run(name: str, quick: bool) -> tuple[str, dict[str, Any]]:
-    return name, RUNNERS[name](quick)
+def run_task(name: str, quick: bool) -> dict[str, Any]:
+    """One task, wherever it runs (BLAS limited to one thread)."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    return RUNNERS[name](quick)
+
+
+def run_tasks(order: list[str], quick: bool, workers: int,
+              scheduler: str | None) -> dict[str, dict[str, Any]]:
+    """The tasks ``order`` in this process (``workers`` 1, no ``scheduler``) or as Dask tasks
+    on a local cluster of ``workers`` processes or on ``scheduler``; results by name."""
+    if not scheduler and (workers <= 1 or len(order) <= 1):
+        return {name: run_task(name, quick) for name in order}
+    client, cluster = start_client(Execution(workers=None if scheduler else workers,
+                                             scheduler=scheduler))
+    futures = []
+    try:
+        futures = [client.submit(run_task, name, quick, pure=False, retries=2,
+                                 key=f"brute-force-{name}-{time.time_ns()}") for name in order]
+        return {name: f.result() for name, f in zip(order, futures, strict=True)}
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="coarse grids (< 1 min)")
-    ap.add_argument("--jobs", type=int, default=2, help="parallel processes (scenarios)")
+    ap.add_argument("--workers", type=int, default=2,
+                    help="worker processes of a local Dask cluster (1: in this process)")
+    ap.add_argument("--jobs", type=int, dest="workers", help="deprecated alias of --workers")
+    ap.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
     ap.add_argument("--only", nargs="*", choices=sorted(SCENARIOS), default=None)
     ap.add_argument("--out", type=Path, default=OUT, help="output directory")
     a = ap.parse_args()
+    if a.workers < 1:
+        ap.error("--workers: at least 1")
     a.out.mkdir(parents=True, exist_ok=True)
     names = a.only or ["fig8b", "fig9", "fig10"]
-    # longest first, so that two workers balance
     tasks = [t for n in names for t in SCENARIOS[n]]
-    order = [t for t in ("fig9zoom", "fig8b", "fig9", "fig10") if t in tasks]
+    order = [t for t in ORDER if t in tasks]
     t0 = time.perf_counter()
-    results: dict[str, dict[str, Any]] = {}
-    if a.jobs > 1 and len(order) > 1:
-        with ProcessPoolExecutor(max_workers=a.jobs) as ex:
-            for name, res in ex.map(_run, order, [a.quick] * len(order)):
-                results[name] = res
-    else:
-        for name in order:
-            results[name] = _run(name, a.quick)[1]
+    results = run_tasks(order, a.quick, a.workers, a.scheduler)
+    task_s = {name: results[name]["total_s"] for name in order}
     if "fig9zoom" in results:
         zres = results.pop("fig9zoom")
-        ov = results.pop("fig9") if "fig9" in results else {"up": [], "down": []}
-        results["fig9"] = {**zres, "up": ov["up"], "down": ov["down"],
-                           "total_s": zres["total_s"] + ov.get("total_s", 0.0),
-                           "zoom_s": zres["total_s"], "overview_s": ov.get("total_s", 0.0)}
+        up = results.pop("fig9up", {"up": [], "total_s": 0.0})
+        down = results.pop("fig9down", {"down": [], "total_s": 0.0})
+        overview_s = up["total_s"] + down["total_s"]
+        results["fig9"] = {**zres, "up": up["up"], "down": down["down"],
+                           "total_s": zres["total_s"] + overview_s,
+                           "zoom_s": zres["total_s"], "overview_s": overview_s}
     wall = time.perf_counter() - t0
     summary: dict[str, Any] = {"mode": "quick" if a.quick else "full", "wall_s": wall,
-                               "paper": PAPER}
+                               "task_s": task_s, "paper": PAPER}
     if "fig8b" in results:
         r = results["fig8b"]
         plot_fig8(r, a.out / "brute_force_fig8b.png")
@@ -511,7 +549,11 @@ def main() -> None:
         else:
             print(f"{k}: {v}")
     print(f"written: {a.out}/brute_force_{{fig8b,fig9bc,fig10b}}.png, brute_force_summary.json")
-    print(f"total wall time {wall:.1f} s ({'quick' if a.quick else 'full'}, jobs = {a.jobs})")
+    where = (f"scheduler {a.scheduler}" if a.scheduler else
+             f"{a.workers} worker process{'es' if a.workers > 1 else ''}" if a.workers > 1
+             else "serial")
+    print(f"total wall time {wall:.1f} s ({'quick' if a.quick else 'full'}, {where}; sum of the "
+          f"tasks {sum(task_s.values()):.1f} s)")
 
 
 if __name__ == "__main__":

@@ -72,9 +72,9 @@ class Algorithm(ABC):
     #: key of ``report.json``'s ``timings`` for the time to build the seeds and prepare
     setup_key: ClassVar[str] = "setup_s"
     #: whether its branches can be computed as independent Dask tasks, each rebuilding the
-    #: seeds from the case (:mod:`nsm_continuation.execution`); not the lattice engine, whose
-    #: seeds come from a scan of the whole window (one task)
-    distributable: ClassVar[bool] = True
+    #: seeds from the case (:mod:`nsm_continuation.execution`); an algorithm may decide it per
+    #: run in :meth:`starts` (the lattice engine: :class:`Lattice`)
+    distributable: bool = True
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         self.problem = problem
@@ -114,6 +114,39 @@ class Algorithm(ABC):
     def counters(self) -> dict[str, Any]:
         """Counters of the run for ``report.json``'s ``timings``."""
         return {}
+
+    # -- on a Dask cluster (nsm_continuation.execution); the defaults distribute the branches
+    # -- only, each task's branch being all the master needs
+    def seed_pieces(self, case_start: Any, window: Window, count: int) -> list[Any]:
+        """The search for the seeds of ``case_start`` split into about ``count`` independent
+        pieces (Dask tasks), in the order a serial search does them; ``[]``: not split
+        (default), :meth:`starts` does it all in this process."""
+        return []
+
+    def seed_piece(self, case_start: Any, window: Window, piece: Any) -> Any:
+        """On a worker: the work of one piece of :meth:`seed_pieces`, as picklable data for
+        :meth:`adopt_seed_piece`."""
+        raise NotImplementedError(f"the {self.name} algorithm does not split its seed search")
+
+    def adopt_seed_piece(self, result: Any) -> None:
+        """On the master, in piece order: take what :meth:`seed_piece` computed, so that
+        :meth:`starts` then finds it done."""
+        return None
+
+    def begin_task(self) -> None:
+        """On a worker, before the branch of a task."""
+        return None
+
+    def task_state(self) -> Any:
+        """On a worker, after the branch of a task: what the master needs besides the branch
+        to continue as if it had computed it (:meth:`adopt_branch`); picklable."""
+        return None
+
+    def adopt_branch(self, branch: Branch, state: Any) -> None:
+        """On the master, when the merge (in seed order) accepts a branch computed on a
+        worker with ``state`` (:meth:`task_state`): what computing it here would have changed
+        (what :meth:`covered` reads for the next seeds)."""
+        return None
 
 
 def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
@@ -240,12 +273,24 @@ class LocatedEvents(_CurveAlgorithm):
 
 
 class Lattice(Algorithm):
-    """Continuation on an integer lattice (:mod:`nsm_continuation.lattice`)."""
+    """Continuation on an integer lattice (:mod:`nsm_continuation.lattice`).
+
+    On a Dask cluster, the problem may split its seed search into pieces (a scan of the window
+    by chunks of periods: :meth:`~nsm_continuation.lattice.LatticeProblem.lattice_seed_pieces`),
+    each a task whose record (the nodes it solved) is replayed here in order, after which the
+    seeds are found here by the serial code; and the branches are tasks only where the problem
+    says they are worth it (:meth:`~nsm_continuation.lattice.LatticeProblem.
+    lattice_distribute_branches`: explicit starts, not a scan's seeds, most of which lie on an
+    earlier branch). A branch task returns the keys of the nodes it visited and the problem's
+    record, which the merge adopts in seed order: the skipped seeds, and the problem's
+    counters, are the serial run's.
+    """
 
     name: ClassVar[str] = "lattice"
     takes_start_points: ClassVar[bool] = False
     setup_key: ClassVar[str] = "seeds_s"
-    distributable: ClassVar[bool] = False
+    #: decided per run by :meth:`starts`
+    distributable: bool = False
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         if not isinstance(problem, LatticeProblem):
@@ -256,6 +301,7 @@ class Lattice(Algorithm):
         self.engine = LatticeContinuation(problem, settings, progress=self._tick)
 
     def starts(self, case_start: Any, window: Window) -> list[Any]:
+        self.distributable = self.lattice_problem.lattice_distribute_branches(case_start)
         return list(self.lattice_problem.lattice_seeds(case_start, window))
 
     def seeds_from_points(self, points: list[StartPoint]) -> list[Any]:
@@ -270,6 +316,32 @@ class Lattice(Algorithm):
 
     def counters(self) -> dict[str, Any]:
         return {"lattice_steps": self.engine.n_evaluations}
+
+    def seed_pieces(self, case_start: Any, window: Window, count: int) -> list[Any]:
+        return list(self.lattice_problem.lattice_seed_pieces(case_start, window, count))
+
+    def seed_piece(self, case_start: Any, window: Window, piece: Any) -> Any:
+        pr = self.lattice_problem
+        pr.lattice_record()
+        try:
+            pr.lattice_seed_piece(case_start, window, piece)
+        finally:
+            record = pr.lattice_recorded()
+        return record
+
+    def adopt_seed_piece(self, result: Any) -> None:
+        self.lattice_problem.lattice_replay(result)
+
+    def begin_task(self) -> None:
+        self.lattice_problem.lattice_record(solutions=False)
+
+    def task_state(self) -> Any:
+        return set(self.engine.last_keys), self.lattice_problem.lattice_recorded()
+
+    def adopt_branch(self, branch: Branch, state: Any) -> None:
+        keys, record = state
+        self.engine.visited |= keys
+        self.lattice_problem.lattice_replay(record)
 
 
 class PycontLite(_CurveAlgorithm):

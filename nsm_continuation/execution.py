@@ -17,6 +17,15 @@ lost during a task makes Dask run the task elsewhere (``retries``); a task that 
 branch with the recorded reason ``task failed on a worker: ...``, never the run. SIGINT or
 SIGTERM (the CLI's ``poll``) cancels the pending tasks and leaves no output.
 
+An algorithm may also split the search for its seeds into independent pieces
+(:meth:`~nsm_continuation.algorithms.Algorithm.seed_pieces`: the lattice scan of the bar, by
+chunks of periods). :func:`search_seeds_distributed` runs them as tasks before the seeds are
+built, and the master adopts their results in piece order: the seeds are then built here by the
+serial code, which finds the pieces' work done (the nodes they solved). A branch task returns,
+with its branch, what the master needs to go on as if it had computed it
+(:meth:`~nsm_continuation.algorithms.Algorithm.task_state`: for the lattice, the nodes it
+visited, which decide the skipped seeds); the merge adopts it when it accepts the branch.
+
 ``--workers N`` starts a local cluster of ``N`` single-threaded worker processes for the run;
 ``--scheduler tcp://HOST:8786`` uses an existing cluster (``dask scheduler``, ``dask worker``),
 whose workers need this package (and any plugin problem) installed.
@@ -48,7 +57,7 @@ class Execution:
         return bool(self.workers) or bool(self.scheduler)
 
 
-def _rebuild(raw_case: dict[str, Any]) -> tuple[Any, Any, Any, Any]:
+def rebuild_case(raw_case: dict[str, Any]) -> tuple[Any, Any, Any, Any]:
     """On a worker: the case, problem, settings and algorithm, from the case's input alone."""
     from . import registry
     from .algorithms import make_algorithm
@@ -78,7 +87,7 @@ def _prepared(raw_case: dict[str, Any], explicit: list[Any] | None) -> tuple[Any
         "" if explicit is None else pickle.dumps(explicit).hex())
     hit = _WORKER_CACHE.get(key)
     if hit is None:
-        case, _problem, window, algorithm = _rebuild(raw_case)
+        case, _problem, window, algorithm = rebuild_case(raw_case)
         seeds = (algorithm.starts(case.start, window) if explicit is None
                  else algorithm.seeds_from_points(explicit))
         algorithm.prepare()
@@ -94,28 +103,174 @@ def _numeric(counters: dict[str, Any]) -> dict[str, float]:
 
 
 def branch_task(raw_case: dict[str, Any], index: int, branch_id: int,
-                explicit: list[Any] | None) -> tuple[Branch, float, dict[str, Any]]:
+                explicit: list[Any] | None) -> tuple[Branch, float, dict[str, Any], Any]:
     """One task: the branch of seed ``index`` (of the case's starts, or of ``explicit`` start
-    points), with its wall time and what it added to the algorithm's counters."""
+    points), with its wall time, what it added to the algorithm's counters and the algorithm's
+    :meth:`~nsm_continuation.algorithms.Algorithm.task_state`."""
     algorithm, seeds = _prepared(raw_case, explicit)
     before = _numeric(algorithm.counters())
+    algorithm.begin_task()
     t0 = time.perf_counter()
     branch = algorithm.run_branch(seeds[index], branch_id=branch_id)
     dt = time.perf_counter() - t0
+    state = algorithm.task_state()
     after = _numeric(algorithm.counters())
-    return branch, dt, {k: v - before.get(k, 0) for k, v in after.items()}
+    return branch, dt, {k: v - before.get(k, 0) for k, v in after.items()}, state
 
 
-def _client(execution: Execution) -> Any:
+#: on a worker: the rebuilt (case, window, algorithm) of the last cases whose seed search it
+#: ran pieces of (the problem keeps what the earlier pieces solved; each piece records its own)
+_PIECE_CACHE: dict[str, tuple[Any, Any, Any]] = {}
+
+
+def seed_piece_task(raw_case: dict[str, Any], piece: Any) -> tuple[Any, float]:
+    """One task of a seed search split in pieces: the algorithm's
+    :meth:`~nsm_continuation.algorithms.Algorithm.seed_piece` result and its wall time."""
+    import json
+
+    key = json.dumps(raw_case, sort_keys=True, default=str)
+    hit = _PIECE_CACHE.get(key)
+    if hit is None:
+        case, _problem, window, algorithm = rebuild_case(raw_case)
+        if len(_PIECE_CACHE) >= _WORKER_CACHE_SIZE:
+            _PIECE_CACHE.pop(next(iter(_PIECE_CACHE)))
+        hit = _PIECE_CACHE[key] = (case, window, algorithm)
+    case, window, algorithm = hit
+    t0 = time.perf_counter()
+    result = algorithm.seed_piece(case.start, window, piece)
+    return result, time.perf_counter() - t0
+
+
+#: pieces of a seed search per worker: enough for the dynamic scheduling to even out pieces
+#: of unequal cost, few enough that each stays much longer than a task's overhead (~ms)
+PIECES_PER_WORKER = 8
+
+
+def start_client(execution: Execution) -> tuple[Any, Any]:
+    """A ``dask.distributed`` client for ``execution`` and the local cluster it started
+    (``None`` for an existing ``scheduler``): ``workers`` single-threaded worker processes,
+    BLAS limited to one thread, set up for tasks that hold the GIL (see below). Close both
+    when done (``client.close()``, ``cluster.close()``). Also used by the benchmarks' own
+    tasks (``benchmarks/brute_force_pendulum.py``).
+
+    Three of Dask's defaults cost a task that computes in Python most of the time (the bar's
+    lattice scan, N = 200, on 2 workers: the pieces' CPU time 1.3x the serial scan's with
+    them, 1.05x without):
+
+    * ``MALLOC_TRIM_THRESHOLD_=65536`` in the worker's environment
+      (``distributed.nanny.pre-spawn-environ``) also turns off glibc's adaptive mmap
+      threshold: every temporary array above 128 kB is then mapped and unmapped, page by page
+      (7x the page faults). Not set here (it must be set before the process starts: ``env`` is
+      applied after);
+    * the statistical profiler samples the task's stack every 10 ms
+      (``distributed.worker.profile``): off;
+    * the event loop ticks every 20 ms (``distributed.admin.tick.interval``), each tick taking
+      the GIL from the task: every second.
+
+    A cluster of one's own (``scheduler``) is set up by whoever starts it (README)."""
+    import dask
     from dask.distributed import Client, LocalCluster
 
     if execution.scheduler:
         return Client(execution.scheduler, timeout="10s"), None
     # one thread per worker, BLAS included: N workers on N cores, not N x (BLAS threads)
     one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
-    cluster = LocalCluster(n_workers=int(execution.workers or 1), threads_per_worker=1,
-                           processes=True, dashboard_address=None, silence_logs=40, env=one)
+    pre_spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ",
+                                                  {}).items()
+                 if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": {**pre_spawn, **one},
+                          "distributed.worker.profile.enabled": False,
+                          "distributed.admin.tick.interval": "1s"}):
+        cluster = LocalCluster(n_workers=int(execution.workers or 1), threads_per_worker=1,
+                               processes=True, dashboard_address=None, silence_logs=40,
+                               env=one)
     return Client(cluster), cluster
+
+
+def _wait_all(futures: list[Any], poll: Callable[[], None] | None,
+              done_callback: Callable[[Any], None] | None = None) -> None:
+    """Wait for every future, calling ``poll`` (the signals) every 0.25 s and
+    ``done_callback`` on each future as it finishes."""
+    from dask.distributed import wait
+
+    pending = set(futures)
+    while pending:
+        try:
+            done, pending = wait(list(pending), timeout=0.25, return_when="FIRST_COMPLETED")
+        except TimeoutError:  # nothing finished yet: only the signals are polled
+            done = set()
+        if done_callback is not None:
+            for f in done:
+                done_callback(f)
+        if poll is not None:
+            poll()
+
+
+def _n_workers(client: Any, execution: Execution) -> int:
+    if execution.workers:
+        return int(execution.workers)
+    try:
+        return max(1, len(client.scheduler_info().get("workers", {})))
+    except Exception:  # noqa: BLE001 - only the number of pieces depends on it
+        return 1
+
+
+def search_seeds_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: Any,
+                             case_start: Any, window: Any,
+                             poll: Callable[[], None] | None = None) -> dict[str, Any]:
+    """The pieces of the algorithm's seed search (:meth:`~nsm_continuation.algorithms.
+    Algorithm.seed_pieces`) as Dask tasks, adopted in piece order by ``algorithm``, which then
+    builds its seeds (:meth:`~nsm_continuation.algorithms.Algorithm.starts`) without redoing
+    them. Nothing (no cluster started) when the search is not split. A piece that raises
+    raises here (as the serial search would: a ``ValueError`` is a failed start).
+
+    Returns timings for ``report.json``: ``seed_pieces`` (how many), ``seed_pieces_s`` (each
+    on its worker), ``seed_cluster_start_s`` (connecting, or starting the local cluster),
+    ``seed_pieces_wall_s`` (from the first submission to the last result adopted),
+    ``seed_adopt_s`` (adopting the results here, in order, while the later pieces compute)
+    and ``seed_search_distributed_s`` (all of it, closing the cluster included)."""
+    if not algorithm.seed_pieces(case_start, window, 1):
+        return {}
+    t0 = time.perf_counter()
+    client, cluster = start_client(execution)
+    futures: list[Any] = []
+    t_start = time.perf_counter() - t0
+    try:
+        count = PIECES_PER_WORKER * _n_workers(client, execution)
+        pieces = algorithm.seed_pieces(case_start, window, count)
+        stamp = time.time_ns()
+        t1 = time.perf_counter()
+        futures = [client.submit(seed_piece_task, raw_case, piece, pure=False,
+                                 retries=TASK_RETRIES, key=f"nsm-seed-piece-{i}-{stamp}")
+                   for i, piece in enumerate(pieces)]
+        per_piece: list[float] = []
+        t_adopt = 0.0
+
+        def adopt_in_order(_: Any = None) -> None:
+            # in piece order (the serial search's), each as soon as it and those before it
+            # are done: adopting overlaps with the pieces still computing
+            nonlocal t_adopt
+            while len(per_piece) < len(futures) and futures[len(per_piece)].done():
+                result, dt = futures[len(per_piece)].result()  # a piece's error raises here
+                t2 = time.perf_counter()
+                algorithm.adopt_seed_piece(result)
+                t_adopt += time.perf_counter() - t2
+                per_piece.append(dt)
+
+        _wait_all(futures, poll, adopt_in_order)
+        adopt_in_order()
+        t_wall = time.perf_counter() - t1
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return {"seed_pieces": len(per_piece), "seed_pieces_s": per_piece,
+            "seed_cluster_start_s": t_start, "seed_pieces_wall_s": t_wall,
+            "seed_adopt_s": t_adopt, "seed_search_distributed_s": time.perf_counter() - t0}
 
 
 def run_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: Any,
@@ -126,33 +281,25 @@ def run_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: A
     """Every seed as a Dask task, merged in seed order (see the module docstring): the
     accepted branches, the skipped seeds' labels, the per-branch times and the summed
     counters."""
-    from dask.distributed import wait
-
-    client, cluster = _client(execution)
+    client, cluster = start_client(execution)
     futures = []
+
+    def advance(f: Any) -> None:
+        if progress is not None and f.status == "finished":
+            progress(f.result()[0].n_points)
+
     try:
         futures = [client.submit(branch_task, raw_case, i, i, explicit, pure=False,
                                  retries=TASK_RETRIES, key=f"nsm-branch-{i}-{time.time_ns()}")
                    for i in range(len(seeds))]
-        pending = set(futures)
-        while pending:
-            try:
-                done, pending = wait(list(pending), timeout=0.25,
-                                     return_when="FIRST_COMPLETED")
-            except TimeoutError:  # nothing finished yet: only the signals are polled
-                done = set()
-            for f in done:
-                if progress is not None and f.status == "finished":
-                    progress(f.result()[0].n_points)
-            if poll is not None:
-                poll()
-        results: list[tuple[Branch | None, float, dict[str, Any], str | None]] = []
+        _wait_all(futures, poll, advance)
+        results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
         for f in futures:
             try:
-                branch, dt, counters = f.result()
-                results.append((branch, dt, counters, None))
+                branch, dt, counters, state = f.result()
+                results.append((branch, dt, counters, None, state))
             except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
-                results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}"))
+                results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}", None))
     except BaseException:
         for f in futures:
             f.cancel()
@@ -165,23 +312,28 @@ def run_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: A
 
 
 def merge_in_seed_order(algorithm: Any, seeds: list[Any],
-                        results: list[tuple[Branch | None, float, dict[str, Any], str | None]]
+                        results: list[tuple[Any, ...]]
                         ) -> tuple[list[Branch], list[str], list[float], dict[str, Any]]:
     """The serial loop's rule applied to results computed independently: in seed order, a
     seed that lies on an already accepted branch is skipped; the accepted branches are
     numbered ``0, 1, ...``; a failed task becomes a branch without points whose termination
-    names the failure."""
+    names the failure. ``results``: ``(branch, seconds, counters, error)``, optionally with the
+    task's state, which the algorithm adopts when its branch is accepted
+    (:meth:`~nsm_continuation.algorithms.Algorithm.adopt_branch`), before the next seed."""
     branches: list[Branch] = []
     skipped: list[str] = []
     per_branch: list[float] = []
     counters: dict[str, Any] = {}
-    for seed, (branch, dt, cnt, error) in zip(seeds, results, strict=True):
+    adopt = getattr(algorithm, "adopt_branch", None)
+    for seed, (branch, dt, cnt, error, *rest) in zip(seeds, results, strict=True):
         if algorithm.covered(seed, branches):
             skipped.append(algorithm.label(seed))
             continue
         if branch is None:
             branch = Branch(len(branches), algorithm.label(seed), [], [],
                             {"task": f"task failed on a worker: {error}"})
+        elif adopt is not None and rest:
+            adopt(branch, rest[0])
         branch.id = len(branches)
         branches.append(branch)
         per_branch.append(dt)

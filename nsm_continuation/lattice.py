@@ -19,6 +19,16 @@ A lattice problem (subclass of :class:`LatticeProblem`) implements:
    a change between consecutive points is reported as an event of the kind the problem maps
    the name to in ``character_kinds`` (default ``pattern_change``, a kind this family
    declares).
+
+On a Dask cluster (:mod:`nsm_continuation.execution`) a problem may also split its seed search
+into independent pieces (:meth:`LatticeProblem.lattice_seed_pieces`, e.g. a scan of the window
+by chunks of periods) and let the branches of explicit starts run as tasks
+(:meth:`LatticeProblem.lattice_distribute_branches`). What a piece or a branch computed on a
+worker changes in the problem (e.g. its cache of solved nodes and the counters the report
+reads) comes back as data (:meth:`LatticeProblem.lattice_record` /
+:meth:`~LatticeProblem.lattice_recorded`) and is replayed on the master in the serial order
+(:meth:`~LatticeProblem.lattice_replay`), so the run's outputs are the serial run's. The
+defaults split nothing and keep every branch in this process.
 """
 
 from __future__ import annotations
@@ -88,8 +98,50 @@ class LatticeProblem(Problem):
         return {}
 
     def lattice_key(self, sol: Any) -> Any:
-        """Hashable identity of a solution (used to skip seeds already on a branch)."""
+        """Hashable identity of a solution (used to skip seeds already on a branch). On a
+        Dask cluster the keys of a branch computed on a worker are sent to the master: they
+        must then be picklable values (e.g. the lattice node), not object ids."""
         return id(sol)
+
+    # -- distributed runs (nsm_continuation.execution); the defaults distribute nothing --------
+    def lattice_seed_pieces(self, start: Any, window: tuple[float | None, float | None],
+                            count: int) -> list[Any]:
+        """The seed search of ``start`` split into about ``count`` independent pieces of work
+        (small picklable descriptions, e.g. ranges of periods), in the order the serial search
+        does them; ``[]``: not split (default). Each piece runs as a Dask task
+        (:meth:`lattice_seed_piece`); their records are replayed in this order before
+        :meth:`lattice_seeds` runs here, which then finds its work done."""
+        return []
+
+    def lattice_seed_piece(self, start: Any, window: tuple[float | None, float | None],
+                           piece: Any) -> None:
+        """On a worker, between :meth:`lattice_record` and :meth:`lattice_recorded`: the work
+        of one piece of :meth:`lattice_seed_pieces`."""
+        raise NotImplementedError(f"{type(self).__name__} does not split its seed search")
+
+    def lattice_distribute_branches(self, start: Any) -> bool:
+        """Whether the branches of ``start`` are worth one Dask task each: a few seeds, each
+        its own branch, that a worker finds again cheaply from the case. Default False: the
+        branches are continued in this process, in seed order (e.g. a scan's many seeds, most
+        of which lie on the branches of earlier ones and are skipped)."""
+        return False
+
+    def lattice_record(self, solutions: bool = True) -> None:
+        """Start recording what this problem computes and keeps (default: nothing). With
+        ``solutions`` the record carries what the master computes with afterwards (a piece of
+        the seed search: the seeds are built from it); without, only what the outputs count
+        (a branch task: its branch carries its points), so that it stays small."""
+        return None
+
+    def lattice_recorded(self) -> Any:
+        """What was computed since :meth:`lattice_record` (picklable; stops recording), for
+        :meth:`lattice_replay` on the master."""
+        return None
+
+    def lattice_replay(self, record: Any) -> None:
+        """Take a record made on a worker as if this problem had computed it (records come in
+        the serial order: the pieces of the seed search, then the accepted branches)."""
+        return None
 
     def asymptote(self, points: list[Point]) -> dict[str, float] | None:
         """Estimate of where the energy grows without bound, from the last points. Default:
@@ -122,6 +174,13 @@ class LatticeContinuation:
         self.motion_limited_steps = 0
         self.unlocated_events = 0
         self.visited: set[Any] = set()
+        #: the keys of the solutions the last branch visited (sent from a worker to the master)
+        self.last_keys: set[Any] = set()
+
+    def _visit(self, sol: Any) -> None:
+        key = self.problem.lattice_key(sol)
+        self.visited.add(key)
+        self.last_keys.add(key)
 
     def _point(self, sol: Any, s: float) -> Point:
         y, tests, derived = self.problem.lattice_point(sol)
@@ -185,15 +244,16 @@ class LatticeContinuation:
                     events.append(Event(kind, pt, detail=f"{k}: {old[k]} -> {new[k]}",
                                         data={k: new[k], f"{k}_before": old[k]}))
             history.append(sol)
-            self.visited.add(pr.lattice_key(sol))
+            self._visit(sol)
             pts.append(pt)
             if self.progress:
                 self.progress(1)
 
     def run(self, seed: LatticeSeed, branch_id: int = 0) -> Branch:
         """Both directions from ``seed`` (or the seed's one); never raises (see ``_walk``)."""
+        self.last_keys = set()
         try:
-            self.visited.add(self.problem.lattice_key(seed.solution))
+            self._visit(seed.solution)
         except Exception:  # noqa: BLE001 - only the skip-if-visited bookkeeping is lost
             pass
         dirs = [seed.direction] if seed.direction else [-1, 1]

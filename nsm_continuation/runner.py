@@ -10,7 +10,7 @@ from typing import Any
 
 from .algorithms import make_algorithm, unsupported
 from .cases import Case, CaseError
-from .execution import Execution, run_distributed
+from .execution import Execution, run_distributed, search_seeds_distributed
 from .protocol import Problem, StartPoint
 from .records import Branch
 from .settings import ContinuationSettings
@@ -112,6 +112,7 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
         raise CaseError(f"start: the {name} algorithm starts from the start: block only (a "
                         "lattice problem has no start guess)")
     problem.energy_cap = case.continuation.max_energy
+    execution = execution or Execution(case.execution.workers, case.execution.scheduler)
     t0 = time.perf_counter()
     start_counters: dict[str, Any] = {}
     try:
@@ -121,6 +122,11 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
             from .restart import start_points
 
             starts, start_counters = start_points(case.restart, problem, settings)
+        if starts is None and execution.distributed:
+            # the pieces of a split seed search (the lattice scan) as Dask tasks, adopted
+            # here in order: starts() below then finds their work done
+            start_counters.update(search_seeds_distributed(
+                execution, case.model_dump(mode="json"), algorithm, case.start, window, poll))
         seeds = (algorithm.starts(case.start, window) if starts is None
                  else algorithm.seeds_from_points(starts))
     except ValueError as exc:
@@ -129,7 +135,6 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
     t_setup = time.perf_counter() - t0
     bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
     algorithm.progress = bar
-    execution = execution or Execution(case.execution.workers, case.execution.scheduler)
     if execution.distributed and algorithm.distributable and seeds:
         explicit = starts if (starts is not None or case.restart is not None) else None
         branches, skipped, per_branch, counters = run_distributed(

@@ -23,6 +23,7 @@ ratio E / E_ref (E_ref of eq. 14; absolute energy when g0 = 0).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from math import ceil
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -168,6 +169,16 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         self.variables = ["omega_ratio", "contact_fraction"]
         self.parameter = "omega_ratio"
         self._cache: dict[tuple[int, ...], list[LatticeSolution]] = {}
+        #: the filter's reasons for the orbits it removed at a node (replayed with the node)
+        self._removed: dict[tuple[int, ...], list[str]] = {}
+        #: the m of the scan's nodes (m, M - m) at each period M (those with 1 <= h <= 8)
+        self._scan_nodes: dict[int, np.ndarray] = {}
+        #: what a Dask task computed (nodes, periods scanned), in order: lattice_record
+        self._record: tuple[dict[tuple[int, ...], None], dict[int, None]] | None = None
+        self._record_solutions = True
+        #: nodes solved on a worker whose orbits were not sent (a branch task's): counted in
+        #: node_evaluations and filter_counts already, solved again here if ever needed
+        self._solved_elsewhere: set[tuple[int, ...]] = set()
         self.filter_counts: dict[str, int] = {}
         self.node_evaluations = 0
         #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
@@ -401,11 +412,16 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     # -- solutions at a node (cached), with the filter ---------------------------------------
     def physical(self, counts: tuple[int, ...]) -> list[LatticeSolution]:
         counts = tuple(int(c) for c in counts)
+        if self._record is not None:
+            self._record[0][counts] = None
         if counts in self._cache:
             return self._cache[counts]
-        self.node_evaluations += 1
+        counted = counts in self._solved_elsewhere
+        if not counted:
+            self.node_evaluations += 1
         status, sols = node_solutions(self.model, counts)
         keep = []
+        removed = []
         max_jumps = self.params.max_jumps_fraction * self.model.N
         for s in sols:
             reason = classify(s)
@@ -414,9 +430,34 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
             if reason == "physical":
                 keep.append(s)
             else:
-                self.filter_counts[reason] = self.filter_counts.get(reason, 0) + 1
+                if not counted:
+                    self.filter_counts[reason] = self.filter_counts.get(reason, 0) + 1
+                removed.append(reason)
         self._cache[counts] = keep
+        if removed:
+            self._removed[counts] = removed
         return keep
+
+    def _scan_periods(self, window: tuple[float | None, float | None]) -> tuple[int, int]:
+        """First and last period (in steps) of the scan of the window."""
+        lo, hi = window
+        N = self.model.N
+        M_hi = int(np.floor(4 * N / lo)) if lo else 8 * N
+        M_lo = int(np.ceil(4 * N / hi)) if hi else 2
+        return max(M_lo, 2), M_hi
+
+    def _scan_period(self, M: int) -> list[LatticeSolution]:
+        """The physical orbits of the scan's nodes at period M."""
+        if self._record is not None:
+            self._record[1][M] = None
+        ms = self._scan_nodes.get(M)
+        if ms is None:
+            h = kernel_dimensions_at_period(self.model.N, M)
+            ms = self._scan_nodes[M] = (np.nonzero((h >= 1) & (h <= 8))[0] + 1).astype(np.int32)
+        out = []
+        for m in ms.tolist():
+            out += self.physical((m, M - m))
+        return out
 
     def scan_window(self, window: tuple[float | None, float | None]) -> list[LatticeSolution]:
         """All physical one-contact-phase orbits with omega_ratio in the window.
@@ -425,16 +466,92 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         (:func:`problems.bar.wfem_operators.kernel_dimensions_at_period`); only nodes with
         ``1 <= h <= 8`` are solved.
         """
-        lo, hi = window
-        N = self.model.N
-        M_hi = int(np.floor(4 * N / lo)) if lo else 8 * N
-        M_lo = int(np.ceil(4 * N / hi)) if hi else 2
+        M_lo, M_hi = self._scan_periods(window)
         out = []
-        for M in range(max(M_lo, 2), M_hi + 1):
-            h = kernel_dimensions_at_period(N, M)
-            for m in np.nonzero((h >= 1) & (h <= 8))[0] + 1:
-                out += self.physical((int(m), M - int(m)))
+        for M in range(M_lo, M_hi + 1):
+            out += self._scan_period(M)
         return out
+
+    # -- on a Dask cluster (nsm_continuation.execution, LatticeProblem's protocol) -------------
+    def lattice_seed_pieces(self, start: Any, window: tuple[float | None, float | None],
+                            count: int) -> list[Any]:
+        """A scan (the only costly seed search) by contiguous ranges of periods ``(M_a, M_b)``
+        of about equal cost (the nodes of a period grow like M)."""
+        spec = self.start_adapter.validate_python(start) if not isinstance(
+            start, BaseModel) else start
+        if not any(isinstance(s, ScanStart) for _, s in as_list(spec)):
+            return []
+        M_lo, M_hi = self._scan_periods(window)
+        if M_hi < M_lo:
+            return []
+        cost = np.cumsum(np.arange(M_lo, M_hi + 1, dtype=float))  # nodes per period ~ M
+        cuts = np.searchsorted(cost, cost[-1] * np.arange(1, count) / count, side="right")
+        bounds = [M_lo, *sorted({int(M_lo + c) for c in cuts if 0 < c < len(cost)}), M_hi + 1]
+        return [(a, b - 1) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+    def lattice_seed_piece(self, start: Any, window: tuple[float | None, float | None],
+                           piece: Any) -> None:
+        for M in range(int(piece[0]), int(piece[1]) + 1):
+            self._scan_period(M)
+
+    def lattice_distribute_branches(self, start: Any) -> bool:
+        """Backbones and nodes: one task per branch; a scan's seeds: here, in order."""
+        spec = self.start_adapter.validate_python(start) if not isinstance(
+            start, BaseModel) else start
+        return not any(isinstance(s, ScanStart) for _, s in as_list(spec))
+
+    def lattice_record(self, solutions: bool = True) -> None:
+        self._record = ({}, {})
+        self._record_solutions = solutions
+
+    def lattice_recorded(self) -> Any:
+        """The nodes touched since :meth:`lattice_record` (solved here or found in the
+        cache), in order of first touch, and the periods scanned with their nodes. A node with
+        filter reasons or (``solutions``) physical orbits comes with them; the others (most of
+        a scan's) are listed by their counts only."""
+        if self._record is None:
+            return None
+        nodes, periods = self._record
+        self._record = None
+        sols = self._record_solutions
+        detailed, plain = [], []
+        for c in nodes:
+            removed = self._removed.get(c, ())
+            keep = self._cache[c] if sols else None
+            if removed or keep:
+                detailed.append((c, keep, removed))
+            else:
+                plain.append(c)
+        return sols, detailed, plain, [(M, self._scan_nodes[M]) for M in periods]
+
+    def lattice_replay(self, record: Any) -> None:
+        """The nodes of a record not solved here yet count as solved here (the counters of
+        ``report_extras``; those with filter reasons in the record's order, as the serial run
+        solves them); their orbits, if sent, are cached."""
+        if record is None:
+            return
+        sols, detailed, plain, periods = record
+        cache, elsewhere = self._cache, self._solved_elsewhere
+        for counts, keep, removed in detailed:
+            if counts in cache or counts in elsewhere:
+                continue
+            self.node_evaluations += 1
+            for reason in removed:
+                self.filter_counts[reason] = self.filter_counts.get(reason, 0) + 1
+            if removed:
+                self._removed[counts] = list(removed)
+            if keep is None:
+                self._solved_elsewhere.add(counts)
+            else:
+                self._cache[counts] = [replace(s, model=self.model) for s in keep]
+        new = [c for c in plain if c not in cache and c not in elsewhere]
+        self.node_evaluations += len(new)
+        if sols:
+            self._cache.update((c, []) for c in new)
+        else:
+            self._solved_elsewhere.update(new)
+        for M, ms in periods:
+            self._scan_nodes.setdefault(M, ms)
 
     # -- seeds ---------------------------------------------------------------------------------
     def lattice_seeds(self, start: Any, window: tuple[float | None, float | None]

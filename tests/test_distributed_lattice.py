@@ -1,0 +1,114 @@
+"""The lattice engine on Dask (nsm_continuation/execution.py, issue 14): the bar's scan (Fig. 12)
+with its seed search in pieces, and the backbones of the bar with one task per branch, give the
+outputs of a serial run, to the last digit: every branch and its CSV, the skipped seeds, and
+the problem's counters in the report (``lattice_nodes_evaluated``, ``filter_removed``).
+
+Oracle: the serial run of the same case. Small N (a scan of 30 cells: ~2 s serially).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from importlib.util import find_spec
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import nsm_continuation as nsm
+from nsm_continuation.execution import merge_in_seed_order, rebuild_case
+from nsm_continuation.lattice import LatticeProblem
+from nsm_continuation.results import branch_rows, build_report
+
+ROOT = Path(__file__).resolve().parents[1]
+FIG12 = ROOT / "yaml_cases" / "wfem_fig12_fep.yaml"
+FIG13 = ROOT / "yaml_cases" / "wfem_fig13_subharmonics.yaml"
+QUIET = {"output.plots": False, "output.progress": False}
+needs_dask = pytest.mark.skipif(find_spec("distributed") is None,
+                                reason="dask.distributed is not installed")
+
+
+def outputs(res: Any) -> tuple[dict[str, Any], dict[int, str]]:
+    """What a run writes, as written (report.json without its timings, one CSV per branch)."""
+    rr = res.run_result
+    report = json.loads(json.dumps(build_report(rr, "run"), default=str))
+    report.pop("timings")
+    csvs = {}
+    for br in rr.branches:
+        cols, rows = branch_rows(br, rr.problem.variables, rr.problem.csv_head)
+        fh = io.StringIO()
+        writer = csv.writer(fh)
+        writer.writerow(cols)
+        writer.writerows(rows)
+        csvs[br.id] = fh.getvalue()
+    return report, csvs
+
+
+def assert_same_outputs(a: Any, b: Any) -> None:
+    ra, ca = outputs(a)
+    rb, cb = outputs(b)
+    assert [br["label"] for br in ra["branches"]] == [br["label"] for br in rb["branches"]]
+    for key in ra:
+        assert ra[key] == rb[key], key
+    assert ca == cb
+    assert a.run_result.skipped == b.run_result.skipped
+
+
+def _replays(problem: Any) -> bool:
+    """Whether the problem sends its node cache back from the workers (else the counters of
+    its report may differ from a serial run's; the branches never do)."""
+    return type(problem).lattice_replay is not LatticeProblem.lattice_replay
+
+
+def test_merge_of_independent_branches_reproduces_the_serial_skips() -> None:
+    """Every seed of a scan continued on its own (as tasks do, here in one process): merged in
+    seed order, the seeds lying on an accepted branch are skipped and the branches, their ids
+    and the problem's counters are the serial run's. Most of the scan's seeds are skipped."""
+    case = nsm.load_case(FIG12, {**QUIET, "parameters.cells": 24})
+    serial = nsm.run(case).run_result
+    assert len(serial.skipped) > len(serial.branches) >= 3
+    raw = case.model_dump(mode="json")
+    wcase, _, wwindow, worker = rebuild_case(raw)  # the worker: one algorithm, many tasks
+    wseeds = worker.starts(wcase.start, wwindow)
+    results = []
+    for i, seed in enumerate(wseeds):
+        worker.begin_task()
+        branch = worker.run_branch(seed, branch_id=i)
+        results.append((branch, 0.0, {}, None, worker.task_state()))
+    mcase, master_problem, mwindow, master = rebuild_case(raw)  # the master: seeds only
+    seeds = master.starts(mcase.start, mwindow)
+    branches, skipped, _, _ = merge_in_seed_order(master, seeds, results)
+    assert skipped == serial.skipped
+    assert [(b.id, b.label, b.n_points) for b in branches] == \
+        [(b.id, b.label, b.n_points) for b in serial.branches]
+    assert [[p.y.tolist() for p in b.points] for b in branches] == \
+        [[p.y.tolist() for p in b.points] for b in serial.branches]
+    if _replays(master_problem):
+        assert master_problem.report_extras(branches) == serial.problem.report_extras(
+            serial.branches)
+
+
+@needs_dask
+def test_scan_on_two_workers_gives_the_serial_outputs() -> None:
+    """Fig. 12's scan (30 cells) serially and with ``workers=2``: identical outputs; the scan
+    ran as several tasks (the bar splits it by ranges of periods)."""
+    case = nsm.load_case(FIG12, {**QUIET, "parameters.cells": 30})
+    serial = nsm.run(case)
+    dist = nsm.run(case, workers=2)
+    assert len(serial.run_result.branches) >= 3 and serial.run_result.skipped
+    assert_same_outputs(serial, dist)
+    assert dist.run_result.timings["seed_pieces"] > 2
+    assert len(dist.run_result.timings["seed_pieces_s"]) == dist.run_result.timings["seed_pieces"]
+
+
+@needs_dask
+def test_backbones_as_tasks_give_the_serial_outputs() -> None:
+    """Fig. 13's five backbones (200 cells) serially and with ``workers=2`` (one task per
+    branch where the problem allows it): identical outputs, the counters included."""
+    case = nsm.load_case(FIG13, {**QUIET, "parameters.cells": 200})
+    serial = nsm.run(case)
+    dist = nsm.run(case, workers=2)
+    assert len(serial.run_result.branches) == 5
+    assert_same_outputs(serial, dist)
