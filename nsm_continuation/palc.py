@@ -105,9 +105,8 @@ class ContinuationEngine:
         self._monitor_min: dict[str, float] = {}
 
     # ------------------------------------------------------------------ linear algebra
-    def _bordered(self, y: np.ndarray, t: np.ndarray) -> np.ndarray:
-        return np.vstack([self.problem.jacobian(y), t[None, :]])
-
+    # every solve is with the bordered matrix [G_y(y); r^T], factorised by the problem
+    # (Problem.bordered_factor: dense by default, structured where the problem has structure)
     def correct(self, y_guess: np.ndarray, t_ref: np.ndarray, y_ref: np.ndarray,
                 sigma: float) -> tuple[np.ndarray | None, int, str]:
         """Newton on ``[G(y); t_ref . (y - y_ref) - sigma] = 0``; returns (y, iterations, why)."""
@@ -117,7 +116,7 @@ class ContinuationEngine:
         nr = float("nan")
         for it in range(1, st.newton_max_iter + 1):
             try:
-                g, J = self.problem.evaluate_with_jacobian(y)
+                g, factor = self.problem.residual_and_factor(y, t_ref)
             except NUMERICAL_ERRORS as exc:  # the problem names the cause: carry it
                 return None, it, describe_error(exc)
             self.n_evaluations += 1
@@ -129,9 +128,8 @@ class ContinuationEngine:
                 r0 = nr
             elif nr > 1e4 * max(r0, 1e-300):
                 return None, it, "Newton diverged"
-            A = np.vstack([J, t_ref[None, :]])
             try:
-                dy = np.linalg.solve(A, -rhs)
+                dy = factor.solve(-rhs)
             except np.linalg.LinAlgError:
                 return None, it, "singular Jacobian"
             if not np.all(np.isfinite(dy)):
@@ -150,17 +148,15 @@ class ContinuationEngine:
 
     def tangent(self, y: np.ndarray, t_prev: np.ndarray | None) -> np.ndarray:
         """Unit null vector of ``G_y(y)``, oriented along ``t_prev`` (or by SVD at a start)."""
-        J = self.problem.jacobian(y)
         if t_prev is None:
-            _, sv, vt = np.linalg.svd(J)
+            _, sv, vt = np.linalg.svd(self.problem.jacobian(y))
             if sv.size and sv[-1] < 1e-13 * max(sv[0], 1.0):
                 raise np.linalg.LinAlgError("Jacobian rank deficient at start")
             t = vt[-1]
         else:
-            A = np.vstack([J, t_prev[None, :]])
             rhs = np.zeros(len(y))
             rhs[-1] = 1.0
-            t = np.linalg.solve(A, rhs)
+            t = self.problem.bordered_factor(y, t_prev).solve(rhs)
         t = t / np.linalg.norm(t)
         if t_prev is not None and t @ t_prev < 0:
             t = -t
@@ -191,8 +187,7 @@ class ContinuationEngine:
             circle_tol = max(circle_tol, 1e3 * np.finfo(float).eps * fl.matrix_norm,
                              fl.noise)
         n_out = 0 if mult is None else count_outside(mult, circle_tol)
-        A = self._bordered(y, t)
-        sign, logdet = np.linalg.slogdet(A)
+        sign, logdet = pr.bordered_factor(y, t).slogdet()
         det = float(sign * np.exp(min(logdet, 700.0))) if sign != 0 else 0.0
         return Point(
             y=y, s=s, tangent=t, tests=test_values, multipliers=mult,

@@ -67,6 +67,7 @@ from pydantic import (
     model_validator,
 )
 
+from nsm_continuation.bordered import BorderedFactor, DiagonalBorderedFactor
 from nsm_continuation.floquet import (
     KreinFloquetData,
     deflate_known_eigenvector,
@@ -290,6 +291,10 @@ class NDofImpactProblem(Problem):
     #: below ~40 dofs LAPACK beats the O(N^2) iteration's per-sweep overhead), above it they
     #: come from the structure (:meth:`floquet`); the Krein definiteness always does
     DENSE_MULTIPLIERS_UP_TO: ClassVar[int] = 40
+    #: above this many dofs the engine's bordered systems are solved from the structure
+    #: (:meth:`bordered_factor`, O(N^2)); up to it, dense (LAPACK is cheaper there, and the
+    #: paper's chains keep the dense path they were validated with)
+    DENSE_SOLVES_UP_TO: ClassVar[int] = 40
     #: largest relative error of omega_1^2 accepted from the modal analysis, ~ eps (w_N/w_1)^2
     MODAL_RESOLUTION: ClassVar[float] = 1e-6
 
@@ -502,6 +507,48 @@ class NDofImpactProblem(Problem):
         vel = vT - ca.DM(s) * du0
         keep = [i for i in range(N) if i != c]
         return ca.vertcat(uT - u0, vel[keep], u0[c] - self.g)
+
+    # ------------------------------------------------------------------ linear algebra
+    def _structured_solves(self) -> bool:
+        return self.formulation == "half_angle" and self.N > self.DENSE_SOLVES_UP_TO
+
+    @cached_property
+    def _Pinv_slogdet(self) -> tuple[float, float]:
+        sign, logdet = np.linalg.slogdet(self.Pinv)
+        return float(sign), float(logdet)
+
+    def bordered_factor(self, y: np.ndarray, row: np.ndarray,
+                        jacobian: np.ndarray | None = None) -> BorderedFactor:
+        """The bordered matrix ``[G_y; r^T]`` of the ``half_angle`` residual from its structure.
+
+        With ``q = P^-1 u(0)``, ``p = P^-1 e_c v`` and ``h = w T / 2`` the residual's modal rows
+        are ``sin(h) q - cos(h) p / w`` and its last row ``u_c(0) - g``. In the modal unknowns
+        ``z = P^-1 du`` the Jacobian is a diagonal, ``diag(sin h)``, bordered by two columns
+        (``d/dv = -cos(h) P^-1 e_c / w``, ``d/dT = (w/2) cos(h) q + sin(h) p / 2``) and two
+        rows (``e_c^T P`` and the border ``r_u^T P``):
+        :class:`~nsm_continuation.bordered.DiagonalBorderedFactor`, O(N^2) per solve. The zeros
+        of ``sin(w_j T / 2)`` at the poles ``T = 2 pi l / w_j`` stay in its small dense system,
+        so the factor is exact through them (where the Jacobian keeps full rank). Up to
+        ``DENSE_SOLVES_UP_TO`` dofs, and for the ``shooting`` formulation, the dense default."""
+        if not self._structured_solves():
+            return super().bordered_factor(y, row, jacobian)
+        N, c = self.N, self.c
+        y = np.asarray(y, dtype=float)
+        u0, v, T = y[:N], float(y[N]), float(y[N + 1])
+        w, P, Pi = self.omega, self.P, self.Pinv
+        q, pc = Pi @ u0, Pi[:, c]
+        half = w * T / 2
+        sh, ch = np.sin(half), np.cos(half)
+        C = np.column_stack([-ch * pc / w, 0.5 * w * ch * q + 0.5 * sh * pc * v])
+        R = np.vstack([P[c, :], row[:N] @ P])
+        E = np.array([[0.0, 0.0], [row[N], row[N + 1]]])
+        return DiagonalBorderedFactor(sh, C, R, E, Pi, P, self._Pinv_slogdet)
+
+    def residual_and_factor(self, y: np.ndarray, row: np.ndarray
+                            ) -> tuple[np.ndarray, BorderedFactor]:
+        if not self._structured_solves():
+            return super().residual_and_factor(y, row)
+        return self.evaluate(y), self.bordered_factor(y, row)
 
     # ------------------------------------------------------------------ state helpers
     def state(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
