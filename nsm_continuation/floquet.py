@@ -348,6 +348,20 @@ def low_rank_update_eigen(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, *,
         lam = _separate(np.array(guess, dtype=complex), 1e-6)
     else:
         lam = _separate(_cold_start(mu, rem, k), 0.3)
+    out = _aberth(mu, X, Y, lam, rem, max_sweeps)
+    if out is None:
+        return None
+    lam, info = out
+    if krein_weights is None:
+        return lam, None, info
+    return lam, krein_definiteness(mu, X, Y, lam, np.asarray(krein_weights, dtype=float)), info
+
+
+def _aberth(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray, rem: np.ndarray,
+            max_sweeps: int) -> tuple[np.ndarray, dict[str, float]] | None:
+    """The Ehrlich-Aberth sweeps of :func:`low_rank_update_eigen` from the starting values
+    ``lam`` (all the roots, or a subset: :func:`refine_roots`); None if not converged."""
+    k = lam.size
     active = np.ones(k, dtype=bool)
     last = np.full(k, np.inf)
     sweeps = 0
@@ -387,9 +401,26 @@ def low_rank_update_eigen(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, *,
         return None
     info = {"sweeps": float(sweeps), "correction": float(np.max(last[np.isfinite(last)],
                                                                    initial=0.0))}
-    if krein_weights is None:
-        return lam, None, info
-    return lam, krein_definiteness(mu, X, Y, lam, np.asarray(krein_weights, dtype=float)), info
+    return lam, info
+
+
+def refine_roots(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, guesses: np.ndarray, *,
+                 removed: tuple[complex, ...] = (), max_sweeps: int = 100
+                 ) -> np.ndarray | None:
+    """A few eigenvalues of ``A = diag(mu) + X Y^T``: those the starting values ``guesses``
+    converge to under the Aberth iteration of :func:`low_rank_update_eigen` restricted to them
+    (O(n k^2) per root and sweep instead of O(n^2) for the whole spectrum). Each converges to
+    the eigenvalue nearest to it (Newton's basin) while the others repel it (the Aberth
+    term): two guesses next to a pair of close eigenvalues find both, not one twice. The
+    caller must start close (e.g. eigenvalues at a nearby point of a branch). None if the
+    iteration did not converge."""
+    lam = np.array(guesses, dtype=complex)
+    if lam.size == 0:
+        return lam
+    out = _aberth(np.asarray(mu, dtype=complex), np.asarray(X, dtype=complex),
+                  np.asarray(Y, dtype=complex), _separate(lam, 1e-6),
+                  np.asarray(removed, dtype=complex), max_sweeps)
+    return None if out is None else out[0]
 
 
 def _aberth_sums(lam: np.ndarray, idx: np.ndarray) -> np.ndarray:

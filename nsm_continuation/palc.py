@@ -1056,11 +1056,16 @@ class ContinuationEngine:
         no usable sign change (a conservative collision: ``phi = 0`` on the whole stable side;
         with ``phi ~ c sqrt(sigma - sigma*)`` the count's threshold lies ``(tol / c)^2`` from
         the collision, and the location is accurate to ``multiplier_event_tol``) the count's
-        location is kept. ``data['located_on']`` says which
-        (``'multiplier_modulus'`` or ``'count'``); ``data['modulus_minus_one']`` is
-        ``|lambda_c| - 1`` at the event point, ``data['critical_multiplier']`` is
-        ``lambda_c`` there.
+        location is kept. A Krein collision of a conservative family whose problem computes
+        pairs of multipliers is located first on the pair's discriminant
+        (:meth:`_locate_collision`). ``data['located_on']`` says which
+        (``'krein_discriminant'``, ``'multiplier_modulus'`` or ``'count'``);
+        ``data['modulus_minus_one']`` is ``|lambda_c| - 1`` at the event point,
+        ``data['critical_multiplier']`` is ``lambda_c`` there.
         """
+        collision = self._locate_collision(a, b)
+        if collision is not None:
+            return collision
         tol = self.settings.unit_circle_tol
         h = b.s - a.s
         #: every point analysed with multipliers on the arc, by arclength from ``a``
@@ -1110,6 +1115,116 @@ class ContinuationEngine:
                                        located_on)
             lo, vlo, plo = right.s - a.s, vr, right
         return events
+
+    def _locate_collision(self, a: Point, b: Point) -> list[Event] | None:
+        """A Krein collision of a conservative family located on a smooth test function of
+        the colliding pair alone, or None (then the count is bisected).
+
+        In a symplectic map a window of instability opens where two multipliers of opposite
+        Krein signature collide on the unit circle (at +-1 or at a complex ``rho``) and leave
+        it as ``r rho, rho / r``. With ``nu_j = -i log(lambda_j / rho)`` the pair's
+        *discriminant* ``d = (nu_1 - nu_2)^2`` is real and analytic through the collision:
+        ``(theta_1 - theta_2)^2 > 0`` on the circle, ``-4 (log r)^2 < 0`` off it, a simple zero
+        at the collision (where each multiplier alone has a square-root singularity, so
+        ``|lambda| - 1`` has no usable sign change: the count's threshold lies
+        ``(tol / c)^2`` from the collision). The Illinois iteration locates ``d = 0`` to
+        ``event_tol`` in arclength; at each trial point only the pair is computed
+        (:meth:`~nsm_continuation.protocol.Problem.multipliers_near`, started from the pair
+        interpolated between the step's ends): O(N) per multiplier where the whole spectrum
+        is O(N^2). Used when the problem computes pairs (else None) and the count changes by
+        the pair alone (one multiplier for a collision at +-1, two for a complex quadruple);
+        the located point and two points ``multiplier_event_tol`` on either side are then
+        analysed in full, and unless their counts are those of the step's ends the count is
+        bisected as before (``data['located_on'] = 'krein_discriminant'`` when kept)."""
+        pr, st = self.problem, self.settings
+        if (not pr.conservative or a.multipliers is None or b.multipliers is None
+                or abs(int(a.n_unstable) - int(b.n_unstable)) not in (1, 2)):
+            return None
+        tol = max(st.unit_circle_tol, a.circle_tol, b.circle_tol)
+        opening = b.n_unstable > a.n_unstable
+        p_in, p_out = (a, b) if opening else (b, a)
+        m_in, m_out = np.asarray(p_in.multipliers), np.asarray(p_out.multipliers)
+        # the multiplier that left: outside at one end (upper half plane), its nearest
+        # multiplier at the other end inside; exactly one, else the count is bisected
+        outside = m_out[(np.abs(m_out) > 1.0 + tol) & (m_out.imag >= -1e-12)]
+        if not outside.size or m_in.size < 3:
+            return None
+        nearest_in = m_in[np.argmin(np.abs(outside[:, None] - m_in[None, :]), axis=1)]
+        new = outside[np.abs(nearest_in) <= 1.0 + tol]
+        if new.size != 1:
+            return None
+        lam_out = complex(new[0])
+        rho = lam_out / abs(lam_out)
+        pair_out = self._pair_near(np.asarray(p_out.multipliers), lam_out, 1.0 / np.conj(lam_out))
+        pair_in = self._pair_near(np.asarray(p_in.multipliers), rho, rho)
+        if pair_out is None or pair_in is None:
+            return None
+        if (abs(pair_in[0] - pair_out[1]) + abs(pair_in[1] - pair_out[0])
+                < abs(pair_in[0] - pair_out[0]) + abs(pair_in[1] - pair_out[1])):
+            pair_out = pair_out[::-1]  # interpolate each multiplier towards its own end
+        h = b.s - a.s
+        ends = {0.0: pair_in if p_in is a else pair_out, h: pair_out if p_in is a else pair_in}
+
+        def disc(pair: np.ndarray) -> float:
+            nu = -1j * np.log(pair / rho)
+            return float(((nu[0] - nu[1]) ** 2).real)
+
+        def f(sig: float) -> tuple[float, tuple[Point, np.ndarray] | None]:
+            lam = sig / h if h != 0 else 0.0
+            guess = (1 - lam) * a.y + lam * b.y
+            y, _, _ = self.correct(guess, a.tangent, a.y, sig)
+            if y is None or np.linalg.norm(y - guess) > 0.5 * abs(h) + 1e-12:
+                return float("nan"), None
+            try:
+                t = self.tangent(y, a.tangent)
+                pair = pr.multipliers_near(y, t, (1 - lam) * ends[0.0] + lam * ends[h])
+            except NUMERICAL_ERRORS:
+                return float("nan"), None
+            if pair is None or pair.size != 2 or not np.all(np.isfinite(pair)):
+                return float("nan"), None
+            return disc(pair), (y, pair)
+
+        d0, dh = disc(ends[0.0]), disc(ends[h])
+        if not (np.isfinite(d0) and np.isfinite(dh)) or d0 * dh > 0:
+            return None
+        sig, payload, width = illinois(f, 0.0, d0, h, dh, st.event_tol)
+        if payload is None or width > st.multiplier_event_tol:
+            return None
+        # the count on either side of the located collision: those of the step's ends
+        delta = max(width, st.multiplier_event_tol)
+        left = self._point_at(a, b, max(sig - delta, 0.0), tests=False)
+        right = self._point_at(a, b, min(sig + delta, h), tests=False)
+        if (left is None or right is None or left.n_unstable != a.n_unstable
+                or right.n_unstable != b.n_unstable):
+            return None
+        p = self._point_at(a, b, sig, tests=False)
+        if p is None or p.multipliers is None:
+            return None
+        q = self.full(p)
+        if q.multipliers is None:  # a phantom: keep the multipliers computed without tests
+            q.multipliers, q.n_unstable, q.circle_tol = p.multipliers, p.n_unstable, p.circle_tol
+        kind, leaving = classify_crossing(left.multipliers, right.multipliers, tol)
+        lam_c = _nearest(q.multipliers, complex(payload[1][np.argmax(np.abs(payload[1]))]))
+        vl, vr = int(a.n_unstable), int(b.n_unstable)
+        return _crossing_events(kind, q, width, vl, vr, leaving, lam_c, "krein_discriminant")
+
+    @staticmethod
+    def _pair_near(m: np.ndarray, z1: complex, z2: complex) -> np.ndarray | None:
+        """The two multipliers nearest to ``z1`` and ``z2`` (distinct), or None if a third one
+        is about as near (the pair is then not isolated)."""
+        if m.size < 3:
+            return None
+        i = int(np.argmin(np.abs(m - z1)))
+        d2 = np.abs(m - z2)
+        d2[i] = np.inf
+        j = int(np.argmin(d2))
+        pair = m[[i, j]]
+        centre = 0.5 * (pair[0] + pair[1])
+        radius = max(abs(pair[0] - centre), 1e-300)
+        others = np.delete(m, [i, j])
+        if np.min(np.abs(others - centre)) <= 2.0 * radius:
+            return None
+        return pair
 
     def _locate_on_modulus(self, a: Point, b: Point, seen: dict[float, Point],
                            out_sig: float, lam_out: complex, inward: float

@@ -412,6 +412,15 @@ class Problem(ABC):
         None where there are none. Not called when ``analysis.stability`` is false."""
         return None
 
+    def multipliers_near(self, y: np.ndarray, tangent: np.ndarray, guesses: np.ndarray
+                         ) -> np.ndarray | None:
+        """The multipliers at ``y`` nearest to ``guesses`` (one each, distinct), computed
+        without the rest of the spectrum; None if the problem cannot (the default), or could
+        not converge. The engine locates a Krein collision of a conservative family on the
+        pair alone with it (:meth:`nsm_continuation.palc.ContinuationEngine.\
+_locate_collision`)."""
+        return None
+
     # == presentation (pure functions of the results) =========================================
     #: title of the branch diagram (``fep.png``), followed by ``: <case name>``
     diagram_title: ClassVar[str] = "Branch diagram"

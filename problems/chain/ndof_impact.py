@@ -73,6 +73,7 @@ from nsm_continuation.floquet import (
     deflate_known_eigenvector,
     krein_definiteness,
     low_rank_update_eigen,
+    refine_roots,
     restrict_to_section,
 )
 from nsm_continuation.preflight import (
@@ -772,6 +773,25 @@ class NDofImpactProblem(Problem):
         return KreinFloquetData(
             mult, trivial_error=float(res + sec), matrix_norm=float(np.sqrt(max(n2, 0.0))),
             krein_source=lambda: krein_definiteness(st["mu"], X, Y, mult, st["krein_weights"]))
+
+    def multipliers_near(self, y: np.ndarray, tangent: np.ndarray, guesses: np.ndarray
+                         ) -> np.ndarray | None:
+        """The multipliers nearest to ``guesses`` from the secular equation of :meth:`floquet`
+        (:func:`~nsm_continuation.floquet.refine_roots`: O(N) per multiplier and sweep). Up to
+        ``DENSE_MULTIPLIERS_UP_TO`` dofs None (the engine then uses :meth:`floquet`)."""
+        if self.N <= self.DENSE_MULTIPLIERS_UP_TO:
+            return None
+        u0, du0, _ = self.state(y)
+        if self.g == 0.0 or abs(du0[self.c]) <= 1e-9 * abs(self.g) * self.omega[0]:
+            return None
+        du, ddu, _ = self.state(tangent)
+        r = self.energy_coordinates(du, ddu)
+        if np.linalg.norm(r) == 0.0:
+            return None
+        st = self.return_map_structure(y)
+        X, Y, removed = self._deflated_update(st, r)
+        return refine_roots(st["mu"], X, Y, np.asarray(guesses, dtype=complex),
+                            removed=removed)
 
     def _krein_dense(self, y: np.ndarray, mult: np.ndarray) -> np.ndarray:
         """Krein definiteness of the multipliers ``mult`` from the dense eigenvectors of

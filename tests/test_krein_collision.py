@@ -1,0 +1,79 @@
+"""Krein collisions of a conservative family located on the pair's discriminant (issue 13).
+
+:meth:`ContinuationEngine._locate_collision` locates where two multipliers of a symplectic
+return map collide on the unit circle on ``d = (nu_1 - nu_2)^2`` (``lambda = rho e^{i nu}``),
+computing only the pair (:meth:`NDofImpactProblem.multipliers_near`). Oracles: the dense
+eigenvalues of the return map (:meth:`NDofImpactProblem.floquet_dense`) for the pair; the
+engine's other method (bisection of the number of multipliers outside the circle, then
+``|lambda| - 1``) for the events, which must be the same events at the same periods.
+"""
+
+from __future__ import annotations
+
+import collections
+
+import numpy as np
+import pytest
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+
+from nsm_continuation.palc import ContinuationEngine
+from nsm_continuation.protocol import StartPoint
+from nsm_continuation.settings import ContinuationSettings
+
+
+def chain(n: int) -> NDofImpactProblem:
+    return NDofImpactProblem({"chain": {"dofs": n, "mass": 1.0 / n, "stiffness": float(n)},
+                              "gap": 1.0})
+
+
+@pytest.mark.parametrize("n", [60, 200])
+def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
+    pb = chain(n)
+    T = pb.T_lin[0] * 0.999
+    u0, du0 = pb.closed_form(T)
+    y = pb.y_from_state(u0, du0, T)
+    t = np.linalg.svd(pb.jacobian(y))[2][-1]
+    dense = np.asarray(pb.floquet_dense(y, t).multipliers)
+    rng = np.random.default_rng(n)
+    for i in rng.choice(dense.size, 4, replace=False):
+        # the multiplier and its nearest neighbour, from guesses 1e-6 off
+        j = int(np.argsort(np.abs(dense - dense[i]))[1])
+        guess = dense[[i, j]] + 1e-6 * np.exp(2j * np.pi * rng.random(2))
+        near = pb.multipliers_near(y, t, guess)
+        assert near is not None
+        assert np.abs(np.sort_complex(near) - np.sort_complex(dense[[i, j]])).max() <= 1e-9
+    assert chain(5).multipliers_near(y[:0], t[:0], dense[:2]) is None  # dense chains: none
+
+
+def _run(n: int, points: int, discriminant: bool) -> object:
+    pb = chain(n)
+    st = ContinuationSettings(max_points=points, step_initial=1e-3, direction=-1,
+                              stability_on_phantom=True)
+    T = pb.T_lin[0] * (1 - 1e-4)
+    u0, du0 = pb.closed_form(T)
+    eng = ContinuationEngine(pb, st)
+    if not discriminant:
+        eng._locate_collision = lambda a, b: None  # the count's bisection only
+    return pb, eng.run(StartPoint(pb.y_from_state(u0, du0, T), "b1", -1))
+
+
+def test_collisions_on_the_discriminant_are_the_counts_events() -> None:
+    pb, fast = _run(60, 45, True)
+    _, slow = _run(60, 45, False)
+    ev_f = [e for e in fast.events if e.kind != "endpoint"]
+    ev_s = [e for e in slow.events if e.kind != "endpoint"]
+    on = collections.Counter(e.data["located_on"] for e in ev_f)
+    assert on["krein_discriminant"] >= 5
+    assert [e.kind for e in ev_f] == [e.kind for e in ev_s]
+    assert max(abs(a.point.y[-1] - b.point.y[-1]) for a, b in zip(ev_f, ev_s, strict=True)) \
+        <= 1e-9
+    for e in ev_f:
+        if e.data["located_on"] != "krein_discriminant":
+            continue
+        # at the located point the dense eigenvalues hold a (nearly) double pair next to the
+        # critical multiplier: far closer than the spacing of the 118 multipliers (~0.05)
+        p = e.point
+        dense = np.asarray(pb.floquet_dense(p.y, p.tangent).multipliers)
+        lam = complex(e.data["critical_multiplier"][0] + 1j * e.data["critical_multiplier"][1])
+        d = np.sort(np.abs(dense - lam))
+        assert d[1] <= 1e-4 and d[2] >= 10 * d[1]
