@@ -67,7 +67,7 @@ from nsm_continuation.problems.impacting.brute_force import (  # noqa: E402
 )
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
-from nsm_continuation.execution import Execution, start_client  # noqa: E402
+from nsm_continuation.execution import Execution, dask_session  # noqa: E402
 from nsm_continuation.hybrid.simulate import SimulationError  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -468,21 +468,11 @@ def run_tasks(order: list[str], quick: bool, workers: int,
     on a local cluster of ``workers`` processes or on ``scheduler``; results by name."""
     if not scheduler and (workers <= 1 or len(order) <= 1):
         return {name: run_task(name, quick) for name in order}
-    client, cluster = start_client(Execution(workers=None if scheduler else workers,
-                                             scheduler=scheduler))
-    futures = []
-    try:
-        futures = [client.submit(run_task, name, quick, pure=False, retries=2,
-                                 key=f"brute-force-{name}-{time.time_ns()}") for name in order]
+    with dask_session(Execution(workers=None if scheduler else workers,
+                                scheduler=scheduler)) as (client, futures):
+        futures += [client.submit(run_task, name, quick, pure=False, retries=2,
+                                  key=f"brute-force-{name}-{time.time_ns()}") for name in order]
         return {name: f.result() for name, f in zip(order, futures, strict=True)}
-    except BaseException:
-        for f in futures:
-            f.cancel()
-        raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def main() -> None:

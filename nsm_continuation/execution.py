@@ -34,7 +34,8 @@ whose workers need this package (and any plugin problem) installed.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -187,6 +188,25 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     return Client(cluster), cluster
 
 
+@contextmanager
+def dask_session(execution: Execution) -> Iterator[tuple[Any, list[Any]]]:
+    """A client for ``execution`` (:func:`start_client`) and a list for the futures
+    submitted through it: if the block raises (SIGINT included) they are cancelled; the
+    client, and the local cluster it started, are closed in any case."""
+    client, cluster = start_client(execution)
+    futures: list[Any] = []
+    try:
+        yield client, futures
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def _wait_all(futures: list[Any], poll: Callable[[], None] | None,
               done_callback: Callable[[Any], None] | None = None) -> None:
     """Wait for every future, calling ``poll`` (the signals) every 0.25 s and
@@ -232,17 +252,15 @@ def search_seeds_distributed(execution: Execution, raw_case: dict[str, Any], alg
     if not algorithm.seed_pieces(case_start, window, 1):
         return {}
     t0 = time.perf_counter()
-    client, cluster = start_client(execution)
-    futures: list[Any] = []
-    t_start = time.perf_counter() - t0
-    try:
+    with dask_session(execution) as (client, futures):
+        t_start = time.perf_counter() - t0
         count = PIECES_PER_WORKER * _n_workers(client, execution)
         pieces = algorithm.seed_pieces(case_start, window, count)
         stamp = time.time_ns()
         t1 = time.perf_counter()
-        futures = [client.submit(seed_piece_task, raw_case, piece, pure=False,
-                                 retries=TASK_RETRIES, key=f"nsm-seed-piece-{i}-{stamp}")
-                   for i, piece in enumerate(pieces)]
+        futures += [client.submit(seed_piece_task, raw_case, piece, pure=False,
+                                  retries=TASK_RETRIES, key=f"nsm-seed-piece-{i}-{stamp}")
+                    for i, piece in enumerate(pieces)]
         per_piece: list[float] = []
         t_adopt = 0.0
 
@@ -260,14 +278,6 @@ def search_seeds_distributed(execution: Execution, raw_case: dict[str, Any], alg
         _wait_all(futures, poll, adopt_in_order)
         adopt_in_order()
         t_wall = time.perf_counter() - t1
-    except BaseException:
-        for f in futures:
-            f.cancel()
-        raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
     return {"seed_pieces": len(per_piece), "seed_pieces_s": per_piece,
             "seed_cluster_start_s": t_start, "seed_pieces_wall_s": t_wall,
             "seed_adopt_s": t_adopt, "seed_search_distributed_s": time.perf_counter() - t0}
@@ -281,17 +291,14 @@ def run_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: A
     """Every seed as a Dask task, merged in seed order (see the module docstring): the
     accepted branches, the skipped seeds' labels, the per-branch times and the summed
     counters."""
-    client, cluster = start_client(execution)
-    futures = []
-
     def advance(f: Any) -> None:
         if progress is not None and f.status == "finished":
             progress(f.result()[0].n_points)
 
-    try:
-        futures = [client.submit(branch_task, raw_case, i, i, explicit, pure=False,
-                                 retries=TASK_RETRIES, key=f"nsm-branch-{i}-{time.time_ns()}")
-                   for i in range(len(seeds))]
+    with dask_session(execution) as (client, futures):
+        futures += [client.submit(branch_task, raw_case, i, i, explicit, pure=False,
+                                  retries=TASK_RETRIES, key=f"nsm-branch-{i}-{time.time_ns()}")
+                    for i in range(len(seeds))]
         _wait_all(futures, poll, advance)
         results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
         for f in futures:
@@ -300,14 +307,6 @@ def run_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: A
                 results.append((branch, dt, counters, None, state))
             except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
                 results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}", None))
-    except BaseException:
-        for f in futures:
-            f.cancel()
-        raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
     return merge_in_seed_order(algorithm, seeds, results)
 
 

@@ -728,14 +728,8 @@ class NDofImpactProblem(Problem):
         ``|h^T DF|`` (the section row, eq. A.10), both O(N). The iteration starts from the
         multipliers computed at the nearest period among the last calls; it falls back to
         :meth:`floquet_dense` when it does not converge (counted in ``floquet_fallbacks``)."""
-        u0, du0, _ = self.state(y)
-        # at (numerically) exact grazing the return map is not differentiable (sec. 6, [21]):
-        # DF ~ 1/v, so no multipliers are reported there
-        if self.g == 0.0 or abs(du0[self.c]) <= 1e-9 * abs(self.g) * self.omega[0]:
-            return None
-        du, ddu, _ = self.state(tangent)
-        r = self.energy_coordinates(du, ddu)
-        if np.linalg.norm(r) == 0.0:
+        r = self._family_direction(y, tangent)
+        if r is None:
             return None
         if self.N <= self.DENSE_MULTIPLIERS_UP_TO:
             # small chains: the dense eigenvalues are cheaper than the iteration's overhead;
@@ -774,6 +768,17 @@ class NDofImpactProblem(Problem):
             mult, trivial_error=float(res + sec), matrix_norm=float(np.sqrt(max(n2, 0.0))),
             krein_source=lambda: krein_definiteness(st["mu"], X, Y, mult, st["krein_weights"]))
 
+    def _family_direction(self, y: np.ndarray, tangent: np.ndarray) -> np.ndarray | None:
+        """The branch tangent in energy coordinates (the trivial multiplier's eigenvector,
+        eq. 6.5), or None where no multipliers are reported: at (numerically) exact grazing
+        the return map is not differentiable (sec. 6, [21]: ``DF ~ 1/v``)."""
+        u0, du0, _ = self.state(y)
+        if self.g == 0.0 or abs(du0[self.c]) <= 1e-9 * abs(self.g) * self.omega[0]:
+            return None
+        du, ddu, _ = self.state(tangent)
+        r = self.energy_coordinates(du, ddu)
+        return None if np.linalg.norm(r) == 0.0 else r
+
     def multipliers_near(self, y: np.ndarray, tangent: np.ndarray, guesses: np.ndarray
                          ) -> np.ndarray | None:
         """The multipliers nearest to ``guesses`` from the secular equation of :meth:`floquet`
@@ -781,12 +786,8 @@ class NDofImpactProblem(Problem):
         ``DENSE_MULTIPLIERS_UP_TO`` dofs None (the engine then uses :meth:`floquet`)."""
         if self.N <= self.DENSE_MULTIPLIERS_UP_TO:
             return None
-        u0, du0, _ = self.state(y)
-        if self.g == 0.0 or abs(du0[self.c]) <= 1e-9 * abs(self.g) * self.omega[0]:
-            return None
-        du, ddu, _ = self.state(tangent)
-        r = self.energy_coordinates(du, ddu)
-        if np.linalg.norm(r) == 0.0:
+        r = self._family_direction(y, tangent)
+        if r is None:
             return None
         st = self.return_map_structure(y)
         X, Y, removed = self._deflated_update(st, r)
