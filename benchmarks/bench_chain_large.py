@@ -116,7 +116,10 @@ def oracle_coverage(n: int, t_range: tuple[float, float], samples: int,
             "of them without a located crossing": missed}
 
 
-def point_1000(n: int) -> dict[str, float]:
+def branch1_point(n: int) -> tuple[NDofImpactProblem, ContinuationEngine, np.ndarray,
+                                    np.ndarray, np.ndarray]:
+    """The chain, an engine, a converged point ``y`` of branch 1 at ``T = (1 - 1e-5) T_1``
+    with its tangent ``t``, and the closed-form point ``y2`` 1e-9 T away (a warm start)."""
     pb = paper_scaled_chain(n)
     eng = ContinuationEngine(pb, ContinuationSettings(stability_on_phantom=True))
     T = pb.T_lin[0] * (1 - 1e-5)
@@ -128,6 +131,11 @@ def point_1000(n: int) -> dict[str, float]:
     T2 = T * (1 - 1e-9)
     u2, du2 = pb.closed_form(T2)
     y2 = pb.y_from_state(u2, du2, T2)
+    return pb, eng, y, t, y2
+
+
+def point_1000(n: int) -> dict[str, float]:
+    pb, eng, y, t, y2 = branch1_point(n)
     out: dict[str, float] = {}
     out["G + J"] = best(lambda: (pb.evaluate(y), pb.jacobian(y)))
     out["Newton step"] = best(lambda: eng.correct(y, t, y, 0.0))
@@ -157,7 +165,24 @@ def point_1000(n: int) -> dict[str, float]:
     cost = np.abs(fs.multipliers[:, None] - fd.multipliers[None, :])
     r, c = linear_sum_assignment(cost)
     out["max |structured - dense|"] = float(cost[r, c].max())
+    # whole continuation points: the engine's run (multipliers, step control, admissibility,
+    # located events) from the converged point, per returned point
+    for stability in (False, True):
+        st = ContinuationSettings(stability_on_phantom=True, stability=stability,
+                                  max_points=RUN_POINTS, step_initial=1e-3, direction=-1)
+        run = ContinuationEngine(pb, st)
+        t0 = time.perf_counter()
+        br = run.run(StartPoint(y, "b1", -1))
+        key = "with multipliers and events" if stability else "without multipliers"
+        out[f"per point, {key}"] = (time.perf_counter() - t0) / len(br.points)
+        if stability:
+            out["  events located in the run"] = float(
+                sum(e.kind != "endpoint" for e in br.events))
     return out
+
+
+#: points of the timed runs of :func:`point_1000`
+RUN_POINTS = 20
 
 
 def branch1_paper(krein: bool) -> dict[str, Any]:

@@ -449,7 +449,7 @@ def main() -> None:
 
     # ---------------------------------------------------------------- problems
     t0 = time.perf_counter()
-    pbs = {m: DoublePendulumProblem({**PARAMS, "e": E0, "integrator": {"method": m}})
+    pbs = {m: DoublePendulumProblem({**PARAMS, "restitution": E0, "integrator": {"method": m}})
            for m in METHODS}
     t_build = (time.perf_counter() - t0) / len(METHODS)
 
@@ -597,7 +597,7 @@ def main() -> None:
     say("## Targets")
     say()
     t0 = time.perf_counter()
-    pb = DoublePendulumProblem({**PARAMS, "e": E0})
+    pb = DoublePendulumProblem({**PARAMS, "restitution": E0})
     t_b = time.perf_counter() - t0
     z_guess = ref.y[:3] + PERTURBATION
 
@@ -632,7 +632,7 @@ def main() -> None:
     say()
 
     if not args.skip_continuation:
-        pb85 = DoublePendulumProblem({**PARAMS, "e": 0.85})
+        pb85 = DoublePendulumProblem({**PARAMS, "restitution": 0.85})
         orb85 = solve(pb85, ref.y[:3], tol=1e-12)
         say(f"(ii) orbit at e = 0.85 (start guess): z = ({orb85.y[0]:.10f}, {orb85.y[1]:.10f}, "
             f"{orb85.y[2]:.10f}), T = {orb85.period:.6f} s, tau = {orb85.sticking:.6f} s")

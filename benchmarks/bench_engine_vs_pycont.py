@@ -1,6 +1,6 @@
 """Our continuation engine against pycont-lite on branch 1 of the paper's 5-dof chain.
 
-System: ``NDofImpactProblem({"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})``
+System: ``NDofImpactProblem({"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})``
 (Legrand et al. 2017, sec. 3-6). Branch 1 starts at the linear grazing orbit ``T = T_1`` and
 exists for ``T < T_1`` down to the zero of ``w_N`` at ``T ~ 0.890 T_1`` (infinite energy). Every
 method starts from the closed form (4.2) at ``T = 0.99 T_1`` and continues towards decreasing
@@ -66,7 +66,7 @@ from nsm_continuation.palc import ContinuationEngine  # noqa: E402
 from nsm_continuation.protocol import FloquetData, StartPoint  # noqa: E402
 from nsm_continuation.settings import ContinuationSettings  # noqa: E402
 
-PAPER_CHAIN = {"chain": {"n": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
+PAPER_CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 T_START, T_STOP = 0.99, 0.90  # in units of T_1
 STEP_INITIAL, STEP_MAX, STEP_MIN = 1e-2, 0.2, 1e-6
 ENGINE_TOLS = (1e-6, 1e-8, 1e-10, 1e-12)

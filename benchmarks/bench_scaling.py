@@ -75,7 +75,7 @@ COMPONENTS = ("G + J", "Newton step", "tangent", "Floquet", "Floquet dense", "ad
 
 def random_chain(n: int, seed: int = 1) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
-    return {"chain": {"n": n, "mass": rng.uniform(0.5, 2.0, n).tolist(),
+    return {"chain": {"dofs": n, "mass": rng.uniform(0.5, 2.0, n).tolist(),
                       "stiffness": rng.uniform(0.5, 2.0, n).tolist()}, "gap": 1.0}
 
 

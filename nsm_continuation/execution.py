@@ -182,9 +182,16 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     with dask.config.set({"distributed.nanny.pre-spawn-environ": {**pre_spawn, **one},
                           "distributed.worker.profile.enabled": False,
                           "distributed.admin.tick.interval": "1s"}):
-        cluster = LocalCluster(n_workers=int(execution.workers or 1), threads_per_worker=1,
-                               processes=True, dashboard_address=None, silence_logs=40,
-                               env=one)
+        try:
+            cluster = LocalCluster(n_workers=int(execution.workers or 1),
+                                   threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=40, env=one)
+        except RuntimeError as exc:  # e.g. "Nanny failed to start."
+            raise RuntimeError(
+                f"the local Dask cluster of {execution.workers} workers did not start ({exc}); "
+                "a Python script that starts one must run under "
+                "`if __name__ == \"__main__\":` (each worker process imports the script "
+                "again)") from exc
     return Client(cluster), cluster
 
 

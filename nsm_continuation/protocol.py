@@ -24,7 +24,9 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
    - *unknowns & parameter*: ``variables``, ``parameter``, ``algorithms`` (the continuation
      algorithms that can continue the problem, :mod:`nsm_continuation.algorithms`),
      ``energy_quantity`` / ``energy_cap``;
-   - *residual & Jacobian*: :meth:`residual` or :meth:`evaluate` / :meth:`jacobian`;
+   - *residual & Jacobian*: :meth:`residual` or :meth:`evaluate` / :meth:`jacobian`; with
+     structure, :meth:`bordered_factor` / :meth:`residual_and_factor` (the engine's bordered
+     systems, :mod:`nsm_continuation.bordered`; dense by default);
    - *starts*: :meth:`start_points`, ``start_adapter``, :meth:`preflight`,
      :meth:`parameter_bounds`;
    - *monitors*: continuous test functions (:meth:`admissibility`, > 0 where the point is
@@ -39,6 +41,8 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      ``report.md``;
    - *stability*: :meth:`floquet`, the non-trivial Floquet multipliers (trivial ones removed,
      see :mod:`nsm_continuation.floquet`), computed unless ``analysis.stability: false``;
+     ``conservative`` (Krein signatures); :meth:`multipliers_near` (a few multipliers without
+     the rest: Krein collisions are then located on the colliding pair alone);
    - *presentation*: the diagram's axes, labels, title and scale (``fep_axes``, ``fep_labels``,
      ``diagram_title``, ``diagram_yscale``), CSV and report columns (``csv_head``,
      ``event_columns``), figures and report extras, all pure functions of the results
