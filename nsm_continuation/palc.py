@@ -1130,12 +1130,14 @@ class ContinuationEngine:
         ``(tol / c)^2`` from the collision). The Illinois iteration locates ``d = 0`` to
         ``event_tol`` in arclength; at each trial point only the pair is computed
         (:meth:`~nsm_continuation.protocol.Problem.multipliers_near`, started from the pair
-        interpolated between the step's ends): O(N) per multiplier where the whole spectrum
+        at the nearest arclength computed so far): O(N) per multiplier where the whole spectrum
         is O(N^2). Used when the problem computes pairs (else None) and the count changes by
         the pair alone (one multiplier for a collision at +-1, two for a complex quadruple);
-        the located point and two points ``multiplier_event_tol`` on either side are then
-        analysed in full, and unless their counts are those of the step's ends the count is
-        bisected as before (``data['located_on'] = 'krein_discriminant'`` when kept)."""
+        the located point is analysed in full and must have the count of one of the step's
+        ends, a point past it on the other side that of the other end (``multiplier_event_tol``
+        past it, or as far as the pair needs to move ``unit_circle_tol`` off the circle);
+        otherwise the count is bisected as before (``data['located_on'] =
+        'krein_discriminant'`` when kept)."""
         pr, st = self.problem, self.settings
         if (not pr.conservative or a.multipliers is None or b.multipliers is None
                 or abs(int(a.n_unstable) - int(b.n_unstable)) not in (1, 2)):
@@ -1159,10 +1161,8 @@ class ContinuationEngine:
         pair_in = self._pair_near(np.asarray(p_in.multipliers), rho, rho)
         if pair_out is None or pair_in is None:
             return None
-        if (abs(pair_in[0] - pair_out[1]) + abs(pair_in[1] - pair_out[0])
-                < abs(pair_in[0] - pair_out[0]) + abs(pair_in[1] - pair_out[1])):
-            pair_out = pair_out[::-1]  # interpolate each multiplier towards its own end
         h = b.s - a.s
+        #: the pair at each arclength computed (the step's ends first)
         ends = {0.0: pair_in if p_in is a else pair_out, h: pair_out if p_in is a else pair_in}
 
         def disc(pair: np.ndarray) -> float:
@@ -1175,37 +1175,52 @@ class ContinuationEngine:
             y, _, _ = self.correct(guess, a.tangent, a.y, sig)
             if y is None or np.linalg.norm(y - guess) > 0.5 * abs(h) + 1e-12:
                 return float("nan"), None
+            # start from the pair at the nearest arclength computed so far
+            near = min(ends, key=lambda k: abs(k - sig))
             try:
                 t = self.tangent(y, a.tangent)
-                pair = pr.multipliers_near(y, t, (1 - lam) * ends[0.0] + lam * ends[h])
+                pair = pr.multipliers_near(y, t, ends[near])
             except NUMERICAL_ERRORS:
                 return float("nan"), None
             if pair is None or pair.size != 2 or not np.all(np.isfinite(pair)):
                 return float("nan"), None
+            ends[sig] = pair
             return disc(pair), (y, pair)
 
         d0, dh = disc(ends[0.0]), disc(ends[h])
         if not (np.isfinite(d0) and np.isfinite(dh)) or d0 * dh > 0:
             return None
-        sig, payload, width = illinois(f, 0.0, d0, h, dh, st.event_tol)
+        sig, payload, width = illinois(f, 0.0, d0, h, dh, st.event_tol, close=True)
         if payload is None or width > st.multiplier_event_tol:
             return None
-        # the count on either side of the located collision: those of the step's ends
-        delta = max(width, st.multiplier_event_tol)
-        left = self._point_at(a, b, max(sig - delta, 0.0), tests=False)
-        right = self._point_at(a, b, min(sig + delta, h), tests=False)
-        if (left is None or right is None or left.n_unstable != a.n_unstable
-                or right.n_unstable != b.n_unstable):
+        # the event point, analysed in full, has the count of one end; a point just past it
+        # on the other side must have the other end's (no other crossing in the step)
+        q = self._point_at(a, b, sig)
+        if q is None:
             return None
-        p = self._point_at(a, b, sig, tests=False)
-        if p is None or p.multipliers is None:
-            return None
-        q = self.full(p)
         if q.multipliers is None:  # a phantom: keep the multipliers computed without tests
+            p = self._point_at(a, b, sig, tests=False)
+            if p is None or p.multipliers is None:
+                return None
             q.multipliers, q.n_unstable, q.circle_tol = p.multipliers, p.n_unstable, p.circle_tol
+        vl, vr = int(a.n_unstable), int(b.n_unstable)
+        delta = max(width, st.multiplier_event_tol)
+        # off the circle |log|lambda|| = sqrt(-d) / 2: the pair counts as outside once
+        # -d > 4 tol^2, i.e. about 4 tol^2 / |d'| past the collision (d' from the step's ends)
+        past = max(delta, 16.0 * tol**2 * abs(h) / max(abs(dh - d0), 1e-300))
+        if q.n_unstable == vl:
+            right = b if sig + past >= h else self._point_at(a, b, sig + past, tests=False)
+            left = q
+        elif q.n_unstable == vr:
+            left = a if sig - past <= 0.0 else self._point_at(a, b, sig - past, tests=False)
+            right = q
+        else:
+            return None
+        if (left is None or right is None or left.n_unstable != vl
+                or right.n_unstable != vr):
+            return None
         kind, leaving = classify_crossing(left.multipliers, right.multipliers, tol)
         lam_c = _nearest(q.multipliers, complex(payload[1][np.argmax(np.abs(payload[1]))]))
-        vl, vr = int(a.n_unstable), int(b.n_unstable)
         return _crossing_events(kind, q, width, vl, vr, leaving, lam_c, "krein_discriminant")
 
     @staticmethod

@@ -77,3 +77,28 @@ def test_collisions_on_the_discriminant_are_the_counts_events() -> None:
         lam = complex(e.data["critical_multiplier"][0] + 1j * e.data["critical_multiplier"][1])
         d = np.sort(np.abs(dense - lam))
         assert d[1] <= 1e-4 and d[2] >= 10 * d[1]
+
+
+@pytest.mark.parametrize("root", [1e-7, 0.3, 1 - 3e-8])
+def test_illinois_closes_the_bracket_with_dekker_steps(root: float) -> None:
+    """:func:`nsm_continuation.events.illinois` with ``close``: the zero of a smooth function
+    (here with curvature, so that the secant approaches from one side) bracketed to ``tol``
+    in a handful of evaluations, where the plain method creeps by halvings."""
+    from nsm_continuation.events import illinois
+
+    def counted(calls: list[float]):  # noqa: ANN202 - a test helper
+        def f(x: float) -> tuple[float, None]:
+            calls.append(x)
+            return (x - root) * (1.0 + 5.0 * x) + 0.3 * (x - root) ** 3, None
+        return f
+
+    tol = 1e-12
+    fast: list[float] = []
+    plain: list[float] = []
+    f0 = counted([])(0.0)[0]
+    f1 = counted([])(1.0)[0]
+    x, _, width = illinois(counted(fast), 0.0, f0, 1.0, f1, tol, close=True)
+    xp, _, width_p = illinois(counted(plain), 0.0, f0, 1.0, f1, tol)
+    assert abs(x - root) <= tol and width <= tol
+    assert abs(xp - root) <= tol and width_p <= tol
+    assert len(fast) <= 12 and len(fast) < len(plain)
