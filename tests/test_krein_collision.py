@@ -26,6 +26,11 @@ def chain(n: int) -> NDofImpactProblem:
                               "gap": 1.0})
 
 
+def y_at_period(pb: NDofImpactProblem, T: float) -> np.ndarray:
+    u0, du0 = pb.closed_form(T)
+    return pb.y_from_state(u0, du0, T)
+
+
 @pytest.mark.parametrize("n", [60, 200])
 def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
     pb = chain(n)
@@ -42,7 +47,12 @@ def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
         near = pb.multipliers_near(y, t, guess)
         assert near is not None
         assert np.abs(np.sort_complex(near) - np.sort_complex(dense[[i, j]])).max() <= 1e-9
-    assert chain(5).multipliers_near(y[:0], t[:0], dense[:2]) is None  # dense chains: none
+    # small chains: the dense eigenvalues nearest to the guesses
+    small = chain(5)
+    ys = y_at_period(small, small.T_lin[0] * 0.999)
+    ts = np.linalg.svd(small.jacobian(ys))[2][-1]
+    m5 = np.asarray(small.floquet_dense(ys, ts).multipliers)
+    assert np.array_equal(small.multipliers_near(ys, ts, m5[[1, 0]] + 1e-9), m5[[1, 0]])
 
 
 def _run(n: int, points: int, discriminant: bool) -> object:

@@ -781,11 +781,21 @@ class NDofImpactProblem(Problem):
 
     def multipliers_near(self, y: np.ndarray, tangent: np.ndarray, guesses: np.ndarray
                          ) -> np.ndarray | None:
-        """The multipliers nearest to ``guesses`` from the secular equation of :meth:`floquet`
-        (:func:`~nsm_continuation.floquet.refine_roots`: O(N) per multiplier and sweep). Up to
-        ``DENSE_MULTIPLIERS_UP_TO`` dofs None (the engine then uses :meth:`floquet`)."""
+        """The multipliers nearest to ``guesses`` (distinct) from the secular equation of
+        :meth:`floquet` (:func:`~nsm_continuation.floquet.refine_roots`: O(N) per multiplier
+        and sweep); up to ``DENSE_MULTIPLIERS_UP_TO`` dofs, where LAPACK is cheaper, the dense
+        eigenvalues (:meth:`floquet_dense`) nearest to them."""
         if self.N <= self.DENSE_MULTIPLIERS_UP_TO:
-            return None
+            dense = self.floquet_dense(y, tangent)
+            if dense is None:
+                return None
+            m = np.asarray(dense.multipliers, dtype=complex)
+            picked: list[int] = []
+            for g in np.asarray(guesses, dtype=complex):
+                d = np.abs(m - g)
+                d[picked] = np.inf
+                picked.append(int(np.argmin(d)))
+            return m[picked] if len(picked) <= m.size else None
         r = self._family_direction(y, tangent)
         if r is None:
             return None
