@@ -167,16 +167,18 @@ def point_1000(n: int) -> dict[str, float]:
     out["max |structured - dense|"] = float(cost[r, c].max())
     # whole continuation points: the engine's run (multipliers, step control, admissibility,
     # located events) from the converged point, per returned point
-    for stability in (False, True):
+    for stability, detect, key in ((False, False, "without multipliers"),
+                                    (True, False, "with multipliers, crossings not located"),
+                                    (True, True, "with multipliers and located crossings")):
         st = ContinuationSettings(stability_on_phantom=True, stability=stability,
-                                  max_points=RUN_POINTS, step_initial=1e-3, direction=-1)
+                                  detect_bifurcations=detect, max_points=RUN_POINTS,
+                                  step_initial=1e-3, direction=-1)
         run = ContinuationEngine(pb, st)
         t0 = time.perf_counter()
         br = run.run(StartPoint(y, "b1", -1))
-        key = "with multipliers and events" if stability else "without multipliers"
         out[f"per point, {key}"] = (time.perf_counter() - t0) / len(br.points)
-        if stability:
-            out["  events located in the run"] = float(
+        if detect:
+            out["  crossings located in the run"] = float(
                 sum(e.kind != "endpoint" for e in br.events))
     return out
 
