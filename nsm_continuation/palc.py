@@ -1169,7 +1169,7 @@ class ContinuationEngine:
             nu = -1j * np.log(pair / rho)
             return float(((nu[0] - nu[1]) ** 2).real)
 
-        def f(sig: float) -> tuple[float, tuple[Point, np.ndarray] | None]:
+        def f(sig: float) -> tuple[float, tuple[np.ndarray, np.ndarray] | None]:
             lam = sig / h if h != 0 else 0.0
             guess = (1 - lam) * a.y + lam * b.y
             y, _, _ = self.correct(guess, a.tangent, a.y, sig)
