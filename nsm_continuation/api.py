@@ -36,7 +36,6 @@ from pydantic import ValidationError
 
 from . import cases, registry
 from .cases import Case, CaseError
-from .execution import Execution
 from .protocol import Problem, StartPoint
 from .records import Branch, Point
 from .results import branch_rows, build_report, event_record, termination_text, write_outputs
@@ -90,12 +89,11 @@ def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
     """Run a case (file, mapping or :class:`Case`) and return its :class:`Result`. Nothing is
     written: call :meth:`Result.save`. ``workers`` (a local Dask cluster of that many
     processes) or ``scheduler`` (an existing cluster's address) compute the branches as Dask
-    tasks, with the same result (:mod:`nsm_continuation.execution`); default: the case's
-    ``execution:`` block, else serial."""
+    tasks, with the same result (:mod:`nsm_continuation.execution`); they replace the case's
+    ``execution:`` block (default: serial), and exclude each other."""
     case, problem = _validated(source, overrides)
-    execution = (Execution(workers, scheduler) if workers or scheduler
-                 else Execution(case.execution.workers, case.execution.scheduler))
-    return Result(run_case(case, problem, progress=progress, execution=execution))
+    case = cases.with_execution(case, workers, scheduler)
+    return Result(run_case(case, problem, progress=progress))
 
 
 def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
@@ -156,8 +154,10 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
 
 @dataclass(frozen=True)
 class EventRecord:
-    """One located event: its kind, branch, the continued parameter's value, and the full
-    record written to ``report.json`` (multipliers, derived quantities, data)."""
+    """One located event: its kind, branch, the value of the problem's parameter unknown
+    (``problem.parameter``: the chain's period ``T`` even when a case continues it in
+    ``omega = 2 pi / T``; the continued quantity is in ``record``), and the full record
+    written to ``report.json`` (multipliers, derived quantities, data)."""
 
     kind: str
     branch: int

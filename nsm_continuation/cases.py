@@ -172,6 +172,33 @@ class ExecutionSpec(BaseModel):
     scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True,
                                     pattern=r"^(tcp|tls|inproc|ucx|ws|wss)://")] | None = None
 
+    @model_validator(mode="after")
+    def _one_cluster(self) -> ExecutionSpec:
+        if self.workers is not None and self.scheduler is not None:
+            raise ValueError("workers and scheduler exclude each other: a local cluster of "
+                             "that many workers, or the existing cluster at that address")
+        return self
+
+
+def with_execution(case: Case, workers: int | None, scheduler: str | None,
+                   names: tuple[str, str] = ("workers", "scheduler")) -> Case:
+    """``case`` with ``workers`` / ``scheduler`` (command-line flags or API arguments, named
+    ``names`` in messages) as its ``execution:`` block, which they replace (so that
+    ``report.json`` records where the run was computed); unchanged if both are None.
+    :class:`CaseError` naming the argument when they are invalid or given together."""
+    if workers is None and scheduler is None:
+        return case
+    if workers is not None and scheduler is not None:
+        raise CaseError(f"{names[0]} and {names[1]} exclude each other: a local cluster of "
+                        "that many workers, or the existing cluster at that address")
+    try:
+        spec = ExecutionSpec(workers=workers, scheduler=scheduler)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        name = names[0] if err["loc"] and err["loc"][0] == "workers" else names[1]
+        raise CaseError(f"{name}: {err['msg']}") from None
+    return case.model_copy(update={"execution": spec})
+
 
 class Case(BaseModel):
     model_config = ConfigDict(extra="forbid")

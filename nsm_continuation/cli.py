@@ -24,7 +24,6 @@ from . import __version__
 
 if TYPE_CHECKING:
     from .cases import Case
-    from .execution import Execution
     from .output import OutputTarget
 
 # Everything else is imported where it is used: ``--version``, ``--help`` and ``list`` start
@@ -64,12 +63,13 @@ def _parser() -> argparse.ArgumentParser:
                    help="replace a previous run in the output directory (only the files it "
                         "wrote; never files this tool did not write)")
     r.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
-    r.add_argument("--workers", type=_positive_int, metavar="N",
-                   help="compute the branches on a local Dask cluster of N worker processes "
-                        "(same results as serial)")
-    r.add_argument("--scheduler", metavar="ADDRESS",
-                   help="compute the branches on the Dask cluster at ADDRESS "
-                        "(tcp://HOST:8786)")
+    cluster = r.add_mutually_exclusive_group()
+    cluster.add_argument("--workers", type=_positive_int, metavar="N",
+                         help="compute the branches on a local Dask cluster of N worker "
+                              "processes (same results as serial)")
+    cluster.add_argument("--scheduler", metavar="ADDRESS",
+                         help="compute the branches on the Dask cluster at ADDRESS "
+                              "(tcp://HOST:8786)")
     v = sub.add_parser("validate", help="check a YAML case (and where it would write) without "
                                         "running it")
     v.add_argument("case")
@@ -146,13 +146,6 @@ def _positive_int(text: str) -> int:
     return n
 
 
-def _execution(args: argparse.Namespace, case: Case) -> Execution:
-    """``--workers`` / ``--scheduler`` over the case's ``execution:`` block."""
-    from .execution import Execution
-
-    if args.workers or args.scheduler:
-        return Execution(args.workers, args.scheduler)
-    return Execution(case.execution.workers, case.execution.scheduler)
 
 
 def _target(args: argparse.Namespace, case: Case) -> OutputTarget:
@@ -169,11 +162,14 @@ def _run(args: argparse.Namespace, path: str) -> int:
 
     global _current
     case, problem = cases.load(path, args.overrides)
+    # --workers / --scheduler replace the case's execution: block (and are recorded with it)
+    case = cases.with_execution(case, args.workers, args.scheduler,
+                                ("--workers", "--scheduler"))
     target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
-                       poll=_poll, execution=_execution(args, case))
+                       poll=_poll)
         assert target.tmp is not None
         write_files(res, target.tmp, plots=case.output.plots)
         _poll()

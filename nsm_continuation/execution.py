@@ -173,7 +173,13 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     from dask.distributed import Client, LocalCluster
 
     if execution.scheduler:
-        return Client(execution.scheduler, timeout="10s"), None
+        try:
+            return Client(execution.scheduler, timeout="10s"), None
+        except (OSError, TimeoutError) as exc:  # nothing listening, or not a scheduler
+            from .cases import CaseError
+
+            raise CaseError(f"execution.scheduler (--scheduler): no Dask scheduler answers at "
+                            f"{execution.scheduler} ({exc})") from None
     # one thread per worker, BLAS included: N workers on N cores, not N x (BLAS threads)
     one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
     pre_spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ",
@@ -185,7 +191,7 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
         try:
             cluster = LocalCluster(n_workers=int(execution.workers or 1),
                                    threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=40, env=one)
+                                   dashboard_address=":0", silence_logs=40, env=one)
         except RuntimeError as exc:  # e.g. "Nanny failed to start."
             raise RuntimeError(
                 f"the local Dask cluster of {execution.workers} workers did not start ({exc}); "

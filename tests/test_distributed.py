@@ -77,6 +77,36 @@ def test_local_cluster_gives_the_serial_result(serial: Any) -> None:
     res = nsm.run(CASE, workers=2)
     assert len(serial.run_result.branches) >= 10
     same_branches(serial.run_result.branches, res.run_result.branches)
+    # the run records where it was computed
+    assert res.run_result.case.execution.workers == 2
+    assert serial.run_result.case.execution.workers is None
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_cluster_arguments_refused_in_one_line(tmp_path: Path, capsys: Any) -> None:
+    """``--workers`` with ``--scheduler``, a malformed address and an address where no
+    scheduler answers: one line naming the argument, exit 2, nothing written (the last only
+    after the 10 s connection timeout, before any branch is computed)."""
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    for extra, expect in ((["--workers", "2", "--scheduler", address], "not allowed with"),
+                          (["--scheduler", "localhost:8786"], "--scheduler: String should"),
+                          (["--scheduler", address], "no Dask scheduler answers at")):
+        out = tmp_path / "out"
+        with pytest.raises(SystemExit) as exc:
+            sys.exit(cli.main(["run", "--quiet", "--out", str(out), *extra]))
+        assert exc.value.code == 2, extra
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and expect in err[0], err
+        assert not out.exists()
+    with pytest.raises(nsm.CaseError, match="exclude each other"):
+        nsm.run(CASE, workers=2, scheduler=address)
 
 
 def test_merge_applies_the_serial_rule_and_records_a_failed_task() -> None:
@@ -206,10 +236,11 @@ def test_a_worker_killed_mid_run_changes_nothing(cluster: Any, tmp_path: Path) -
 
 def test_sigint_cancels_the_tasks_and_writes_nothing(tmp_path: Path) -> None:
     """SIGINT during a distributed run: exit 130, the tasks cancelled, no output folder."""
-    # a run of minutes: 4 dofs, subharmonics to 3, 3000 points per branch
-    case = {**CASE, "parameters": {**CASE["parameters"], "chain": {"dofs": 4, "mass": 1.0,
+    # a run of ~20 s serially here (30 branches: 8 dofs, subharmonics to 6, 3000 points per
+    # branch), long after the workers are busy
+    case = {**CASE, "parameters": {**CASE["parameters"], "chain": {"dofs": 8, "mass": 1.0,
                                                                    "stiffness": 1.0}},
-            "start": {"all": True, "max_subharmonic": 3},
+            "start": {"all": True, "max_subharmonic": 6},
             "continuation": {**CASE["continuation"], "max_points": 3000}}
     path = tmp_path / "case.yaml"
     path.write_text(yaml.safe_dump(case))
