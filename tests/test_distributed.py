@@ -48,16 +48,6 @@ def _wait_for(condition: Any, timeout: float = 120.0) -> None:
         time.sleep(0.05)
 
 
-def _busy(proc: Any) -> bool:
-    """A child process computing (a worker with a task), not one waiting."""
-    import psutil
-
-    try:
-        return proc.cpu_percent(interval=0.1) > 50.0
-    except psutil.Error:
-        return False
-
-
 def same_branches(a: list[Branch], b: list[Branch]) -> None:
     assert [(x.id, x.label, x.n_points) for x in a] == [(x.id, x.label, x.n_points) for x in b]
     for x, y in zip(a, b, strict=True):
@@ -249,9 +239,22 @@ def test_sigint_cancels_the_tasks_and_writes_nothing(tmp_path: Path) -> None:
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     import psutil
 
-    parent = psutil.Process(run.pid)  # signal once the local cluster's workers are busy
-    _wait_for(lambda: run.poll() is not None
-              or sum(_busy(p) for p in parent.children(recursive=True)) >= 2)
+    # signal once the local cluster's workers have computed for a while: their CPU time
+    # (load-independent) past starting and importing (~1-2 s each), far from the ~21 s of
+    # the whole run
+    parent = psutil.Process(run.pid)
+
+    def workers_cpu() -> float:
+        total = 0.0
+        for p in parent.children(recursive=True):
+            try:
+                t = p.cpu_times()
+                total += t.user + t.system
+            except psutil.Error:
+                pass
+        return total
+
+    _wait_for(lambda: run.poll() is not None or workers_cpu() >= 7.0)
     assert run.poll() is None, "the run ended before the signal"
     run.send_signal(signal.SIGINT)
     _, err = run.communicate(timeout=120)

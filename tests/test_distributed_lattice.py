@@ -35,6 +35,7 @@ def outputs(res: Any) -> tuple[dict[str, Any], dict[int, str]]:
     rr = res.run_result
     report = json.loads(json.dumps(build_report(rr, "run"), default=str))
     report.pop("timings")
+    report["case"]["input"].pop("execution")  # where it ran (recorded), not what it computed
     csvs = {}
     for br in rr.branches:
         cols, rows = branch_rows(br, rr.problem.variables, rr.problem.csv_head)
