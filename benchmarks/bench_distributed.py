@@ -81,7 +81,7 @@ def main() -> None:
     print("2. default case (one branch)")
     print(f"   serial {t_def_ser:.2f} s; --scheduler {t_def_run:.2f} s (overhead "
           f"{t_def_run - t_def_ser:+.2f} s); --workers 2 {t_def_loc:.2f} s (overhead "
-          f"{t_def_loc - t_def_ser:+.2f} s, mostly starting the cluster)")
+          f"{t_def_loc - t_def_ser:+.2f} s: a single branch starts no local cluster)")
     mean = float(np.mean(per))
     print("3. estimate: a 100-dof FEP on 64 cores")
     print(f"   measured here: {mean:.3f} s per 5-dof branch on average; a 100-dof point costs "

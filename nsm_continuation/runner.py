@@ -135,7 +135,13 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
     t_setup = time.perf_counter() - t0
     bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
     algorithm.progress = bar
-    if execution.distributed and algorithm.distributable and seeds:
+    # a local cluster only where there is work to spread: a single branch runs here (the
+    # same result, without the ~1 s of starting workers); an existing cluster (scheduler)
+    # is always used, the user chose where the work runs
+    spread = execution.distributed and algorithm.distributable and (
+        len(seeds) > 1 or (execution.scheduler is not None and len(seeds) == 1))
+    start_counters["dask_branch_tasks"] = len(seeds) if spread else 0
+    if spread:
         explicit = starts if (starts is not None or case.restart is not None) else None
         branches, skipped, per_branch, counters = run_distributed(
             execution, case.model_dump(mode="json"), algorithm, seeds, explicit, bar, poll)

@@ -67,9 +67,27 @@ def test_local_cluster_gives_the_serial_result(serial: Any) -> None:
     res = nsm.run(CASE, workers=2)
     assert len(serial.run_result.branches) >= 10
     same_branches(serial.run_result.branches, res.run_result.branches)
+    assert res.run_result.timings["dask_branch_tasks"] >= 10
     # the run records where it was computed
     assert res.run_result.case.execution.workers == 2
     assert serial.run_result.case.execution.workers is None
+
+
+def test_a_single_branch_starts_no_local_cluster(monkeypatch: Any) -> None:
+    """``workers=2`` on a case of one branch (the default case): computed in this process,
+    the serial result, no cluster started (nothing to spread; ~1 s saved)."""
+    from nsm_continuation import execution
+
+    def no_cluster(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("a local cluster was started for a single branch")
+
+    monkeypatch.setattr(execution, "start_client", no_cluster)
+    over = {"output.plots": False, "output.progress": False}
+    res = nsm.run(nsm.load_case(cli._default_case_path(), over), workers=2)
+    ser = nsm.run(nsm.load_case(cli._default_case_path(), over))
+    assert len(res.run_result.branches) == 1
+    assert res.run_result.timings["dask_branch_tasks"] == 0
+    same_branches(ser.run_result.branches, res.run_result.branches)
 
 
 def _free_port() -> int:
