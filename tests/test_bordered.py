@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from oracles.scaled_chain import closed_form_y, scaled_chain
 
 from nsm_continuation.bordered import DenseBorderedFactor, DiagonalBorderedFactor
 from nsm_continuation.palc import ContinuationEngine
@@ -20,20 +21,11 @@ from nsm_continuation.protocol import StartPoint
 from nsm_continuation.settings import ContinuationSettings
 
 
-def chain(n: int) -> NDofImpactProblem:
-    return NDofImpactProblem({"chain": {"dofs": n, "mass": 1.0 / n, "stiffness": float(n)},
-                              "gap": 1.0})
-
-
-def y_at(pb: NDofImpactProblem, T: float) -> np.ndarray:
-    u0, du0 = pb.closed_form(T)
-    return pb.y_from_state(u0, du0, T)
-
-
 @pytest.mark.parametrize("n", [5, 60])  # SX and MX
 def test_buffers_return_what_casadi_returns(n: int) -> None:
-    pb = chain(n)
-    y = y_at(pb, pb.T_lin[0] * 0.995) + 1e-3 * np.random.default_rng(1).standard_normal(n + 2)
+    pb = scaled_chain(n)
+    noise = 1e-3 * np.random.default_rng(1).standard_normal(n + 2)
+    y = closed_form_y(pb, pb.T_lin[0] * 0.995) + noise
     cp = pb.compiled
     g_ref = np.asarray(cp.G(y), dtype=float).ravel()
     J_ref = np.asarray(cp.J(y), dtype=float)
@@ -56,10 +48,10 @@ def _cases(pb: NDofImpactProblem) -> list[tuple[str, float]]:
 
 @pytest.mark.parametrize("n", [50, 200])
 def test_structured_factor_equals_dense_lapack(n: int) -> None:
-    pb = chain(n)
+    pb = scaled_chain(n)
     rng = np.random.default_rng(n)
     for what, T in _cases(pb):
-        y = y_at(pb, T)
+        y = closed_form_y(pb, T)
         row = rng.standard_normal(n + 2)
         F = pb.bordered_factor(y, row)
         assert isinstance(F, DiagonalBorderedFactor), what
@@ -80,15 +72,15 @@ def test_structured_factor_equals_dense_lapack(n: int) -> None:
 
 
 def test_structured_factor_refuses_a_singular_matrix() -> None:
-    pb = chain(60)
-    y = y_at(pb, pb.T_lin[0] * 0.999)
+    pb = scaled_chain(60)
+    y = closed_form_y(pb, pb.T_lin[0] * 0.999)
     with pytest.raises(np.linalg.LinAlgError):
         pb.bordered_factor(y, np.zeros(62)).solve(np.ones(62))
 
 
 def test_small_chains_and_the_shooting_formulation_stay_dense() -> None:
-    y5 = y_at(chain(5), chain(5).T_lin[0] * 0.999)
-    assert isinstance(chain(5).bordered_factor(y5, np.ones(7)), DenseBorderedFactor)
+    y5 = closed_form_y(scaled_chain(5), scaled_chain(5).T_lin[0] * 0.999)
+    assert isinstance(scaled_chain(5).bordered_factor(y5, np.ones(7)), DenseBorderedFactor)
     pb = NDofImpactProblem({"chain": {"dofs": 60, "mass": 1 / 60, "stiffness": 60.0},
                             "gap": 1.0, "formulation": "shooting"})
     y = np.ones(pb.dim)
@@ -100,13 +92,13 @@ def test_a_run_with_structured_solves_is_the_dense_run() -> None:
     points (to the corrector's tolerance) and the same events."""
     runs = []
     for dense in (False, True):
-        pb = chain(60)
+        pb = scaled_chain(60)
         if dense:
             pb.DENSE_SOLVES_UP_TO = 10**6
         st = ContinuationSettings(max_points=60, step_initial=1e-3, direction=-1,
                                   stability_on_phantom=True, newton_tol=1e-10)
         T = pb.T_lin[0] * (1 - 1e-4)
-        br = ContinuationEngine(pb, st).run(StartPoint(y_at(pb, T), "b1", -1))
+        br = ContinuationEngine(pb, st).run(StartPoint(closed_form_y(pb, T), "b1", -1))
         runs.append(br)
     a, b = runs
     assert len(a.points) == len(b.points) == 60

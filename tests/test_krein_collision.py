@@ -14,26 +14,16 @@ import collections
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from oracles.scaled_chain import closed_form_y, scaled_chain
 
 from nsm_continuation.palc import ContinuationEngine
 from nsm_continuation.protocol import StartPoint
 from nsm_continuation.settings import ContinuationSettings
 
 
-def chain(n: int) -> NDofImpactProblem:
-    return NDofImpactProblem({"chain": {"dofs": n, "mass": 1.0 / n, "stiffness": float(n)},
-                              "gap": 1.0})
-
-
-def y_at_period(pb: NDofImpactProblem, T: float) -> np.ndarray:
-    u0, du0 = pb.closed_form(T)
-    return pb.y_from_state(u0, du0, T)
-
-
 @pytest.mark.parametrize("n", [60, 200])
 def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
-    pb = chain(n)
+    pb = scaled_chain(n)
     T = pb.T_lin[0] * 0.999
     u0, du0 = pb.closed_form(T)
     y = pb.y_from_state(u0, du0, T)
@@ -48,15 +38,15 @@ def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
         assert near is not None
         assert np.abs(np.sort_complex(near) - np.sort_complex(dense[[i, j]])).max() <= 1e-9
     # small chains: the dense eigenvalues nearest to the guesses
-    small = chain(5)
-    ys = y_at_period(small, small.T_lin[0] * 0.999)
+    small = scaled_chain(5)
+    ys = closed_form_y(small, small.T_lin[0] * 0.999)
     ts = np.linalg.svd(small.jacobian(ys))[2][-1]
     m5 = np.asarray(small.floquet_dense(ys, ts).multipliers)
     assert np.array_equal(small.multipliers_near(ys, ts, m5[[1, 0]] + 1e-9), m5[[1, 0]])
 
 
 def _run(n: int, points: int, discriminant: bool) -> object:
-    pb = chain(n)
+    pb = scaled_chain(n)
     st = ContinuationSettings(max_points=points, step_initial=1e-3, direction=-1,
                               stability_on_phantom=True)
     T = pb.T_lin[0] * (1 - 1e-4)
