@@ -114,14 +114,17 @@ def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
 
 
 def continuation(problem: Problem, start: Any, *, name: str = "python",
-                 analysis: Mapping[str, Any] | None = None, **settings: Any) -> Result:
+                 analysis: Mapping[str, Any] | None = None, workers: int | None = None,
+                 scheduler: str | None = None, **settings: Any) -> Result:
     """Continue ``problem`` from ``start`` with our pseudo-arclength engine.
 
     ``start`` is the YAML ``start:`` block of the problem (e.g. ``{"mode": 1}``), a
     :class:`~nsm_continuation.protocol.StartPoint`, or a guess ``y`` (array of the problem's
     unknowns, corrected by Newton at fixed parameter). ``settings`` are the keys of the YAML
     ``continuation:`` block (``parameter``, ``min``, ``max``, ``step={...}``, ``max_points``,
-    ...) and ``analysis`` those of ``analysis:``.
+    ...) and ``analysis`` those of ``analysis:``. ``workers`` / ``scheduler``: as for
+    :func:`run` (the branches of several starts, the switches of a bifurcation diagram as
+    Dask tasks; ``problem``'s class must be importable by the workers).
     """
     block = start if not isinstance(start, StartPoint | np.ndarray | list | tuple) else {}
     raw = {"name": name, "problem": problem.name,
@@ -132,6 +135,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
         case = Case.model_validate(raw)
     except ValidationError as err:
         raise CaseError(cases._format(err, raw)) from None
+    case = cases.with_execution(case, workers, scheduler)
     try:
         window = problem.parameter_bounds(case.continuation.parameter, case.continuation.min,
                                           case.continuation.max)

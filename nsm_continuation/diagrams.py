@@ -35,13 +35,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .execution import DaskSession, wait_all
 from .protocol import Problem
-from .records import Branch
+from .records import Branch, Event
 
 if TYPE_CHECKING:  # pragma: no cover
     from .runner import RunResult
@@ -81,41 +83,117 @@ def _sub_result(res: RunResult, br: Branch, problem: Problem) -> RunResult:
     return RunResult(res.case, problem, [br], res.settings, res.window)
 
 
-def _switch(res: RunResult, br: Branch, problem: Problem, kind: str, index: int,
-            poll: Callable[[], None] | None) -> tuple[RunResult | None, str]:
-    """The branch born at event ``(kind, index)`` of ``br``: ``(child run, "")`` or
-    ``(None, why)``."""
-    from .cases import CaseError, validate
+@dataclass
+class _Candidate:
+    """An event of a listed kind on a branch of the current generation: a node of the tree."""
+
+    parent: Branch
+    problem: Problem
+    event: Event
+    index: int
+
+    @property
+    def y(self) -> np.ndarray:
+        return np.asarray(self.event.point.y, dtype=float)
+
+
+def _switch_case(res: RunResult, c: _Candidate) -> tuple[dict[str, Any], Any, type[Problem]]:
+    """The switch at ``c`` as a case: ``(raw case, restart record of the parent, problem
+    class)``, exactly what ``start: {from: <this run>, branch, event, switch: true}`` reads;
+    plain data that a Dask task carries."""
     from .restart import record_from_result
-    from .runner import run_case
 
     spec = res.case.analysis.branch_switching
-    record = record_from_result(_sub_result(res, br, problem), THIS_RUN)
+    record = record_from_result(_sub_result(res, c.parent, c.problem), THIS_RUN)
     cont: dict[str, Any] = {}
     if spec is not None and spec.max_points is not None:
         cont["max_points"] = spec.max_points
     raw: dict[str, Any] = {
         "name": res.case.name,
-        "start": {"from": THIS_RUN, "branch": br.id,
-                  "event": {"kind": kind, "index": index}, "switch": True},
+        "start": {"from": THIS_RUN, "branch": c.parent.id,
+                  "event": {"kind": c.event.kind, "index": c.index}, "switch": True},
         "continuation": cont, "analysis": {"branch_switching": None},
         "output": {"plots": False, "progress": False}}
+    return raw, record, type(res.problem)
+
+
+def _child_problem(raw: dict[str, Any], record: Any, cls: type[Problem]
+                   ) -> tuple[Any, Problem | None, str]:
+    """``(case, problem, "")`` of a switch, or ``(None, None, why)`` when the switch cannot
+    be a case (a problem that cannot represent the family)."""
+    from .cases import CaseError, validate
+
     try:
-        case, target = validate(raw, restart_record=record, problem_class=type(res.problem))
+        case, target = validate(raw, restart_record=record, problem_class=cls)
     except CaseError as exc:
-        return None, str(exc)
-    child = run_case(case, target, progress=False, poll=poll)
+        return None, None, str(exc)
+    return case, target, ""
+
+
+def _switch(raw: dict[str, Any], record: Any, cls: type[Problem], poll: Callable[[], None] | None
+            ) -> tuple[Branch | None, str, list[float], Problem | None]:
+    """One switch in this process: ``(the switched branch, "", its time, its problem)`` or
+    ``(None, why, [], None)``. The child runs serially (it is one branch)."""
+    from .execution import Execution
+    from .runner import run_case
+
+    case, target, why = _child_problem(raw, record, cls)
+    if case is None:
+        return None, why, [], None
+    child = run_case(case, target, progress=False, poll=poll, execution=Execution())
     failed = [b for b in child.branches if not b.points]
     if failed or not child.branches:
         why = "; ".join(f"{k}: {v}" for b in failed for k, v in b.termination.items())
-        return None, why or "no branch"
-    return child, ""
+        return None, why or "no branch", [], None
+    (branch,) = child.branches
+    return branch, "", list(child.timings.get("per_branch_s", [])), child.problem
 
 
-def grow(res: RunResult, poll: Callable[[], None] | None = None) -> None:
+def switch_task(raw: dict[str, Any], record: Any, cls: type[Problem]
+                ) -> tuple[Branch | None, str, list[float]]:
+    """One switch as a Dask task (:func:`_switch` on a worker): the problem is rebuilt by the
+    master from the same case, not sent back."""
+    branch, why, per_branch, _ = _switch(raw, record, cls, None)
+    return branch, why, per_branch
+
+
+def _not_followed(c: _Candidate, births: dict[int, tuple[str, np.ndarray]],
+                  switched: list[tuple[str, np.ndarray]]) -> str | None:
+    """Why ``c`` is not followed whatever the run's size (module docstring), else None."""
+    birth = births.get(c.parent.id)
+    if birth is not None and birth[0] == c.event.kind and _same(birth[1], c.y):
+        return "not followed: the point this branch was born at"
+    if any(k == c.event.kind and _same(p, c.y) for k, p in switched):
+        return "not followed: a point already switched"
+    return None
+
+
+def _speculative(cands: list[_Candidate], births: dict[int, tuple[str, np.ndarray]],
+                 switched: list[tuple[str, np.ndarray]]) -> list[int]:
+    """The candidates of a generation that the serial walk switches if ``max_branches`` is not
+    reached first: in order, those neither at their birth point nor at a point switched
+    before them. The walk switches a prefix of them (once the limit is reached it stays
+    reached), so their switches can be computed ahead, in parallel."""
+    seen = list(switched)
+    out = []
+    for k, c in enumerate(cands):
+        if _not_followed(c, births, seen) is None:
+            seen.append((c.event.kind, c.y))
+            out.append(k)
+    return out
+
+
+def grow(res: RunResult, poll: Callable[[], None] | None = None,
+         session: DaskSession | None = None) -> None:
     """Grow the tree of ``res`` in place (module docstring): switched branches appended to
     ``res.branches`` with the next ids, ``res.tree`` and ``res.branch_problems`` filled,
-    the time in ``res.timings['diagram_s']``."""
+    the time in ``res.timings['diagram_s']``.
+
+    With a Dask ``session`` the switches of a generation are computed as tasks (those the
+    serial walk would make, :func:`_speculative`; a local cluster is used for two or more,
+    an existing one for any) and adopted in the serial order, so the tree, ids and branches
+    are those of the serial run; switches the walk does not reach (``max_branches``) are
+    cancelled. ``res.timings['dask_switch_tasks']`` counts the tasks."""
     spec = res.case.analysis.branch_switching
     if spec is None:
         return
@@ -126,59 +204,84 @@ def grow(res: RunResult, poll: Callable[[], None] | None = None) -> None:
         br.info.setdefault("depth", 0)
     births: dict[int, tuple[str, np.ndarray]] = {}
     switched: list[tuple[str, np.ndarray]] = []
+    tasks = 0
     generation = [br for br in res.branches if br.points]
     for depth in range(1, spec.depth + 1):
+        cands = [_Candidate(parent, res.branch_problems[parent.id], ev, index)
+                 for parent in generation for ev, index in _ordinals(parent)
+                 if ev.kind in kinds]
+        cases = {k: _switch_case(res, cands[k]) for k in _speculative(cands, births, switched)}
+        futures: dict[int, Any] = {}
+        if session is not None and (len(cases) > 1 or (
+                cases and session.execution.scheduler is not None)):
+            futures = {k: session.submit(switch_task, *case, key=f"nsm-switch-{depth}-{k}")
+                       for k, case in cases.items()}
+            tasks += len(futures)
+            wait_all(list(futures.values()), poll)
         children: list[Branch] = []
-        for parent in generation:
-            problem = res.branch_problems[parent.id]
-            ip = problem.parameter_index
-            for ev, index in _ordinals(parent):
-                if ev.kind not in kinds:
-                    continue
-                y = np.asarray(ev.point.y, dtype=float)
-                node: dict[str, Any] = {
-                    "depth": depth, "parent": parent.id,
-                    "event": {"kind": ev.kind, "index": index},
-                    "parameter": float(y[ip]), "child": None}
-                birth = births.get(parent.id)
-                if birth is not None and birth[0] == ev.kind and _same(birth[1], y):
-                    node["status"] = "not followed: the point this branch was born at"
-                elif any(k == ev.kind and _same(p, y) for k, p in switched):
-                    node["status"] = "not followed: a point already switched"
-                elif len(res.branches) >= spec.max_branches:
-                    node["status"] = (f"not followed: analysis.branch_switching.max_branches = "
-                                      f"{spec.max_branches} reached")
-                else:
-                    switched.append((ev.kind, y))
-                    child, why = _switch(res, parent, problem, ev.kind, index, poll)
-                    if child is None:
-                        node["status"] = f"switch failed: {why}"
-                    else:
-                        (cb,) = child.branches
-                        cb.id = len(res.branches)
-                        for key in ("restart_from", "restart_branch", "restart_event",
-                                    "restart_event_index"):
-                            cb.info.pop(key, None)
-                        cb.info.update({"depth": depth, "parent_branch": parent.id,
-                                        "parent_event": ev.kind,
-                                        "parent_event_index": index})
-                        res.branches.append(cb)
-                        res.branch_problems[cb.id] = child.problem
-                        res.timings["per_branch_s"] = [*res.timings.get("per_branch_s", []),
-                                                       *child.timings.get("per_branch_s", [])]
-                        births[cb.id] = (ev.kind, y)
-                        children.append(cb)
-                        node.update({"child": cb.id, "status": "followed",
-                                     "child_label": cb.label})
+        for k, c in enumerate(cands):
+            node: dict[str, Any] = {
+                "depth": depth, "parent": c.parent.id,
+                "event": {"kind": c.event.kind, "index": c.index},
+                "parameter": float(c.y[c.problem.parameter_index]), "child": None}
+            status = _not_followed(c, births, switched)
+            if status is None and len(res.branches) >= spec.max_branches:
+                status = (f"not followed: analysis.branch_switching.max_branches = "
+                          f"{spec.max_branches} reached")
+            if status is not None:
+                node["status"] = status
                 res.tree.append(node)
+                continue
+            switched.append((c.event.kind, c.y))
+            raw, record, cls = cases[k]
+            if k in futures:
+                cb, why, per_branch = _task_result(futures.pop(k))
+                problem = None
+                if cb is not None:  # the child's problem, built here as the worker built it
+                    child_case, problem, why = _child_problem(raw, record, cls)
+                    if problem is not None:
+                        problem.energy_cap = child_case.continuation.max_energy
+            else:
+                cb, why, per_branch, problem = _switch(raw, record, cls, poll)
+            if cb is None or problem is None:
+                node["status"] = f"switch failed: {why}"
+            else:
+                _adopt(res, cb, problem, c, depth, per_branch)
+                births[cb.id] = (c.event.kind, c.y)
+                children.append(cb)
+                node.update({"child": cb.id, "status": "followed", "child_label": cb.label})
+            res.tree.append(node)
+        for f in futures.values():  # switches the walk did not reach (max_branches)
+            f.cancel()
         generation = children
         if not generation:
             break
     res.timings["diagram_s"] = time.perf_counter() - t0
     res.timings["n_points"] = int(sum(b.n_points for b in res.branches))
+    if session is not None:
+        res.timings["dask_switch_tasks"] = tasks
 
 
-# ---------------------------------------------------------------------- report content
+def _task_result(future: Any) -> tuple[Branch | None, str, list[float]]:
+    try:
+        return future.result()
+    except Exception as exc:  # noqa: BLE001 - recorded in the tree, never raised
+        return None, f"task failed on a worker: {type(exc).__name__}: {exc}", []
+
+
+def _adopt(res: RunResult, cb: Branch, problem: Problem, c: _Candidate, depth: int,
+           per_branch: list[float]) -> None:
+    """Append the switched branch ``cb`` to the run with the next id and its parent link."""
+    cb.id = len(res.branches)
+    for key in ("restart_from", "restart_branch", "restart_event", "restart_event_index"):
+        cb.info.pop(key, None)
+    cb.info.update({"depth": depth, "parent_branch": c.parent.id,
+                    "parent_event": c.event.kind, "parent_event_index": c.index})
+    res.branches.append(cb)
+    res.branch_problems[cb.id] = problem
+    res.timings["per_branch_s"] = [*res.timings.get("per_branch_s", []), *per_branch]
+
+
 def parent_link(br: Branch) -> dict[str, Any] | None:
     """Where a branch was born: in this run (``{"branch", "event", "depth"}``) or in a
     previous one (a restart or a switch from a saved run: ``{"run", "branch", "event"}``);

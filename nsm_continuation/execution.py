@@ -26,6 +26,12 @@ with its branch, what the master needs to go on as if it had computed it
 (:meth:`~nsm_continuation.algorithms.Algorithm.task_state`: for the lattice, the nodes it
 visited, which decide the skipped seeds); the merge adopts it when it accepts the branch.
 
+A run holds one :class:`DaskSession`: its client (and local cluster) starts when a phase first
+has work to spread (the seed search's pieces, the branches, a generation of a bifurcation
+diagram's switches, :func:`nsm_continuation.diagrams.grow`) and serves the later phases.
+A problem class the registry does not know (the Python API's) is sent to the workers by
+reference, with the case.
+
 ``--workers N`` starts a local cluster of ``N`` single-threaded worker processes for the run;
 ``--scheduler tcp://HOST:8786`` uses an existing cluster (``dask scheduler``, ``dask worker``),
 whose workers need this package (and any plugin problem) installed.
@@ -58,15 +64,19 @@ class Execution:
         return bool(self.workers) or bool(self.scheduler)
 
 
-def rebuild_case(raw_case: dict[str, Any]) -> tuple[Any, Any, Any, Any]:
-    """On a worker: the case, problem, settings and algorithm, from the case's input alone."""
+def rebuild_case(raw_case: dict[str, Any], problem_class: type | None = None
+                 ) -> tuple[Any, Any, Any, Any]:
+    """On a worker: the case, problem, settings and algorithm, from the case's input alone
+    (and the problem's class, sent by reference, when it is not registered: the Python API's
+    own problems; it must be importable on the worker)."""
     from . import registry
     from .algorithms import make_algorithm
     from .cases import Case
     from .runner import settings_from_case
 
     case = Case.model_validate(raw_case)
-    problem = registry.get(case.problem)(case.parameters)
+    cls = problem_class or registry.get(case.problem)
+    problem = cls(cls.Parameters.model_validate(case.parameters))
     settings, window = settings_from_case(case, problem)
     algorithm = make_algorithm(case.continuation.algorithm or problem.algorithms[0], problem,
                                settings)
@@ -80,15 +90,17 @@ _WORKER_CACHE: dict[str, tuple[Any, list[Any]]] = {}
 _WORKER_CACHE_SIZE = 4
 
 
-def _prepared(raw_case: dict[str, Any], explicit: list[Any] | None) -> tuple[Any, list[Any]]:
+def _prepared(raw_case: dict[str, Any], explicit: list[Any] | None,
+              problem_class: type | None = None) -> tuple[Any, list[Any]]:
     import json
     import pickle
 
     key = json.dumps(raw_case, sort_keys=True, default=str) + (
-        "" if explicit is None else pickle.dumps(explicit).hex())
+        "" if explicit is None else pickle.dumps(explicit).hex()) + (
+        "" if problem_class is None else f"{problem_class.__module__}.{problem_class.__qualname__}")
     hit = _WORKER_CACHE.get(key)
     if hit is None:
-        case, _problem, window, algorithm = rebuild_case(raw_case)
+        case, _problem, window, algorithm = rebuild_case(raw_case, problem_class)
         seeds = (algorithm.starts(case.start, window) if explicit is None
                  else algorithm.seeds_from_points(explicit))
         algorithm.prepare()
@@ -104,11 +116,12 @@ def _numeric(counters: dict[str, Any]) -> dict[str, float]:
 
 
 def branch_task(raw_case: dict[str, Any], index: int, branch_id: int,
-                explicit: list[Any] | None) -> tuple[Branch, float, dict[str, Any], Any]:
+                explicit: list[Any] | None, problem_class: type | None = None
+                ) -> tuple[Branch, float, dict[str, Any], Any]:
     """One task: the branch of seed ``index`` (of the case's starts, or of ``explicit`` start
     points), with its wall time, what it added to the algorithm's counters and the algorithm's
     :meth:`~nsm_continuation.algorithms.Algorithm.task_state`."""
-    algorithm, seeds = _prepared(raw_case, explicit)
+    algorithm, seeds = _prepared(raw_case, explicit, problem_class)
     before = _numeric(algorithm.counters())
     algorithm.begin_task()
     t0 = time.perf_counter()
@@ -201,26 +214,79 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     return Client(cluster), cluster
 
 
-@contextmanager
-def dask_session(execution: Execution) -> Iterator[tuple[Any, list[Any]]]:
-    """A client for ``execution`` (:func:`start_client`) and a list for the futures
-    submitted through it: if the block raises (SIGINT included) they are cancelled; the
-    client, and the local cluster it started, are closed in any case."""
-    client, cluster = start_client(execution)
-    futures: list[Any] = []
-    try:
-        yield client, futures
-    except BaseException:
-        for f in futures:
+class DaskSession:
+    """The Dask client of one run, started on first use (:func:`start_client`): the phases of
+    a run that have parallel work (the seed search's pieces, the branches, each generation
+    of a bifurcation diagram) share one cluster, and a run without any starts none.
+    ``futures`` collects what was submitted, for :meth:`cancel`."""
+
+    def __init__(self, execution: Execution) -> None:
+        self.execution = execution
+        self.futures: list[Any] = []
+        #: seconds spent connecting, or starting the local cluster (0 until used)
+        self.start_s = 0.0
+        self._client: Any = None
+        self._cluster: Any = None
+
+    @property
+    def client(self) -> Any:
+        if self._client is None:
+            t0 = time.perf_counter()
+            self._client, self._cluster = start_client(self.execution)
+            self.start_s = time.perf_counter() - t0
+        return self._client
+
+    @property
+    def started(self) -> bool:
+        return self._client is not None
+
+    def n_workers(self) -> int:
+        return _n_workers(self.client, self.execution)
+
+    def submit(self, fn: Callable[..., Any], *args: Any, key: str) -> Any:
+        """``client.submit(fn, *args)`` as a task that is retried if its worker dies, keyed
+        ``key`` (made unique) and remembered in :attr:`futures`."""
+        future = self.client.submit(fn, *args, pure=False, retries=TASK_RETRIES,
+                                    key=f"{key}-{time.time_ns()}")
+        self.futures.append(future)
+        return future
+
+    def cancel(self) -> None:
+        for f in self.futures:
             f.cancel()
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+        self._client = self._cluster = None
+
+
+@contextmanager
+def lazy_session(execution: Execution) -> Iterator[DaskSession]:
+    """A :class:`DaskSession` for a block: if the block raises (SIGINT included) the
+    submitted tasks are cancelled; the client, and the local cluster it started, are closed
+    in any case."""
+    session = DaskSession(execution)
+    try:
+        yield session
+    except BaseException:
+        session.cancel()
         raise
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        session.close()
 
 
-def _wait_all(futures: list[Any], poll: Callable[[], None] | None,
+@contextmanager
+def dask_session(execution: Execution) -> Iterator[tuple[Any, list[Any]]]:
+    """:func:`lazy_session` started at once, as ``(client, futures)``: the futures appended to
+    the list are cancelled if the block raises."""
+    with lazy_session(execution) as session:
+        yield session.client, session.futures
+
+
+def wait_all(futures: list[Any], poll: Callable[[], None] | None,
               done_callback: Callable[[Any], None] | None = None) -> None:
     """Wait for every future, calling ``poll`` (the signals) every 0.25 s and
     ``done_callback`` on each future as it finishes."""
@@ -248,7 +314,7 @@ def _n_workers(client: Any, execution: Execution) -> int:
         return 1
 
 
-def search_seeds_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: Any,
+def search_seeds_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: Any,
                              case_start: Any, window: Any,
                              poll: Callable[[], None] | None = None) -> dict[str, Any]:
     """The pieces of the algorithm's seed search (:meth:`~nsm_continuation.algorithms.
@@ -261,65 +327,61 @@ def search_seeds_distributed(execution: Execution, raw_case: dict[str, Any], alg
     on its worker), ``seed_cluster_start_s`` (connecting, or starting the local cluster),
     ``seed_pieces_wall_s`` (from the first submission to the last result adopted),
     ``seed_adopt_s`` (adopting the results here, in order, while the later pieces compute)
-    and ``seed_search_distributed_s`` (all of it, closing the cluster included)."""
+    and ``seed_search_distributed_s`` (all of it)."""
     if not algorithm.seed_pieces(case_start, window, 1):
         return {}
     t0 = time.perf_counter()
-    with dask_session(execution) as (client, futures):
-        t_start = time.perf_counter() - t0
-        count = PIECES_PER_WORKER * _n_workers(client, execution)
-        pieces = algorithm.seed_pieces(case_start, window, count)
-        stamp = time.time_ns()
-        t1 = time.perf_counter()
-        futures += [client.submit(seed_piece_task, raw_case, piece, pure=False,
-                                  retries=TASK_RETRIES, key=f"nsm-seed-piece-{i}-{stamp}")
-                    for i, piece in enumerate(pieces)]
-        per_piece: list[float] = []
-        t_adopt = 0.0
+    count = PIECES_PER_WORKER * session.n_workers()
+    t_start = session.start_s
+    pieces = algorithm.seed_pieces(case_start, window, count)
+    t1 = time.perf_counter()
+    futures = [session.submit(seed_piece_task, raw_case, piece, key=f"nsm-seed-piece-{i}")
+               for i, piece in enumerate(pieces)]
+    per_piece: list[float] = []
+    t_adopt = 0.0
 
-        def adopt_in_order(_: Any = None) -> None:
-            # in piece order (the serial search's), each as soon as it and those before it
-            # are done: adopting overlaps with the pieces still computing
-            nonlocal t_adopt
-            while len(per_piece) < len(futures) and futures[len(per_piece)].done():
-                result, dt = futures[len(per_piece)].result()  # a piece's error raises here
-                t2 = time.perf_counter()
-                algorithm.adopt_seed_piece(result)
-                t_adopt += time.perf_counter() - t2
-                per_piece.append(dt)
+    def adopt_in_order(_: Any = None) -> None:
+        # in piece order (the serial search's), each as soon as it and those before it are
+        # done: adopting overlaps with the pieces still computing
+        nonlocal t_adopt
+        while len(per_piece) < len(futures) and futures[len(per_piece)].done():
+            result, dt = futures[len(per_piece)].result()  # a piece's error raises here
+            t2 = time.perf_counter()
+            algorithm.adopt_seed_piece(result)
+            t_adopt += time.perf_counter() - t2
+            per_piece.append(dt)
 
-        _wait_all(futures, poll, adopt_in_order)
-        adopt_in_order()
-        t_wall = time.perf_counter() - t1
+    wait_all(futures, poll, adopt_in_order)
+    adopt_in_order()
+    t_wall = time.perf_counter() - t1
     return {"seed_pieces": len(per_piece), "seed_pieces_s": per_piece,
             "seed_cluster_start_s": t_start, "seed_pieces_wall_s": t_wall,
             "seed_adopt_s": t_adopt, "seed_search_distributed_s": time.perf_counter() - t0}
 
 
-def run_distributed(execution: Execution, raw_case: dict[str, Any], algorithm: Any,
+def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: Any,
                     seeds: list[Any], explicit: list[Any] | None,
                     progress: Callable[[int], None] | None,
-                    poll: Callable[[], None] | None
+                    poll: Callable[[], None] | None,
+                    problem_class: type | None = None
                     ) -> tuple[list[Branch], list[str], list[float], dict[str, Any]]:
     """Every seed as a Dask task, merged in seed order (see the module docstring): the
     accepted branches, the skipped seeds' labels, the per-branch times and the summed
-    counters."""
+    counters. ``problem_class``: sent when the problem is not registered (the Python API)."""
     def advance(f: Any) -> None:
         if progress is not None and f.status == "finished":
             progress(f.result()[0].n_points)
 
-    with dask_session(execution) as (client, futures):
-        futures += [client.submit(branch_task, raw_case, i, i, explicit, pure=False,
-                                  retries=TASK_RETRIES, key=f"nsm-branch-{i}-{time.time_ns()}")
-                    for i in range(len(seeds))]
-        _wait_all(futures, poll, advance)
-        results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
-        for f in futures:
-            try:
-                branch, dt, counters, state = f.result()
-                results.append((branch, dt, counters, None, state))
-            except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
-                results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}", None))
+    futures = [session.submit(branch_task, raw_case, i, i, explicit, problem_class,
+                              key=f"nsm-branch-{i}") for i in range(len(seeds))]
+    wait_all(futures, poll, advance)
+    results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
+    for f in futures:
+        try:
+            branch, dt, counters, state = f.result()
+            results.append((branch, dt, counters, None, state))
+        except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
+            results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}", None))
     return merge_in_seed_order(algorithm, seeds, results)
 
 

@@ -5,12 +5,19 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from typing import Any
 
 from .algorithms import make_algorithm, unsupported
 from .cases import Case, CaseError
-from .execution import Execution, run_distributed, search_seeds_distributed
+from .execution import (
+    DaskSession,
+    Execution,
+    lazy_session,
+    run_distributed,
+    search_seeds_distributed,
+)
 from .protocol import Problem, StartPoint
 from .records import Branch
 from .settings import ContinuationSettings
@@ -113,8 +120,21 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
                         "lattice problem has no start guess)")
     problem.energy_cap = case.continuation.max_energy
     execution = execution or Execution(case.execution.workers, case.execution.scheduler)
+    # one Dask client for the whole run, started when a phase has work to spread
+    with lazy_session(execution) if execution.distributed else nullcontext() as session:
+        result = _run(case, problem, algorithm, settings, window, progress, starts, poll,
+                      session)
+    return result
+
+
+def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSettings,
+         window: tuple[float | None, float | None], progress: bool,
+         starts: list[StartPoint] | None, poll: Callable[[], None] | None,
+         session: DaskSession | None) -> RunResult:
+    """:func:`run_case` once its algorithm is made: ``session`` is None for a serial run."""
     t0 = time.perf_counter()
     start_counters: dict[str, Any] = {}
+    problem_class = None if _registered(problem) else type(problem)
     try:
         if starts is None and case.restart is not None:
             # a restart (start: {from: <run>}): the saved point, or the switched branch's
@@ -122,11 +142,11 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
             from .restart import start_points
 
             starts, start_counters = start_points(case.restart, problem, settings)
-        if starts is None and execution.distributed:
+        if starts is None and session is not None:
             # the pieces of a split seed search (the lattice scan) as Dask tasks, adopted
             # here in order: starts() below then finds their work done
             start_counters.update(search_seeds_distributed(
-                execution, case.model_dump(mode="json"), algorithm, case.start, window, poll))
+                session, case.model_dump(mode="json"), algorithm, case.start, window, poll))
         seeds = (algorithm.starts(case.start, window) if starts is None
                  else algorithm.seeds_from_points(starts))
     except ValueError as exc:
@@ -138,13 +158,15 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
     # a local cluster only where there is work to spread: a single branch runs here (the
     # same result, without the ~1 s of starting workers); an existing cluster (scheduler)
     # is always used, the user chose where the work runs
-    spread = execution.distributed and algorithm.distributable and (
-        len(seeds) > 1 or (execution.scheduler is not None and len(seeds) == 1))
+    spread = session is not None and algorithm.distributable and (
+        len(seeds) > 1 or (session.execution.scheduler is not None and len(seeds) == 1))
     start_counters["dask_branch_tasks"] = len(seeds) if spread else 0
     if spread:
+        assert session is not None
         explicit = starts if (starts is not None or case.restart is not None) else None
         branches, skipped, per_branch, counters = run_distributed(
-            execution, case.model_dump(mode="json"), algorithm, seeds, explicit, bar, poll)
+            session, case.model_dump(mode="json"), algorithm, seeds, explicit, bar, poll,
+            problem_class)
     else:
         branches, skipped, per_branch = [], [], []
         for seed in seeds:
@@ -162,10 +184,23 @@ def run_case(case: Case, problem: Problem, progress: bool = True,
                **start_counters}
     result = RunResult(case, problem, branches, settings, window, timings, skipped)
     if case.analysis.branch_switching is not None:
-        # a bifurcation diagram: the branches born at the detected points, recursively
-        # (serially here, after the case's own branches, whichever way those were computed)
+        # a bifurcation diagram: the branches born at the detected points, recursively,
+        # each generation's switches as Dask tasks when the run has a session
         from .diagrams import grow
 
-        grow(result, poll)
+        grow(result, poll, session)
         timings["total_s"] = time.perf_counter() - t0
+    if session is not None and session.started:
+        timings["dask_start_s"] = session.start_s
     return result
+
+
+def _registered(problem: Problem) -> bool:
+    """Whether the registry builds ``problem``'s class from its name (a worker can then
+    rebuild it from the case alone)."""
+    from . import registry
+
+    try:
+        return registry.get(problem.name) is type(problem)
+    except registry.UnknownProblemError:
+        return False

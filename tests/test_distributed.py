@@ -90,6 +90,62 @@ def test_a_single_branch_starts_no_local_cluster(monkeypatch: Any) -> None:
     same_branches(ser.run_result.branches, res.run_result.branches)
 
 
+def two_transcriticals(**execution: Any) -> Any:
+    from oracles.normal_forms import MuParameters, TwoTranscriticals
+
+    return nsm.continuation(TwoTranscriticals(MuParameters()), {}, parameter="mu", min=-0.5,
+                            max=1.5, max_points=80, step={"initial": 0.05, "min": 1e-9,
+                                                          "max": 0.05},
+                            analysis={"branch_switching": {"depth": 2}}, **execution)
+
+
+def test_diagram_generation_as_tasks_gives_the_serial_tree(monkeypatch: Any) -> None:
+    """A bifurcation diagram (``x (mu - x) (1 - mu - x) = 0``, a problem class the registry
+    does not know, sent to the workers by reference): its first generation's two switches run
+    as Dask tasks on the one cluster of the run; the tree, ids and every point are the
+    serial run's, and the switched branches are the closed forms ``x = mu``, ``x = 1 - mu``
+    (the second generation's branch point at (1/2, 1/2) is switched once, from branch 1)."""
+    from nsm_continuation import execution
+
+    ser = two_transcriticals()
+    started: list[Any] = []
+    real = execution.start_client
+    monkeypatch.setattr(execution, "start_client",
+                        lambda ex: started.append(ex) or real(ex))
+    res = two_transcriticals(workers=2)
+    assert len(started) == 1  # one cluster for the whole run
+    run = res.run_result
+    assert run.timings["dask_switch_tasks"] == 2  # generation 1; generation 2 has one switch
+    assert run.tree == ser.run_result.tree
+    same_branches(ser.run_result.branches, run.branches)
+    x, mu = res.branches[1].y.T
+    assert np.max(np.abs(x - mu)) < 1e-12
+    x, mu = res.branches[2].y.T
+    assert np.max(np.abs(x - (1 - mu))) < 1e-12
+    assert [(n["depth"], n["parent"], n["child"]) for n in run.tree] == [
+        (1, 0, 1), (1, 0, 2), (2, 1, 3), (2, 1, None), (2, 2, None), (2, 2, None)]
+    assert run.tree[4]["status"] == "not followed: a point already switched"
+
+
+def test_diagram_switches_cut_by_max_branches_as_in_the_serial_walk() -> None:
+    """``max_branches: 2`` (the root and one child): the serial walk follows the first
+    branch point only; the tasks computed ahead for the second are dropped, the tree and
+    branches are the serial run's."""
+    from oracles.normal_forms import MuParameters, TwoTranscriticals
+
+    def run(**ex: Any) -> Any:
+        return nsm.continuation(
+            TwoTranscriticals(MuParameters()), {}, parameter="mu", min=-0.5, max=1.5,
+            max_points=80, step={"initial": 0.05, "min": 1e-9, "max": 0.05},
+            analysis={"branch_switching": {"depth": 2, "max_branches": 2}}, **ex).run_result
+
+    ser, par = run(), run(workers=2)
+    assert par.tree == ser.tree and len(par.branches) == 2
+    assert par.tree[1]["status"].startswith("not followed: analysis.branch_switching."
+                                            "max_branches = 2")
+    same_branches(ser.branches, par.branches)
+
+
 def _free_port() -> int:
     import socket
 

@@ -45,6 +45,18 @@ class Pitchfork(Transcritical):
         return y[0] * (y[1] - y[0] ** 2)
 
 
+class TwoTranscriticals(Transcritical):
+    """``G(x, mu) = x (mu - x) (1 - mu - x)``: the trivial branch meets ``x = mu`` at
+    ``mu = 0`` and ``x = 1 - mu`` at ``mu = 1``, and those two cross at ``(1/2, 1/2)``: a
+    diagram with two switches in its first generation and a point reached from both in its
+    second."""
+
+    name: ClassVar[str] = "test_two_transcriticals"
+
+    def residual(self, y: Any) -> Any:
+        return y[0] * (y[1] - y[0]) * (1 - y[1] - y[0])
+
+
 class LogisticParameters(BaseModel):
     model_config = STRICT
     r: float = 2.8
