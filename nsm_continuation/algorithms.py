@@ -245,7 +245,8 @@ class PseudoArclength(_CurveAlgorithm):
     def counters(self) -> dict[str, Any]:
         return {"residual_evaluations": self.engine.n_evaluations,
                 "steps_taken_despite_multiplier_motion": self.engine.motion_limited_steps,
-                "events_not_located_on_their_arc": self.engine.unlocated_events}
+                "events_not_located_on_their_arc": self.engine.unlocated_events,
+                "krein_passings": self.engine.krein_passings}
 
 
 class LocatedEvents(_CurveAlgorithm):

@@ -98,6 +98,11 @@ class ContinuationEngine:
         self.n_evaluations = 0
         self.motion_limited_steps = 0
         self.unlocated_events = 0
+        #: steps in which two multipliers of opposite Krein signature passed each other on
+        #: the circle (checked on their discriminant: no window, :meth:`_krein_windows`)
+        self.krein_passings = 0
+        #: the Floquet data of the last few points, by their unknowns (:meth:`_krein_at`)
+        self._floquet_memo: dict[bytes, FloquetData] = {}
         #: set while the events of a step longer than a few step_min are analysed: an event
         #: that cannot be located on the step's arc then retries the step shorter
         self._retry_allowed = False
@@ -545,7 +550,7 @@ class ContinuationEngine:
         # partner of the other signature within the step are bounded
         krein_a = self._krein_at(a)
         krein_b = krein_of(pre) if krein_a is not None else None
-        self._krein_memo = (np.array(y_new, dtype=float), pre)
+        self._remember_floquet(y_new, pre)
         if krein_a is not None and krein_b is not None:
             tol = max(st.unit_circle_tol, a.circle_tol,
                       1e3 * np.finfo(float).eps * pre.matrix_norm)
@@ -560,6 +565,16 @@ class ContinuationEngine:
             motion = multiplier_motion(a.multipliers, b_mult)
         return pre, motion > st.max_multiplier_step
 
+    def _remember_floquet(self, y: np.ndarray, fl: FloquetData | None) -> None:
+        """Keep the multipliers (and their Krein data) of the last few trial points: the
+        step checks and :meth:`_krein_windows` read those of both ends of a step."""
+        if fl is None:
+            return
+        memo = self._floquet_memo
+        if len(memo) >= 4:
+            memo.pop(next(iter(memo)))
+        memo[np.asarray(y, dtype=float).tobytes()] = fl
+
     def _krein_at(self, a: Point) -> np.ndarray | None:
         """Krein definiteness of the multipliers of ``a`` (:class:`~nsm_continuation.floquet.
         KreinFloquetData`), or None (generic motion check). Only for a problem that declares
@@ -569,11 +584,10 @@ class ContinuationEngine:
         st = self.settings
         if not (st.krein_step_control and self.problem.conservative):
             return None
-        memo = getattr(self, "_krein_memo", None)
-        if memo is not None and memo[0].shape == a.y.shape and np.array_equal(memo[0], a.y):
-            fl = memo[1]
-        else:
+        fl = self._floquet_memo.get(np.asarray(a.y, dtype=float).tobytes())
+        if fl is None:
             fl = self._floquet(a.y, a.tangent)
+            self._remember_floquet(a.y, fl)
         krein = krein_of(fl)
         if krein is None or np.asarray(fl.multipliers).shape != np.asarray(a.multipliers).shape:
             return None
@@ -982,9 +996,11 @@ class ContinuationEngine:
                                    bracket=w))
             else:
                 self.unlocated_events += 1
-        if a.multipliers is not None and b.multipliers is not None \
-                and a.n_unstable != b.n_unstable:
-            found.extend(self._locate_multiplier_crossings(a, b))
+        if a.multipliers is not None and b.multipliers is not None:
+            if a.n_unstable != b.n_unstable:
+                found.extend(self._locate_multiplier_crossings(a, b))
+            else:
+                found.extend(self._krein_windows(a, b))
         return _merge_fold_crossings(found)
 
     def _signature_events(self, a: Point, b: Point) -> list[Event]:
@@ -1222,6 +1238,126 @@ class ContinuationEngine:
         kind, leaving = classify_crossing(left.multipliers, right.multipliers, tol)
         lam_c = _nearest(q.multipliers, complex(payload[1][np.argmax(np.abs(payload[1]))]))
         return _crossing_events(kind, q, width, vl, vr, leaving, lam_c, "krein_discriminant")
+
+    def _krein_windows(self, a: Point, b: Point) -> list[Event]:
+        """An instability window opened and closed inside the step ``a -> b`` (the same
+        number of multipliers outside the circle at both ends) of a conservative family:
+        its two crossings, located on the colliding pair's discriminant.
+
+        The Krein words of the ends (:mod:`nsm_continuation.krein`) differ when two
+        multipliers of opposite signature met inside the step; one transposition (or one flip
+        at ``+-1``) names the pair and how it moved (:func:`~nsm_continuation.krein.
+        swap_paths`). Its discriminant ``d(sigma)`` (:func:`~nsm_continuation.krein.
+        discriminant`; the pair at each trial point is the one nearest to the linear
+        interpolation of its ends' positions) is positive at both ends; its minimum over the
+        step (Brent's bounded search to ``event_tol``) is negative exactly when the pair left
+        the circle in between. Then both zeros are located (Illinois, as in
+        :meth:`_locate_collision`) and the point of the minimum, analysed in full, must have
+        more multipliers outside than the ends (the count, a second method); the window's
+        opening and closing crossings are returned (``data['located_on'] =
+        'krein_discriminant'``, ``data['hidden_in_step'] = True``). A minimum that is not
+        negative beyond ``-4 tol^2`` (the pair within ``tol`` of the circle) is a passing of
+        the two multipliers: no event (``krein_passings``). Several collisions in the step,
+        or a window the count does not confirm, retry the step shorter (when it may be
+        retried; else the step is kept and ``unlocated_events`` counts it)."""
+        from scipy.optimize import minimize_scalar
+
+        from .krein import SEVERAL, discriminant, swap_paths
+
+        pr, st = self.problem, self.settings
+        if not (pr.conservative and st.krein_step_control):
+            return []
+        ka, kb = self._krein_at(a), self._krein_at(b)
+        if ka is None or kb is None:
+            return []
+        tol = max(st.unit_circle_tol, a.circle_tol, b.circle_tol)
+        paths = swap_paths(np.asarray(a.multipliers), ka, np.asarray(b.multipliers), kb, tol)
+        if paths is None:
+            return []
+        if paths == SEVERAL:
+            return self._unresolved("several Krein collisions in one step")
+        assert not isinstance(paths, str)
+        (z1a, z1b), (z2a, z2b) = paths
+        h = b.s - a.s
+        pairs: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+        def f(sig: float) -> tuple[float, tuple[np.ndarray, np.ndarray] | None]:
+            lam = sig / h if h != 0 else 0.0
+            guess = (1 - lam) * a.y + lam * b.y
+            y, _, _ = self.correct(guess, a.tangent, a.y, sig)
+            if y is None or np.linalg.norm(y - guess) > 0.5 * abs(h) + 1e-12:
+                return float("nan"), None
+            g = np.array([z1a + lam * (z1b - z1a), z2a + lam * (z2b - z2a)])
+            try:
+                pair = self._multipliers_near(y, self.tangent(y, a.tangent), g)
+            except NUMERICAL_ERRORS:
+                return float("nan"), None
+            if pair is None:
+                return float("nan"), None
+            pairs[sig] = (y, pair)
+            return discriminant(pair[0], pair[1]), (y, pair)
+
+        d0, dh = discriminant(z1a, z2a), discriminant(z1b, z2b)
+        best = minimize_scalar(lambda sig: np.nan_to_num(f(sig)[0], nan=np.inf),
+                               bounds=(0.0, h), method="bounded",
+                               options={"xatol": st.event_tol, "maxiter": 60})
+        sig_m, d_m = float(best.x), float(best.fun)
+        if not d_m < -4.0 * tol**2:
+            self.krein_passings += 1
+            return []
+        vl = int(a.n_unstable)
+        middle = self._point_at(a, b, sig_m, tests=False)
+        if middle is None or middle.multipliers is None or middle.n_unstable <= vl:
+            return self._unresolved("a hidden Krein window the count does not confirm")
+        events: list[Event] = []
+        kind, leaving = classify_crossing(np.asarray(a.multipliers), middle.multipliers, tol)
+        vm = int(middle.n_unstable)
+        for lo, flo, hi, fhi, before, after in ((0.0, d0, sig_m, d_m, vl, vm),
+                                                (sig_m, d_m, h, dh, vm, vl)):
+            sig, payload, width = illinois(f, lo, flo, hi, fhi, st.event_tol, close=True)
+            q = self._point_at(a, b, sig)
+            if payload is None or q is None:
+                return self._unresolved("a hidden Krein window not located on its "
+                                        "discriminant")
+            if q.multipliers is None:  # a phantom: the multipliers computed without tests
+                p = self._point_at(a, b, sig, tests=False)
+                if p is None or p.multipliers is None:
+                    return self._unresolved("a hidden Krein window without multipliers")
+                q.multipliers, q.n_unstable, q.circle_tol = (p.multipliers, p.n_unstable,
+                                                             p.circle_tol)
+            lam_c = _nearest(q.multipliers, complex(payload[1][0]))
+            for ev in _crossing_events(kind, q, width, before, after, leaving, lam_c,
+                                       "krein_discriminant"):
+                ev.data["hidden_in_step"] = True
+                events.append(ev)
+        return events
+
+    def _multipliers_near(self, y: np.ndarray, t: np.ndarray, guesses: np.ndarray
+                          ) -> np.ndarray | None:
+        """The multipliers nearest to ``guesses`` (distinct): the problem's
+        :meth:`~nsm_continuation.protocol.Problem.multipliers_near`, else from all of them."""
+        pair = self.problem.multipliers_near(y, t, guesses)
+        if pair is None:
+            fl = self._floquet(y, t)
+            if fl is None:
+                return None
+            m = np.asarray(fl.multipliers, dtype=complex)
+            picked: list[int] = []
+            for g in guesses:
+                d = np.abs(m - g)
+                d[picked] = np.inf
+                picked.append(int(np.argmin(d)))
+            pair = m[picked]
+        pair = np.asarray(pair, dtype=complex)
+        return pair if pair.size == guesses.size and np.all(np.isfinite(pair)) else None
+
+    def _unresolved(self, why: str) -> list[Event]:
+        """A step whose events cannot be told apart: retried shorter if it may be, else kept
+        and counted (``unlocated_events``)."""
+        if self._retry_allowed:
+            raise _RetryStep(why)
+        self.unlocated_events += 1
+        return []
 
     @staticmethod
     def _pair_near(m: np.ndarray, z1: complex, z2: complex) -> np.ndarray | None:
