@@ -22,7 +22,12 @@ by :func:`_vertical_bands`, pixel for pixel what ``axvspan`` draws, as one artis
 
 from __future__ import annotations
 
+import os
+import pickle
+import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -309,13 +314,77 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
 
 
 def make_all(res: RunResult, out: Path) -> list[str]:
-    files = []
-    if res.branches and any(br.points for br in res.branches):
-        fep(res, out / "fep.png")
-        files.append("fep.png")
-    if multipliers_vs_frequency(res, out / "multipliers_vs_frequency.png"):
-        files.append("multipliers_vs_frequency.png")
-    if multipliers_plane(res, out / "multipliers_complex_plane.png"):
-        files.append("multipliers_complex_plane.png")
-    files += res.problem.extra_plots(out, res.branches, res.window)
-    return files
+    """Every figure of a run written into ``out`` (the branch diagram, the multipliers, the
+    problem's own figures, the bifurcation diagram of a tree): their file names, in this
+    order. Drawn in two processes where that is possible (:func:`in_two_processes`)."""
+
+    def branch_diagram() -> list[str]:
+        if res.branches and any(br.points for br in res.branches):
+            fep(res, out / "fep.png")
+            return ["fep.png"]
+        return []
+
+    def along() -> list[str]:
+        ok = multipliers_vs_frequency(res, out / "multipliers_vs_frequency.png")
+        return ["multipliers_vs_frequency.png"] if ok else []
+
+    def plane() -> list[str]:
+        ok = multipliers_plane(res, out / "multipliers_complex_plane.png")
+        return ["multipliers_complex_plane.png"] if ok else []
+
+    def problem_figures() -> list[str]:
+        return list(res.problem.extra_plots(out, res.branches, res.window))
+
+    def tree() -> list[str]:
+        if res.case.output.axes is None and not res.tree:
+            return []
+        from .diagrams import figure
+
+        return ["diagram.png"] if figure(res, out / "diagram.png") else []
+
+    return in_two_processes([branch_diagram, along, plane, problem_figures, tree])
+
+
+#: :func:`in_two_processes` forks only here (POSIX ``fork`` without the macOS caveats)
+FORKS = sys.platform.startswith("linux")
+
+
+def in_two_processes(jobs: list[Callable[[], list[str]]]) -> list[str]:
+    """``[name for job in jobs for name in job()]``, the jobs shared with a forked child
+    process where the platform forks (:data:`FORKS`) and two cores are available: the child
+    draws every other job (it inherits the run and matplotlib, nothing is sent), reports its
+    file names through a pipe and exits without running any of this process's clean-up
+    (``os._exit``). The figures are those of one process, byte for byte
+    (``tests/test_startup.py``): each is drawn from the same data by the same code. A job that
+    raises in the child raises here, as ``RuntimeError`` with its message."""
+    if not (FORKS and len(jobs) > 1 and (os.cpu_count() or 1) > 1):
+        return [name for job in jobs for name in job()]
+    mine, theirs = jobs[0::2], jobs[1::2]
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child (its coverage is not collected)
+        os.close(read)
+        try:
+            outcome: tuple[str, Any] = ("ok", [job() for job in theirs])
+        except BaseException as exc:  # noqa: BLE001 - reported to the parent
+            outcome = ("error", f"{type(exc).__name__}: {exc}")
+        try:
+            with os.fdopen(write, "wb") as fh:
+                pickle.dump(outcome, fh)
+        finally:
+            os._exit(0)
+    os.close(write)
+    try:
+        own = [job() for job in mine]
+    finally:
+        with os.fdopen(read, "rb") as fh:
+            data = fh.read()
+        os.waitpid(pid, 0)
+    status, payload = pickle.loads(data) if data else ("error", "the process drawing "
+                                                       "figures ended without a result")
+    if status != "ok":
+        raise RuntimeError(f"figures: {payload}")
+    names: list[str] = []
+    for k in range(len(jobs)):
+        names += own[k // 2] if k % 2 == 0 else payload[k // 2]
+    return names

@@ -230,11 +230,6 @@ def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
         from . import plots as plotting
 
         figures = plotting.make_all(res, directory)
-        if res.case.output.axes is not None or res.tree:
-            from .diagrams import figure
-
-            if figure(res, directory / "diagram.png"):
-                figures.append("diagram.png")
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))

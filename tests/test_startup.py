@@ -65,3 +65,41 @@ def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path):
     written = {p.name for p in run.iterdir()}
     assert "report.json" in written and not any(n.endswith(".png") for n in written)
     assert json.loads((run / "report.json").read_text())["figures"] == []
+
+
+def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path, monkeypatch):
+    """``plots.in_two_processes`` (a forked child draws every other figure): the same files,
+    in the same order in ``report.json``, byte for byte the PNGs of a single process."""
+    import nsm_continuation as nsm
+    from nsm_continuation import cli, plots
+
+    res = nsm.run(nsm.load_case(cli._default_case_path(), {"output.progress": False}))
+    two = res.save(tmp_path / "two")
+    monkeypatch.setattr(plots, "FORKS", False)
+    one = res.save(tmp_path / "one")
+    figures = json.loads((one / "report.json").read_text())["figures"]
+    assert len(figures) >= 4
+    assert json.loads((two / "report.json").read_text())["figures"] == figures
+    for name in figures:
+        assert (two / name).read_bytes() == (one / name).read_bytes(), name
+
+
+def test_a_figure_failing_in_the_child_process_is_raised_here():
+    """A job that raises in the forked child: ``RuntimeError`` naming it, the parent's own
+    jobs done, the child reaped."""
+    import os
+
+    import pytest
+
+    from nsm_continuation import plots
+
+    if not (plots.FORKS and (os.cpu_count() or 1) > 1):
+        pytest.skip("figures are drawn in one process on this machine")
+
+    def fails() -> list[str]:
+        raise ValueError("no data for this panel")
+
+    with pytest.raises(RuntimeError, match="figures: ValueError: no data for this panel"):
+        plots.in_two_processes([lambda: ["a.png"], fails, lambda: ["c.png"]])
+    assert plots.in_two_processes([lambda: ["a"], lambda: ["b"], lambda: [], lambda: ["d"]]) \
+        == ["a", "b", "d"]
