@@ -47,6 +47,7 @@ from .floquet import (
     count_outside,
     krein_of,
 )
+from .krein import SEVERAL, discriminant, swap_paths
 from .protocol import EvaluationError, FloquetData, Problem, StartPoint
 from .records import Branch, Event, Point
 from .settings import ContinuationSettings
@@ -1182,19 +1183,16 @@ class ContinuationEngine:
         ends = {0.0: pair_in if p_in is a else pair_out, h: pair_out if p_in is a else pair_in}
 
         def disc(pair: np.ndarray) -> float:
-            nu = -1j * np.log(pair / rho)
-            return float(((nu[0] - nu[1]) ** 2).real)
+            return discriminant(pair[0], pair[1])
 
         def f(sig: float) -> tuple[float, tuple[np.ndarray, np.ndarray] | None]:
-            lam = sig / h if h != 0 else 0.0
-            guess = (1 - lam) * a.y + lam * b.y
-            y, _, _ = self.correct(guess, a.tangent, a.y, sig)
-            if y is None or np.linalg.norm(y - guess) > 0.5 * abs(h) + 1e-12:
+            on_arc = self._on_chord(a, b, sig)
+            if on_arc is None:
                 return float("nan"), None
+            y, t = on_arc
             # start from the pair at the nearest arclength computed so far
             near = min(ends, key=lambda k: abs(k - sig))
             try:
-                t = self.tangent(y, a.tangent)
                 pair = pr.multipliers_near(y, t, ends[near])
             except NUMERICAL_ERRORS:
                 return float("nan"), None
@@ -1262,8 +1260,6 @@ class ContinuationEngine:
         retried; else the step is kept and ``unlocated_events`` counts it)."""
         from scipy.optimize import minimize_scalar
 
-        from .krein import SEVERAL, discriminant, swap_paths
-
         pr, st = self.problem, self.settings
         if not (pr.conservative and st.krein_step_control):
             return []
@@ -1279,22 +1275,20 @@ class ContinuationEngine:
         assert not isinstance(paths, str)
         (z1a, z1b), (z2a, z2b) = paths
         h = b.s - a.s
-        pairs: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
         def f(sig: float) -> tuple[float, tuple[np.ndarray, np.ndarray] | None]:
-            lam = sig / h if h != 0 else 0.0
-            guess = (1 - lam) * a.y + lam * b.y
-            y, _, _ = self.correct(guess, a.tangent, a.y, sig)
-            if y is None or np.linalg.norm(y - guess) > 0.5 * abs(h) + 1e-12:
+            on_arc = self._on_chord(a, b, sig)
+            if on_arc is None:
                 return float("nan"), None
+            y, t = on_arc
+            lam = sig / h if h != 0 else 0.0
             g = np.array([z1a + lam * (z1b - z1a), z2a + lam * (z2b - z2a)])
             try:
-                pair = self._multipliers_near(y, self.tangent(y, a.tangent), g)
+                pair = self._multipliers_near(y, t, g)
             except NUMERICAL_ERRORS:
                 return float("nan"), None
             if pair is None:
                 return float("nan"), None
-            pairs[sig] = (y, pair)
             return discriminant(pair[0], pair[1]), (y, pair)
 
         d0, dh = discriminant(z1a, z2a), discriminant(z1b, z2b)
@@ -1331,6 +1325,21 @@ class ContinuationEngine:
                 ev.data["hidden_in_step"] = True
                 events.append(ev)
         return events
+
+    def _on_chord(self, a: Point, b: Point, sig: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """The branch point at arclength ``sig`` from ``a`` (Newton from the chord ``a -> b``)
+        and its tangent, without analysis (the pair trackers' trial points); None if the
+        corrector fails or lands off the arc."""
+        h = b.s - a.s
+        lam = sig / h if h != 0 else 0.0
+        guess = (1 - lam) * a.y + lam * b.y
+        y, _, _ = self.correct(guess, a.tangent, a.y, sig)
+        if y is None or np.linalg.norm(y - guess) > 0.5 * abs(h) + 1e-12:
+            return None
+        try:
+            return y, self.tangent(y, a.tangent)
+        except NUMERICAL_ERRORS:
+            return None
 
     def _multipliers_near(self, y: np.ndarray, t: np.ndarray, guesses: np.ndarray
                           ) -> np.ndarray | None:
