@@ -64,11 +64,14 @@ class Execution:
         return bool(self.workers) or bool(self.scheduler)
 
 
-def rebuild_case(raw_case: dict[str, Any], problem_class: type | None = None
-                 ) -> tuple[Any, Any, Any, Any]:
+def rebuild_case(raw_case: dict[str, Any], problem_class: type | None = None,
+                 restart: tuple[Any, Any, Any] | None = None) -> tuple[Any, Any, Any, Any]:
     """On a worker: the case, problem, settings and algorithm, from the case's input alone
     (and the problem's class, sent by reference, when it is not registered: the Python API's
-    own problems; it must be importable on the worker)."""
+    own problems; it must be importable on the worker). ``restart``: the case's restart
+    ``(spec, record, selection)`` (:class:`~nsm_continuation.restart.Restart`), whose
+    problem is not the registered one: the period-``2k`` problem of a switch at a period
+    doubling, the run's period multiple (:func:`~nsm_continuation.restart.configure`)."""
     from . import registry
     from .algorithms import make_algorithm
     from .cases import Case
@@ -77,6 +80,11 @@ def rebuild_case(raw_case: dict[str, Any], problem_class: type | None = None
     case = Case.model_validate(raw_case)
     cls = problem_class or registry.get(case.problem)
     problem = cls(cls.Parameters.model_validate(case.parameters))
+    if restart is not None:
+        from .restart import configure
+
+        spec, record, selection = restart
+        problem, _ = configure(problem, selection, spec, record, case.continuation.parameter)
     settings, window = settings_from_case(case, problem)
     algorithm = make_algorithm(case.continuation.algorithm or problem.algorithms[0], problem,
                                settings)
@@ -91,16 +99,16 @@ _WORKER_CACHE_SIZE = 4
 
 
 def _prepared(raw_case: dict[str, Any], explicit: list[Any] | None,
-              problem_class: type | None = None) -> tuple[Any, list[Any]]:
+              problem_class: type | None = None,
+              restart: tuple[Any, Any, Any] | None = None) -> tuple[Any, list[Any]]:
     import json
     import pickle
 
-    key = json.dumps(raw_case, sort_keys=True, default=str) + (
-        "" if explicit is None else pickle.dumps(explicit).hex()) + (
-        "" if problem_class is None else f"{problem_class.__module__}.{problem_class.__qualname__}")
+    key = json.dumps(raw_case, sort_keys=True, default=str) + "".join(
+        "" if x is None else pickle.dumps(x).hex() for x in (explicit, problem_class, restart))
     hit = _WORKER_CACHE.get(key)
     if hit is None:
-        case, _problem, window, algorithm = rebuild_case(raw_case, problem_class)
+        case, _problem, window, algorithm = rebuild_case(raw_case, problem_class, restart)
         seeds = (algorithm.starts(case.start, window) if explicit is None
                  else algorithm.seeds_from_points(explicit))
         algorithm.prepare()
@@ -116,12 +124,13 @@ def _numeric(counters: dict[str, Any]) -> dict[str, float]:
 
 
 def branch_task(raw_case: dict[str, Any], index: int, branch_id: int,
-                explicit: list[Any] | None, problem_class: type | None = None
+                explicit: list[Any] | None, problem_class: type | None = None,
+                restart: tuple[Any, Any, Any] | None = None
                 ) -> tuple[Branch, float, dict[str, Any], Any]:
     """One task: the branch of seed ``index`` (of the case's starts, or of ``explicit`` start
     points), with its wall time, what it added to the algorithm's counters and the algorithm's
     :meth:`~nsm_continuation.algorithms.Algorithm.task_state`."""
-    algorithm, seeds = _prepared(raw_case, explicit, problem_class)
+    algorithm, seeds = _prepared(raw_case, explicit, problem_class, restart)
     before = _numeric(algorithm.counters())
     algorithm.begin_task()
     t0 = time.perf_counter()
@@ -363,16 +372,19 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
                     seeds: list[Any], explicit: list[Any] | None,
                     progress: Callable[[int], None] | None,
                     poll: Callable[[], None] | None,
-                    problem_class: type | None = None
+                    problem_class: type | None = None,
+                    restart: tuple[Any, Any, Any] | None = None
                     ) -> tuple[list[Branch], list[str], list[float], dict[str, Any]]:
     """Every seed as a Dask task, merged in seed order (see the module docstring): the
     accepted branches, the skipped seeds' labels, the per-branch times and the summed
-    counters. ``problem_class``: sent when the problem is not registered (the Python API)."""
+    counters. ``problem_class``: sent when the problem is not registered (the Python API);
+    ``restart``: the case's restart, whose problem the workers build
+    (:func:`rebuild_case`)."""
     def advance(f: Any) -> None:
         if progress is not None and f.status == "finished":
             progress(f.result()[0].n_points)
 
-    futures = [session.submit(branch_task, raw_case, i, i, explicit, problem_class,
+    futures = [session.submit(branch_task, raw_case, i, i, explicit, problem_class, restart,
                               key=f"nsm-branch-{i}") for i in range(len(seeds))]
     wait_all(futures, poll, advance)
     results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []

@@ -164,9 +164,11 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
     if spread:
         assert session is not None
         explicit = starts if (starts is not None or case.restart is not None) else None
+        r = case.restart
+        restart = None if r is None else (r.spec, r.record, r.selection)
         branches, skipped, per_branch, counters = run_distributed(
             session, case.model_dump(mode="json"), algorithm, seeds, explicit, bar, poll,
-            problem_class)
+            problem_class, restart)
     else:
         branches, skipped, per_branch = [], [], []
         for seed in seeds:

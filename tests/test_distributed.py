@@ -28,6 +28,8 @@ from nsm_continuation import cli  # noqa: E402
 from nsm_continuation.execution import merge_in_seed_order  # noqa: E402
 from nsm_continuation.records import Branch  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
+
 #: a frequency-energy plot of a 3-dof chain: 12 independent branches
 CASE: dict[str, Any] = {
     "name": "fep3", "problem": "ndof_impact",
@@ -272,6 +274,29 @@ def test_scheduler_and_worker_processes_give_the_serial_outputs(cluster: Any,
     for b in ser["branches"]:
         name = b["csv"]
         assert (tmp_path / "serial" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes()
+
+
+def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any,
+                                                               tmp_path: Path) -> None:
+    """A restart's single branch is sent to an existing cluster (``--scheduler``): the
+    worker must continue the restart's own problem (the period-2 problem of a switch at a
+    period doubling, not the registered period-1 one). The CSV is byte-identical to the
+    serial run's (before the fix: another branch, from omega = 1.0949697 instead of
+    1.0949765)."""
+    address, _ = cluster
+    base = nsm.run(str(ROOT / "yaml_cases" / "impact_oscillator_period_doubling.yaml"),
+                   {"output.plots": False, "output.progress": False})
+    base.save(tmp_path / "base", plots=False)
+    case = {"name": "switch", "start": {"from": str(tmp_path / "base"),
+                                        "event": {"kind": "period_doubling", "index": 0},
+                                        "switch": True},
+            "continuation": {"max_points": 10}, "output": {"plots": False, "progress": False}}
+    ser = _cli_run(case, tmp_path / "serial")
+    dist = _cli_run(case, tmp_path / "dask", "--scheduler", address)
+    assert dist["timings"]["dask_branch_tasks"] == 1
+    assert _comparable(ser) == _comparable(dist)
+    assert (tmp_path / "serial" / "branch_0.csv").read_bytes() == \
+        (tmp_path / "dask" / "branch_0.csv").read_bytes()
 
 
 def test_a_worker_killed_mid_run_changes_nothing(cluster: Any, tmp_path: Path) -> None:
