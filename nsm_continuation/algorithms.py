@@ -133,6 +133,24 @@ class Algorithm(ABC):
         :meth:`starts` then finds it done."""
         return None
 
+    def branch_pieces(self, seed: Any) -> int:
+        """How many independent Dask tasks the branch through ``seed`` is computed in
+        (default 1: the whole branch, :meth:`run_branch`); more, and each task computes
+        :meth:`run_piece` and the master joins them (:meth:`join_pieces`)."""
+        return 1
+
+    def run_piece(self, seed: Any, piece: int) -> Any:
+        """On a worker: piece ``piece`` of the branch through ``seed`` (picklable), of
+        :meth:`branch_pieces`; by default the whole branch."""
+        return self.run_branch(seed, 0)
+
+    def join_pieces(self, seed: Any, pieces: list[Any], branch_id: int) -> Branch:
+        """On the master: the branch through ``seed`` from its pieces, in piece order: the
+        branch the serial run computes; by default the one piece is the branch."""
+        (branch,) = pieces
+        branch.id = branch_id
+        return branch
+
     def begin_task(self) -> None:
         """On a worker, before the branch of a task."""
         return None
@@ -255,8 +273,6 @@ class LocatedEvents(_CurveAlgorithm):
     :class:`~nsm_continuation.event_curves.LocatedCurve` only."""
 
     name: ClassVar[str] = "located_events"
-    #: one curve per run, started from a saved event (nothing to spread over workers)
-    distributable: ClassVar[bool] = False
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         from .event_curves import CurveTracer, LocatedCurve
@@ -267,6 +283,28 @@ class LocatedEvents(_CurveAlgorithm):
 
     def run_branch(self, seed: Any, branch_id: int) -> Branch:
         return self.tracer.run(seed, branch_id=branch_id)
+
+    # a curve is followed both ways from its first point: on Dask the two halves are two
+    # tasks, each locating the first point again (counted once, by the first half)
+    def branch_pieces(self, seed: Any) -> int:
+        return len(self.tracer.signs(seed))
+
+    def run_piece(self, seed: Any, piece: int) -> Any:
+        tr = self.tracer
+        before = (tr.n_base_runs, tr.n_base_points)
+        first, why, width0 = tr.first_point(seed)
+        if piece > 0:
+            tr.n_base_runs, tr.n_base_points = before
+        half = None if first is None else tr.half(first, tr.signs(seed)[piece], width0)
+        return why if first is None else "", half, (tr.n_base_runs - before[0],
+                                                    tr.n_base_points - before[1])
+
+    def join_pieces(self, seed: Any, pieces: list[Any], branch_id: int) -> Branch:
+        failed = pieces[0][0]
+        halves = {sign: half for sign, (_, half, _) in zip(self.tracer.signs(seed), pieces,
+                                                            strict=True)}
+        counts = (sum(c[0] for _, _, c in pieces), sum(c[1] for _, _, c in pieces))
+        return self.tracer.branch(seed, branch_id, failed, {} if failed else halves, counts)
 
     def counters(self) -> dict[str, Any]:
         return {"base_continuations": self.tracer.n_base_runs,

@@ -453,37 +453,60 @@ class CurveTracer:
         """The curve through ``seed`` (a start point with unknowns ``(z, p, q)``, at or near a
         point of the curve's kind): the event is located again at that ``q``, then the curve
         is followed both ways (or one, ``seed.direction``: along ``q``). Never raises."""
+        first, why, width0 = self.first_point(seed)
+        if first is None:
+            return self.branch(seed, branch_id, why, {})
+        return self.branch(seed, branch_id, "", {sign: self.half(first, sign, width0)
+                                                 for sign in self.signs(seed)})
+
+    @staticmethod
+    def signs(seed: Any) -> list[int]:
+        """The ways the curve is followed from its first point: along ``q`` increasing
+        (``+1``), decreasing (``-1``), or both, in this order."""
+        return [int(np.sign(seed.direction))] if seed.direction != 0 else [1, -1]
+
+    def first_point(self, seed: Any) -> tuple[_Located | None, str, float]:
+        """``(the event located again at the seed's q, why not, the first window's width)``:
+        the window is twice the base run's initial step (its scale of ``p``)."""
         y0 = np.asarray(seed.y, dtype=float)
-        # the first window: twice the base run's initial step (its scale of p)
         width0 = 2.0 * float(self.curve.base_settings.get(
             "step_initial", 1e-3 * (1.0 + abs(float(y0[-2])))))
         try:
             first, why = self.locate("p", y0, getattr(seed, "tangent", None), width0)
         except Exception as exc:  # noqa: BLE001 - recorded on the branch
             first, why = None, f"internal error: {type(exc).__name__}: {exc}"
-        if first is None:
-            return Branch(branch_id, seed.label, [], [], {"start": why}, dict(seed.info))
-        signs = [int(np.sign(seed.direction))] if seed.direction != 0 else [1, -1]
-        halves: dict[int, list[_Located]] = {}
-        termination: dict[str, str] = {}
-        for sign in signs:
-            try:
-                pts, reason = self._half(first, sign, width0)
-            except Exception as exc:  # noqa: BLE001 - recorded on the branch
-                pts, reason = [first], f"internal error: {type(exc).__name__}: {exc}"
-            halves[sign] = pts
-            termination["forward" if sign > 0 else "backward"] = reason
+        return first, why, width0
+
+    def half(self, first: _Located, sign: int, width0: float) -> tuple[list[_Located], str]:
+        """The curve from ``first`` one way (:meth:`_half`), an internal error recorded as
+        its end."""
+        try:
+            return self._half(first, sign, width0)
+        except Exception as exc:  # noqa: BLE001 - recorded on the branch
+            return [first], f"internal error: {type(exc).__name__}: {exc}"
+
+    def branch(self, seed: Any, branch_id: int, failed: str,
+               halves: dict[int, tuple[list[_Located], str]],
+               counts: tuple[int, int] | None = None) -> Branch:
+        """The curve's branch from its halves (``sign: (points, reason)``, as from
+        :meth:`half`), or the failed start ``failed``; ``counts``: the base runs and points it
+        took (default: this tracer's counters)."""
+        runs, points_ = counts if counts is not None else (self.n_base_runs,
+                                                            self.n_base_points)
+        if failed:
+            return Branch(branch_id, seed.label, [], [], {"start": failed}, dict(seed.info))
+        termination = {"forward" if sign > 0 else "backward": reason
+                       for sign, (_, reason) in halves.items()}
         if len(halves) == 1:  # one way: in the order continued
-            (ordered,) = halves.values()
+            ((ordered, _),) = halves.values()
         else:
-            ordered = list(reversed(halves[-1]))[:-1] + halves[1]
+            ordered = list(reversed(halves[-1][0]))[:-1] + halves[1][0]
         points = self._points(ordered)
         events = [Event("endpoint", points[k], f"curve end: {termination[side]}",
                         data={"reason": termination[side]})
                   for k, side in ((0, "backward"), (-1, "forward")) if side in termination]
         return Branch(branch_id, seed.label, points, events, termination,
-                      {**dict(seed.info), "base_runs": self.n_base_runs,
-                       "base_points": self.n_base_points})
+                      {**dict(seed.info), "base_runs": runs, "base_points": points_})
 
     def _points(self, located: list[_Located]) -> list[Point]:
         """The curve's points: unknowns ``(z, p, q)``, arclength in ``(z, p, q)``, the secant

@@ -125,16 +125,18 @@ def _numeric(counters: dict[str, Any]) -> dict[str, float]:
 
 def branch_task(raw_case: dict[str, Any], index: int, branch_id: int,
                 explicit: list[Any] | None, problem_class: type | None = None,
-                restart: tuple[Any, Any, Any] | None = None
-                ) -> tuple[Branch, float, dict[str, Any], Any]:
+                restart: tuple[Any, Any, Any] | None = None, piece: int | None = None
+                ) -> tuple[Any, float, dict[str, Any], Any]:
     """One task: the branch of seed ``index`` (of the case's starts, or of ``explicit`` start
-    points), with its wall time, what it added to the algorithm's counters and the algorithm's
-    :meth:`~nsm_continuation.algorithms.Algorithm.task_state`."""
+    points), or its piece ``piece`` (:meth:`~nsm_continuation.algorithms.Algorithm.
+    branch_pieces`), with its wall time, what it added to the algorithm's counters and the
+    algorithm's :meth:`~nsm_continuation.algorithms.Algorithm.task_state`."""
     algorithm, seeds = _prepared(raw_case, explicit, problem_class, restart)
     before = _numeric(algorithm.counters())
     algorithm.begin_task()
     t0 = time.perf_counter()
-    branch = algorithm.run_branch(seeds[index], branch_id=branch_id)
+    branch = (algorithm.run_branch(seeds[index], branch_id=branch_id) if piece is None
+              else algorithm.run_piece(seeds[index], piece))
     dt = time.perf_counter() - t0
     state = algorithm.task_state()
     after = _numeric(algorithm.counters())
@@ -381,16 +383,27 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
     ``restart``: the case's restart, whose problem the workers build
     (:func:`rebuild_case`)."""
     def advance(f: Any) -> None:
-        if progress is not None and f.status == "finished":
+        if progress is not None and f.status == "finished" and isinstance(f.result()[0],
+                                                                           Branch):
             progress(f.result()[0].n_points)
 
-    futures = [session.submit(branch_task, raw_case, i, i, explicit, problem_class, restart,
-                              key=f"nsm-branch-{i}") for i in range(len(seeds))]
-    wait_all(futures, poll, advance)
+    pieces = [algorithm.branch_pieces(seed) for seed in seeds]
+    futures = [[session.submit(branch_task, raw_case, i, i, explicit, problem_class, restart,
+                               None if n == 1 else k, key=f"nsm-branch-{i}-{k}")
+                for k in range(n)] for i, n in enumerate(pieces)]
+    wait_all([f for fs in futures for f in fs], poll, advance)
     results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
-    for f in futures:
+    for i, fs in enumerate(futures):
         try:
-            branch, dt, counters, state = f.result()
+            outs = [f.result() for f in fs]
+            if len(outs) == 1:
+                branch, dt, counters, state = outs[0]
+            else:  # the branch's pieces, joined as the serial run computes it
+                branch = algorithm.join_pieces(seeds[i], [o[0] for o in outs], i)
+                dt, state = sum(o[1] for o in outs), None
+                counters = {k: sum(o[2].get(k, 0) for o in outs) for k in outs[0][2]}
+                if progress is not None:
+                    progress(branch.n_points)
             results.append((branch, dt, counters, None, state))
         except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
             results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}", None))

@@ -134,7 +134,13 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
     """:func:`run_case` once its algorithm is made: ``session`` is None for a serial run."""
     t0 = time.perf_counter()
     start_counters: dict[str, Any] = {}
-    problem_class = None if _registered(problem) else type(problem)
+    registered = _registered_class(case.problem)
+    # what a worker builds the problem from: the registered class of case.problem (for a
+    # restart, configured as the restart says), else the problem's own class (the Python
+    # API's); a restart of a problem the registry does not know is computed here
+    problem_class = None if registered is type(problem) or (
+        registered is not None and case.restart is not None) else type(problem)
+    rebuildable = problem_class is None or case.restart is None
     try:
         if starts is None and case.restart is not None:
             # a restart (start: {from: <run>}): the saved point, or the switched branch's
@@ -155,12 +161,13 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
     t_setup = time.perf_counter() - t0
     bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
     algorithm.progress = bar
-    # a local cluster only where there is work to spread: a single branch runs here (the
-    # same result, without the ~1 s of starting workers); an existing cluster (scheduler)
-    # is always used, the user chose where the work runs
-    spread = session is not None and algorithm.distributable and (
-        len(seeds) > 1 or (session.execution.scheduler is not None and len(seeds) == 1))
-    start_counters["dask_branch_tasks"] = len(seeds) if spread else 0
+    # a local cluster only where there is work to spread: a single task (one branch in one
+    # piece) runs here (the same result, without the ~1 s of starting workers); an existing
+    # cluster (scheduler) is always used, the user chose where the work runs
+    tasks = sum(algorithm.branch_pieces(seed) for seed in seeds)
+    spread = session is not None and algorithm.distributable and rebuildable and (
+        tasks > 1 or (session.execution.scheduler is not None and tasks == 1))
+    start_counters["dask_branch_tasks"] = tasks if spread else 0
     if spread:
         assert session is not None
         explicit = starts if (starts is not None or case.restart is not None) else None
@@ -197,12 +204,13 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
     return result
 
 
-def _registered(problem: Problem) -> bool:
-    """Whether the registry builds ``problem``'s class from its name (a worker can then
-    rebuild it from the case alone)."""
+def _registered_class(name: str | None) -> type[Problem] | None:
+    """The class the registry builds for the problem ``name``, or None."""
     from . import registry
 
+    if name is None:
+        return None
     try:
-        return registry.get(problem.name) is type(problem)
+        return registry.get(name)
     except registry.UnknownProblemError:
-        return False
+        return None

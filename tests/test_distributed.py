@@ -299,6 +299,29 @@ def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any,
         (tmp_path / "dask" / "branch_0.csv").read_bytes()
 
 
+def test_a_two_parameter_curve_is_two_tasks_with_the_serial_result(tmp_path: Path) -> None:
+    """A period-doubling curve (``start.curve``) is followed both ways from its first point:
+    with ``workers=2`` the two halves are two tasks (the restart's curve problem rebuilt on
+    each worker), joined into the serial branch: every point, event, termination, the
+    branch's counts of base runs and the run's counters."""
+    base = nsm.run(str(ROOT / "yaml_cases" / "impact_oscillator_period_doubling.yaml"),
+                   {"output.plots": False, "output.progress": False})
+    base.save(tmp_path / "base", plots=False)
+    case = nsm.load_case({
+        "name": "pd_curve", "start": {"from": str(tmp_path / "base"), "curve": "period_doubling",
+                                      "event": {"kind": "period_doubling", "index": 0}},
+        "continuation": {"parameter": "gap", "min": -0.7, "max": -0.3, "max_points": 4,
+                         "step": {"initial": 0.01, "min": 1e-7, "max": 0.05}},
+        "output": {"plots": False, "progress": False}})
+    ser, par = nsm.run(case).run_result, nsm.run(case, workers=2).run_result
+    assert par.timings["dask_branch_tasks"] == 2
+    same_branches(ser.branches, par.branches)
+    assert ser.branches[0].info == par.branches[0].info
+    assert set(ser.branches[0].termination) == {"forward", "backward"}
+    for key in ("base_continuations", "base_points", "n_points"):
+        assert ser.timings[key] == par.timings[key], key
+
+
 def test_a_worker_killed_mid_run_changes_nothing(cluster: Any, tmp_path: Path) -> None:
     """One of the two workers is killed while the run's tasks are running: Dask runs its
     tasks again on the other, and the outputs are the serial run's."""
