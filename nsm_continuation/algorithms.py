@@ -167,9 +167,12 @@ class Algorithm(ABC):
         return None
 
 
-def _covered(start: StartPoint, branches: list[Branch], ip: int) -> bool:
-    """Whether a start lies on an already computed branch (within 1e-6 relative)."""
-    y0 = np.asarray(start.y)
+def lies_on(y: np.ndarray, branches: list[Branch], ip: int) -> bool:
+    """Whether the point ``y`` lies on one of ``branches`` (on the chord between two of its
+    points with ``y``'s parameter, within 1e-6 relative and a thousandth of the chord): the
+    rule that skips a start on an already computed branch, and a switched branch that is one
+    already in a bifurcation diagram."""
+    y0 = np.asarray(y)
     p0 = y0[ip]
     for br in branches:
         ys = np.array([p.y for p in br.points]) if br.points else np.empty((0, len(y0)))
@@ -198,8 +201,8 @@ class _CurveAlgorithm(Algorithm):
     def covered(self, seed: Any, branches: list[Branch]) -> bool:
         """Only starts that ask for it (``info['skip_if_covered']``, e.g. the chain's
         ``all: true``) are skipped when they lie on a computed branch."""
-        return bool(seed.info.get("skip_if_covered")) and _covered(
-            seed, branches, self.problem.parameter_index)
+        return bool(seed.info.get("skip_if_covered")) and lies_on(
+            seed.y, branches, self.problem.parameter_index)
 
 
 @dataclass

@@ -19,9 +19,10 @@ gives the same ids.
 **What is not followed**, and said so in the tree: the event a branch was born at, seen again
 on it (a branch through a branch point meets its parent there; within ``1e-6 (1 + |y|)`` of
 the birth point), an event at a point already switched (the same kind within that distance of
-an earlier one), anything past ``max_branches``, and a switch that fails (its reason: no new
-solution at any amplitude, a problem that cannot represent the family); a failed switch adds
-no branch.
+an earlier one), a switch whose branch is one already in the run (it crosses it: the rule
+that skips a start lying on a computed branch), anything past ``max_branches``, and a switch
+that fails (its reason: no new solution at any amplitude, a problem that cannot represent
+the family); a failed switch adds no branch.
 
 The tree (``RunResult.tree``) is written to ``report.json`` (``diagram``) and ``report.md``;
 :func:`figure` draws every branch in the axes ``output.axes`` (default: the problem's diagram
@@ -243,8 +244,11 @@ def grow(res: RunResult, poll: Callable[[], None] | None = None,
                         problem.energy_cap = child_case.continuation.max_energy
             else:
                 cb, why, per_branch, problem = _switch(raw, record, cls, poll)
+            same = None if cb is None or problem is None else _same_branch(res, cb, problem)
             if cb is None or problem is None:
                 node["status"] = f"switch failed: {why}"
+            elif same is not None:
+                node["status"] = f"not followed: the branch born there is branch {same}"
             else:
                 _adopt(res, cb, problem, c, depth, per_branch)
                 births[cb.id] = (c.event.kind, c.y)
@@ -260,6 +264,28 @@ def grow(res: RunResult, poll: Callable[[], None] | None = None,
     res.timings["n_points"] = int(sum(b.n_points for b in res.branches))
     if session is not None:
         res.timings["dask_switch_tasks"] = tasks
+
+
+def _same_branch(res: RunResult, cb: Branch, problem: Problem) -> int | None:
+    """The id of a branch of the run, of the same problem (class and period multiple), on
+    which the switched branch ``cb`` lies (its points at a third and two thirds of its length:
+    away from the switch point, which lies on its parent), or None. Two branches through
+    one point meet again where they cross: the switch at the crossing of ``x = mu`` and
+    ``x = 1 - mu`` reached from the first gives the second, already in the tree."""
+    from .algorithms import lies_on
+
+    pts = cb.points
+    if len(pts) < 3:
+        return None
+    probes = [pts[len(pts) // 3].y, pts[2 * len(pts) // 3].y]
+    for br in res.branches:
+        other = res.branch_problems.get(br.id, res.problem)
+        if (type(other) is not type(problem) or other.dim != problem.dim
+                or other.period_multiple() != problem.period_multiple()):
+            continue
+        if all(lies_on(y, [br], problem.parameter_index) for y in probes):
+            return br.id
+    return None
 
 
 def _task_result(future: Any) -> tuple[Branch | None, str, list[float]]:

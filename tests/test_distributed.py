@@ -106,7 +106,8 @@ def test_diagram_generation_as_tasks_gives_the_serial_tree(monkeypatch: Any) -> 
     does not know, sent to the workers by reference): its first generation's two switches run
     as Dask tasks on the one cluster of the run; the tree, ids and every point are the
     serial run's, and the switched branches are the closed forms ``x = mu``, ``x = 1 - mu``
-    (the second generation's branch point at (1/2, 1/2) is switched once, from branch 1)."""
+    (the second generation's branch point at (1/2, 1/2), switched from branch 1, gives
+    branch 2 again: not followed)."""
     from nsm_continuation import execution
 
     ser = two_transcriticals()
@@ -120,13 +121,18 @@ def test_diagram_generation_as_tasks_gives_the_serial_tree(monkeypatch: Any) -> 
     assert run.timings["dask_switch_tasks"] == 2  # generation 1; generation 2 has one switch
     assert run.tree == ser.run_result.tree
     same_branches(ser.run_result.branches, run.branches)
+    assert len(run.branches) == 3
     x, mu = res.branches[1].y.T
     assert np.max(np.abs(x - mu)) < 1e-12
     x, mu = res.branches[2].y.T
     assert np.max(np.abs(x - (1 - mu))) < 1e-12
     assert [(n["depth"], n["parent"], n["child"]) for n in run.tree] == [
-        (1, 0, 1), (1, 0, 2), (2, 1, 3), (2, 1, None), (2, 2, None), (2, 2, None)]
-    assert run.tree[4]["status"] == "not followed: a point already switched"
+        (1, 0, 1), (1, 0, 2), (2, 1, None), (2, 1, None), (2, 2, None), (2, 2, None)]
+    assert [n["status"] for n in run.tree[2:]] == [
+        "not followed: the branch born there is branch 2",
+        "not followed: the point this branch was born at",
+        "not followed: a point already switched",
+        "not followed: the point this branch was born at"]
 
 
 def test_diagram_switches_cut_by_max_branches_as_in_the_serial_walk() -> None:
