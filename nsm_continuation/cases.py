@@ -162,6 +162,17 @@ class OutputSpec(BaseModel):
                     Field(min_length=2, max_length=2)] | None = None
 
 
+#: the protocols of a Dask scheduler's address
+SCHEDULER_PROTOCOLS = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
+
+
+def _scheduler_address(value: str) -> str:
+    if value.split("://", 1)[0] not in SCHEDULER_PROTOCOLS or "://" not in value:
+        raise ValueError(f"an address such as tcp://HOST:8786 ({', '.join(SCHEDULER_PROTOCOLS)}"
+                         f"), got {value!r}")
+    return value
+
+
 class ExecutionSpec(BaseModel):
     """``execution:``: where the branches are computed (:mod:`nsm_continuation.execution`):
     serially in this process (default), on a local cluster of ``workers`` processes, or on
@@ -169,8 +180,8 @@ class ExecutionSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     workers: Annotated[int, Field(ge=1, le=1024, strict=True)] | None = None
-    scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True,
-                                    pattern=r"^(tcp|tls|inproc|ucx|ws|wss)://")] | None = None
+    scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True),
+                         AfterValidator(_scheduler_address)] | None = None
 
     @model_validator(mode="after")
     def _one_cluster(self) -> ExecutionSpec:
@@ -196,7 +207,7 @@ def with_execution(case: Case, workers: int | None, scheduler: str | None,
     except ValidationError as exc:
         err = exc.errors()[0]
         name = names[0] if err["loc"] and err["loc"][0] == "workers" else names[1]
-        raise CaseError(f"{name}: {err['msg']}") from None
+        raise CaseError(f"{name}: {str(err['msg']).removeprefix('Value error, ')}") from None
     return case.model_copy(update={"execution": spec})
 
 

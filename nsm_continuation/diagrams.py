@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .execution import DaskSession, wait_all
+from .execution import DaskSession, one_line, wait_all
 from .protocol import Problem
 from .records import Branch, Event
 
@@ -292,7 +292,7 @@ def _task_result(future: Any) -> tuple[Branch | None, str, list[float]]:
     try:
         return future.result()
     except Exception as exc:  # noqa: BLE001 - recorded in the tree, never raised
-        return None, f"task failed on a worker: {type(exc).__name__}: {exc}", []
+        return None, one_line(f"task failed on a worker: {type(exc).__name__}: {exc}"), []
 
 
 def _adopt(res: RunResult, cb: Branch, problem: Problem, c: _Candidate, depth: int,

@@ -197,13 +197,16 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     from dask.distributed import Client, LocalCluster
 
     if execution.scheduler:
+        from .cases import CaseError
+
+        refused = _refused(execution.scheduler)
         try:
+            if refused is not None:  # nothing listens there: no need to wait 10 s
+                raise ConnectionRefusedError(refused)
             return Client(execution.scheduler, timeout="10s"), None
         except (OSError, TimeoutError) as exc:  # nothing listening, or not a scheduler
-            from .cases import CaseError
-
             raise CaseError(f"execution.scheduler (--scheduler): no Dask scheduler answers at "
-                            f"{execution.scheduler} ({exc})") from None
+                            f"{execution.scheduler} ({one_line(str(exc))})") from None
     # one thread per worker, BLAS included: N workers on N cores, not N x (BLAS threads)
     one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
     pre_spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ",
@@ -272,6 +275,29 @@ class DaskSession:
         if self._cluster is not None:
             self._cluster.close()
         self._client = self._cluster = None
+
+
+def _refused(address: str) -> str | None:
+    """Why a TCP connection to the scheduler ``address`` (``tcp://HOST:PORT``) is refused at
+    once (nothing listens on that port), else None (it may answer, or take time to)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address)
+    if parts.scheme != "tcp" or parts.hostname is None or parts.port is None:
+        return None
+    try:
+        with socket.create_connection((parts.hostname, parts.port), timeout=2.0):
+            return None
+    except ConnectionRefusedError as exc:
+        return f"connection refused: {exc}"
+    except OSError:
+        return None  # unreachable or slow: the client's own timeout decides
+
+
+def one_line(text: str) -> str:
+    """``text`` on one line (a task's error for a report's table cell or a message)."""
+    return " ".join(text.split())
 
 
 @contextmanager
@@ -406,7 +432,7 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
                     progress(branch.n_points)
             results.append((branch, dt, counters, None, state))
         except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
-            results.append((None, 0.0, {}, f"{type(exc).__name__}: {exc}", None))
+            results.append((None, 0.0, {}, one_line(f"{type(exc).__name__}: {exc}"), None))
     return merge_in_seed_order(algorithm, seeds, results)
 
 

@@ -168,6 +168,11 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
     spread = session is not None and algorithm.distributable and rebuildable and (
         tasks > 1 or (session.execution.scheduler is not None and tasks == 1))
     start_counters["dask_branch_tasks"] = tasks if spread else 0
+    if spread and session is not None and session.execution.scheduler is not None \
+            and problem_class is not None and problem_class.__module__ == "__main__":
+        raise CaseError(f"execution.scheduler: the problem class {problem_class.__name__} is "
+                        "defined in the script (__main__), which the workers of an existing "
+                        "cluster cannot import: define it in a module installed on them")
     if spread:
         assert session is not None
         explicit = starts if (starts is not None or case.restart is not None) else None

@@ -164,21 +164,38 @@ def _free_port() -> int:
 
 def test_cluster_arguments_refused_in_one_line(tmp_path: Path, capsys: Any) -> None:
     """``--workers`` with ``--scheduler``, a malformed address and an address where no
-    scheduler answers: one line naming the argument, exit 2, nothing written (the last only
-    after the 10 s connection timeout, before any branch is computed)."""
+    scheduler answers: one line naming the argument, exit 2, nothing written (the last at
+    once: nothing listens on the port, the connection is refused; the client's 10 s timeout
+    is for an address that does not answer at all), before any branch is computed."""
     address = f"tcp://127.0.0.1:{_free_port()}"
     for extra, expect in ((["--workers", "2", "--scheduler", address], "not allowed with"),
-                          (["--scheduler", "localhost:8786"], "--scheduler: String should"),
+                          (["--scheduler", "localhost:8786"],
+                           "--scheduler: an address such as tcp://HOST:8786"),
                           (["--scheduler", address], "no Dask scheduler answers at")):
         out = tmp_path / "out"
+        t0 = time.perf_counter()
         with pytest.raises(SystemExit) as exc:
             sys.exit(cli.main(["run", "--quiet", "--out", str(out), *extra]))
         assert exc.value.code == 2, extra
+        assert time.perf_counter() - t0 < 8.0, extra
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and expect in err[0], err
         assert not out.exists()
     with pytest.raises(nsm.CaseError, match="exclude each other"):
         nsm.run(CASE, workers=2, scheduler=address)
+
+
+def test_a_script_problem_class_is_refused_for_an_existing_cluster() -> None:
+    """A problem class defined in the user's script (``__main__``) cannot be imported by the
+    workers of an existing cluster: refused in one line before any branch is computed
+    (before: each branch failed on the workers with a ``PicklingError``)."""
+    from oracles.normal_forms import MuParameters, Transcritical
+
+    mine = type("Mine", (Transcritical,), {"__module__": "__main__", "name": "mine"})
+    with pytest.raises(nsm.CaseError, match=r"execution.scheduler: the problem class Mine is "
+                                            r"defined in the script \(__main__\)"):
+        nsm.continuation(mine(MuParameters()), {}, parameter="mu", min=-0.5, max=0.5,
+                         max_points=10, scheduler=f"tcp://127.0.0.1:{_free_port()}")
 
 
 def test_merge_applies_the_serial_rule_and_records_a_failed_task() -> None:
