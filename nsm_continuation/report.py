@@ -212,6 +212,14 @@ def _tree_lines(rep: dict[str, Any]) -> list[str]:
                      f"{_fmt(n['parameter'], 12)} | {child} | {n['status']} |")
     if not d["tree"]:
         lines.append("| - | - | no event of these kinds | - | - | - |")
+    reached = {n["depth"] for n in d["tree"]}
+    born = [n["child"] for n in d["tree"] if n.get("child") is not None
+            and n["depth"] == max(reached, default=0)]
+    if reached and max(reached) < d["depth"] and born:
+        lines += ["", f"The tree ends at generation {max(reached)}: no "
+                  f"{' or '.join(d['kinds'])} event on branch"
+                  f"{'es' if len(born) > 1 else ''} {', '.join(map(str, born))} (their "
+                  "ends: the termination column of the branches above)."]
     c = d.get("period_doubling_cascade")
     if c:
         lines += ["", "### Period-doubling cascade", "",
@@ -309,8 +317,10 @@ def markdown(rep: dict[str, Any]) -> str:
         vals = " | ".join(_fmt(e.get(c), 12) for c in cols)
         # an event of a branch born at another point links to it
         branch = f"{bid} (from {link_text(e['parent'])})" if e.get("parent") else f"{bid}"
+        hidden = " (a window inside one step: found from the Krein signs of its ends)" \
+            if e.get("hidden_in_step") else ""
         lines.append(f"| {branch} | {e['kind']} | {vals} | {_fmt(mam)} | "
-                     f"{change_text(e)} | {e['detail']} |")
+                     f"{change_text(e)} | {e['detail']}{hidden} |")
     if shown and oriented:
         lines += ["", f"Every change (before -> after, in the change column and in the detail) "
                   f"reads in the direction of increasing `{par}`, whichever way the branch was "

@@ -114,6 +114,19 @@ def test_depth_limits_the_generations() -> None:
     assert [e.kind for e in run.branches[1].events].count("period_doubling") == 1
 
 
+def test_report_says_why_the_tree_ends_early(tmp_path: Path) -> None:
+    """``depth: 3`` with ``r <= 3.4``: the period-2 branch born at ``r = 3`` has no doubling
+    below ``1 + sqrt(6) = 3.449``, so the tree ends at generation 1; report.md says so."""
+    res = nsm.continuation(Logistic(LogisticParameters()), {}, parameter="r", min=2.8,
+                           max=3.4, step={"initial": 0.02, "min": 1e-9, "max": 0.05},
+                           max_points=400, analysis={"max_multiplier_step": 0.1,
+                                                     "branch_switching": {"depth": 3}})
+    assert [n["depth"] for n in res.run_result.tree] == [1]
+    md = (res.save(tmp_path / "d", plots=False) / "report.md").read_text()
+    assert ("The tree ends at generation 1: no period_doubling or branch_point event on "
+            "branch 1") in md
+
+
 def test_branch_point_is_not_switched_back() -> None:
     """Transcritical: the trivial branch's branch point gives ``x = mu`` (closed form at every
     point, through the origin); on it the same branch point is seen again and not followed

@@ -11,6 +11,7 @@ circle from the dense eigenvalues of the closed-form orbit (4.2) inside each win
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -83,10 +84,11 @@ def run_normal_form(eps: float, **analysis: Any) -> Any:
 
 
 def test_window_hidden_in_a_step_is_located_on_its_closed_form_edges(
-        loose_steps: None, monkeypatch: pytest.MonkeyPatch) -> None:
+        loose_steps: None, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     """With steps free to jump over it, the window ``w2`` in (0.9500164, 1.0499851) lies
     inside one step (the count is 0 at both ends: without the Krein words it is missed);
-    found from the words and located on the discriminant to 1e-10 of the closed forms."""
+    found from the words and located on the discriminant to 1e-10 of the closed forms, and
+    marked so in report.md (both crossings, each with its stability change)."""
     lo, hi = window_edges(1.0, 0.05)
     res = run_normal_form(0.05, **LOOSE)
     ns = [e for e in res.events if e.kind == "neimark_sacker"]
@@ -97,6 +99,8 @@ def test_window_hidden_in_a_step_is_located_on_its_closed_form_edges(
         (0, 2), (2, 0)]
     w2 = res.branches[0]["w2"]
     assert any(a < lo and b > hi for a, b in zip(w2[:-1], w2[1:], strict=False))
+    md = (res.save(tmp_path / "nf", plots=False) / "report.md").read_text()
+    assert md.count("(a window inside one step: found from the Krein signs of its ends)") == 4
     monkeypatch.setattr(palc.ContinuationEngine, "_krein_windows", lambda self, a, b: [])
     assert not [e for e in run_normal_form(0.05, **LOOSE).events
                 if e.kind == "neimark_sacker"]
