@@ -264,7 +264,8 @@ def load_run(source: str) -> RunRecord:
     folder = Path(source).expanduser()
     try:
         if not folder.exists():
-            raise _case_error(f"start.from: {shown} does not exist")
+            where = "" if folder.is_absolute() else f" (looked for in {Path.cwd()})"
+            raise _case_error(f"start.from: {shown} does not exist{where}")
         if not folder.is_dir():
             raise _case_error(f"start.from: {shown} is not a folder (the output folder of a "
                               "run)")
