@@ -207,6 +207,13 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
         except (OSError, TimeoutError) as exc:  # nothing listening, or not a scheduler
             raise CaseError(f"execution.scheduler (--scheduler): no Dask scheduler answers at "
                             f"{execution.scheduler} ({one_line(str(exc))})") from None
+    import multiprocessing
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # a worker process of the cluster this script is starting, still importing the
+        # script (no `if __name__ == "__main__":` guard; multiprocessing's own test for it):
+        # end it quietly, the script's own process says why its cluster did not start
+        raise SystemExit(1)
     # one thread per worker, BLAS included: N workers on N cores, not N x (BLAS threads)
     one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
     pre_spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ",
@@ -224,7 +231,7 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
                 f"the local Dask cluster of {execution.workers} workers did not start ({exc}); "
                 "a Python script that starts one must run under "
                 "`if __name__ == \"__main__\":` (each worker process imports the script "
-                "again)") from exc
+                "again)") from None
     return Client(cluster), cluster
 
 

@@ -198,6 +198,22 @@ def test_a_script_problem_class_is_refused_for_an_existing_cluster() -> None:
                          max_points=10, scheduler=f"tcp://127.0.0.1:{_free_port()}")
 
 
+def test_a_script_without_the_main_guard_gets_one_message(tmp_path: Path) -> None:
+    """A script that starts a local cluster at its top level (no ``if __name__ ==
+    "__main__":``): each worker process imports the script again; those end quietly and the
+    script fails once with the message naming the guard (before: the message three times
+    among 15 Dask tracebacks, 550 lines)."""
+    script = tmp_path / "no_guard.py"
+    script.write_text("import nsm_continuation as nsm\n"
+                      f"nsm.run({CASE!r}, workers=2)\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300)
+    assert proc.returncode == 1
+    assert proc.stderr.count("a Python script that starts one must run under "
+                             "`if __name__ == \"__main__\":`") == 1, proc.stderr
+    assert proc.stderr.count("Traceback") == 1 and len(proc.stderr.splitlines()) < 60
+
+
 def test_merge_applies_the_serial_rule_and_records_a_failed_task() -> None:
     """In seed order, a seed on an accepted branch is skipped and the ids are renumbered; a
     task that raised is a branch without points whose termination names the failure."""
