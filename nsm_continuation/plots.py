@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 import pickle
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -351,13 +352,17 @@ FORKS = sys.platform.startswith("linux")
 
 def in_two_processes(jobs: list[Callable[[], list[str]]]) -> list[str]:
     """``[name for job in jobs for name in job()]``, the jobs shared with a forked child
-    process where the platform forks (:data:`FORKS`) and two cores are available: the child
+    process where the platform forks (:data:`FORKS`), two cores are available and this process
+    runs no other thread: the child
     draws every other job (it inherits the run and matplotlib, nothing is sent), reports its
     file names through a pipe and exits without running any of this process's clean-up
     (``os._exit``). The figures are those of one process, byte for byte
     (``tests/test_startup.py``): each is drawn from the same data by the same code. A job that
     raises in the child raises here, as ``RuntimeError`` with its message."""
-    if not (FORKS and len(jobs) > 1 and (os.cpu_count() or 1) > 1):
+    if not (FORKS and len(jobs) > 1 and (os.cpu_count() or 1) > 1
+            and threading.active_count() == 1):
+        # a process with other threads (a Dask client's event loop) is not forked: a lock one
+        # of them holds would stay locked in the child
         return [name for job in jobs for name in job()]
     mine, theirs = jobs[0::2], jobs[1::2]
     read, write = os.pipe()

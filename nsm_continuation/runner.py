@@ -74,6 +74,9 @@ class _Progress:
         if progress:
             from tqdm import tqdm
 
+            # no monitor thread: a process without threads may draw its figures in a forked
+            # child (nsm_continuation.plots.in_two_processes)
+            tqdm.monitor_interval = 0
             self.bar = tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
         self.poll = poll
 

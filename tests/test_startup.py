@@ -67,39 +67,66 @@ def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path):
     assert json.loads((run / "report.json").read_text())["figures"] == []
 
 
-def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path, monkeypatch):
-    """``plots.in_two_processes`` (a forked child draws every other figure): the same files,
-    in the same order in ``report.json``, byte for byte the PNGs of a single process."""
-    import nsm_continuation as nsm
-    from nsm_continuation import cli, plots
+def _fresh(code: str, tmp_path) -> str:
+    """Run ``code`` in a fresh interpreter (no thread but the main one: this test process
+    may hold Dask's, which turn the fork off); its stdout."""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
 
-    res = nsm.run(nsm.load_case(cli._default_case_path(), {"output.progress": False}))
-    two = res.save(tmp_path / "two")
-    monkeypatch.setattr(plots, "FORKS", False)
-    one = res.save(tmp_path / "one")
+
+def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path):
+    """``plots.in_two_processes`` (a forked child draws every other figure): the same files,
+    in the same order in ``report.json``, byte for byte the PNGs of a single process; and the
+    child was used (its pid differs)."""
+    out = _fresh(
+        "import json, os\n"
+        "import nsm_continuation as nsm\n"
+        "from nsm_continuation import cli, plots\n"
+        "real = plots.multipliers_vs_frequency\n"
+        "def spy(*a):\n"
+        "    open(f'pid_{os.getpid()}', 'w').close()\n"
+        "    return real(*a)\n"
+        "plots.multipliers_vs_frequency = spy\n"
+        "res = nsm.run(nsm.load_case(cli._default_case_path(), {'output.progress': False}))\n"
+        "two = res.save('two')\n"
+        "plots.FORKS = False\n"
+        "one = res.save('one')\n"
+        "print(json.dumps({'pid': os.getpid(), 'one': str(one), 'two': str(two)}))\n",
+        tmp_path)
+    info = json.loads(out.strip().splitlines()[-1])
+    one, two = Path(info["one"]), Path(info["two"])
     figures = json.loads((one / "report.json").read_text())["figures"]
     assert len(figures) >= 4
     assert json.loads((two / "report.json").read_text())["figures"] == figures
     for name in figures:
         assert (two / name).read_bytes() == (one / name).read_bytes(), name
+    drawn_by = {int(p.name.removeprefix("pid_")) for p in tmp_path.glob("pid_*")}
+    assert len(drawn_by) == 2 and info["pid"] in drawn_by  # the child drew one of them
 
 
-def test_a_figure_failing_in_the_child_process_is_raised_here():
+def test_a_figure_failing_in_the_child_process_is_raised_here(tmp_path):
     """A job that raises in the forked child: ``RuntimeError`` naming it, the parent's own
-    jobs done, the child reaped."""
-    import os
-
-    import pytest
-
-    from nsm_continuation import plots
-
-    if not (plots.FORKS and (os.cpu_count() or 1) > 1):
-        pytest.skip("figures are drawn in one process on this machine")
-
-    def fails() -> list[str]:
-        raise ValueError("no data for this panel")
-
-    with pytest.raises(RuntimeError, match="figures: ValueError: no data for this panel"):
-        plots.in_two_processes([lambda: ["a.png"], fails, lambda: ["c.png"]])
-    assert plots.in_two_processes([lambda: ["a"], lambda: ["b"], lambda: [], lambda: ["d"]]) \
-        == ["a", "b", "d"]
+    jobs done, the child reaped; the order of the names is the jobs' order; a process that
+    runs another thread is not forked."""
+    out = _fresh(
+        "from nsm_continuation import plots\n"
+        "def fails():\n"
+        "    raise ValueError('no data for this panel')\n"
+        "try:\n"
+        "    plots.in_two_processes([lambda: ['a.png'], fails, lambda: ['c.png']])\n"
+        "except RuntimeError as exc:\n"
+        "    print('raised:', exc)\n"
+        "print(plots.in_two_processes([lambda: ['a'], lambda: ['b'], lambda: [], "
+        "lambda: ['d']]))\n"
+        "import os, threading, time\n"
+        "print('forked', len(set(plots.in_two_processes([lambda: [os.getpid()], "
+        "lambda: [os.getpid()]]))) == 2)\n"
+        "threading.Thread(target=time.sleep, args=(1,)).start()\n"
+        "print('with a thread, forked', len(set(plots.in_two_processes([lambda: "
+        "[os.getpid()], lambda: [os.getpid()]]))) == 2)\n", tmp_path)
+    assert "raised: figures: ValueError: no data for this panel" in out
+    assert "['a', 'b', 'd']" in out
+    # a process with another thread draws everything itself
+    assert "forked True" in out and "with a thread, forked False" in out
