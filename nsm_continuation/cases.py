@@ -78,7 +78,10 @@ class StepSpec(BaseModel):
 
 class ContinuationSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    parameter: str = "omega"
+    #: the continued parameter; None (not given): the problem's
+    #: (``Problem.case_parameter``, else ``Problem.parameter``), resolved by :func:`validate`
+    #: once the problem is built
+    parameter: str | None = None
     min: Finite | None = None
     max: Finite | None = None
     step: StepSpec = StepSpec()
@@ -471,6 +474,8 @@ def validate(raw: dict[str, Any], *, restart_record: Any = None,
         problem = cls(params)
     except (ValueError, ArithmeticError) as exc:
         raise CaseError(_keyed("parameters", str(exc))) from None
+    if case.continuation.parameter is None:  # not given: the problem's own parameter
+        case.continuation.parameter = problem.case_parameter or problem.parameter
     adapter = cls.start_adapter
     if adapter is not None and resolved is None:
         try:

@@ -18,7 +18,7 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
    Jacobian once per instance (:attr:`Problem.compiled`). A problem without a symbolic residual may
    instead override :meth:`Problem.evaluate` and :meth:`Problem.jacobian` with an exact Jacobian.
 4. Everything else is optional: every member the core reads is declared on :class:`Problem`,
-   typed, with a default and a docstring, in six groups (the core never probes for an
+   typed, with a default and a docstring, in seven groups (the core never probes for an
    undeclared attribute):
 
    - *unknowns & parameter*: ``variables``, ``parameter``, ``algorithms`` (the continuation
@@ -47,7 +47,12 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      ``diagram_title``, ``diagram_yscale``), CSV and report columns (``csv_head``,
      ``event_columns``), figures and report extras, all pure functions of the results
      (:meth:`plot_decorations`, :meth:`legend_handles`, :meth:`extra_plots`,
-     :meth:`report_extras`, :meth:`summary`, :meth:`warnings`).
+     :meth:`report_extras`, :meth:`summary`, :meth:`warnings`);
+   - *restart & two-parameter curves*: :meth:`period_multiple`, :meth:`iterated`,
+     :meth:`with_parameters`, :meth:`restart_start`, :meth:`parameters_block` (the
+     parameters written to the restart record; default the ``params`` model, dumped) and
+     :meth:`curve_parameters` (the parameters a grazing curve may free or continue, in order
+     of preference; default none).
 5. Register the class: in this repository in ``pyproject.toml`` under the entry-point group
    ``nsm_continuation.problems``; a third-party package does the same in its own metadata.
 """
@@ -182,12 +187,17 @@ class Problem(ABC):
     name: ClassVar[str] = ""
     #: pydantic model validating the YAML ``parameters:`` block
     Parameters: ClassVar[type[BaseModel]]
+    #: the validated parameters of this instance (set by ``__init__``)
+    params: BaseModel
     #: symbolic type used to build the residual: "SX" (small, fast calls) or "MX" (large, dense)
     symbolic: str = "SX"
     #: names of the ``n + 1`` unknowns ``y`` (set by ``__init__``)
     variables: list[str]
     #: the unknown that is the continuation parameter (window bounds apply to it)
     parameter: str
+    #: the continued quantity of a case that names none (``continuation.parameter``); None:
+    #: :attr:`parameter` itself (the chain: ``omega``, which it maps to its unknown ``T``)
+    case_parameter: ClassVar[str | None] = None
     #: names of the continuation algorithms that can continue this problem
     #: (:data:`nsm_continuation.algorithms.ALGORITHMS`: ``palc``, ``lattice``, ``pycont``); the
     #: first is the default of YAML ``continuation.algorithm``
@@ -508,6 +518,36 @@ _locate_collision`)."""
         (:mod:`nsm_continuation.event_curves`). None: the problem cannot (the curve is refused
         before computing)."""
         return None
+
+    def parameters_block(self) -> dict[str, Any] | None:
+        """The instance's parameters as the YAML ``parameters:`` block that rebuilds it
+        (JSON values), written to the restart record of every run (``report.json``'s
+        ``restart.parameters``, :func:`nsm_continuation.restart.restart_block`) so that a
+        restart builds the same problem. Default: ``params`` (the validated ``Parameters``
+        model) dumped in JSON mode; None if ``params`` is not a pydantic model (the record then
+        keeps the case's ``parameters:`` block as written)."""
+        if isinstance(self.params, BaseModel):
+            return self.params.model_dump(mode="json")
+        return None
+
+    def curve_parameters(self) -> list[str]:
+        """The parameters of this problem that a grazing curve through a grazing event of its
+        orbits may free or continue (``start: {curve: grazing, free: ...}`` with
+        ``continuation.parameter``; the augmented system C1 of
+        :class:`~nsm_continuation.hybrid.codim1.GrazingCurve`, which continues the orbits of
+        hybrid problems), in order of preference as the curve's second parameter.
+
+        Read by the ``continue_from_here`` hints of ``report.json`` / ``report.md``
+        (:func:`nsm_continuation.results.hint_context`,
+        :func:`nsm_continuation.report.continue_hints`: at a grazing event of a run continued
+        in one of them, the curve freeing the continued parameter and continuing the first
+        other one) and by a restart (:func:`nsm_continuation.restart.configure` /
+        :func:`~nsm_continuation.restart.grazing_curve`: a grazing curve is continued by C1
+        only for a problem that declares some, and ``start.free`` / ``continuation.parameter``
+        must be among them). Default: none (``[]``): the problem's grazing events restart the
+        orbit, and a grazing curve of it can only be located (``start.method: located``,
+        :meth:`with_parameters`)."""
+        return []
 
     def restart_start(self, y: np.ndarray) -> Any:
         """The problem's own ``start:`` block that starts from the unknowns ``y`` (e.g. a

@@ -46,11 +46,6 @@ def register_event_kinds(kinds: dict[str, str], owner: str) -> None:
         _FAMILY_KINDS.setdefault(kind, owner)
 
 
-def known_event_kinds() -> set[str]:
-    """Core kinds and every kind registered by a problem family."""
-    return set(CORE_EVENT_KINDS) | set(_FAMILY_KINDS)
-
-
 @dataclass
 class Event:
     """A located event. ``point`` is the branch point (a ``continuation.Point``) where it sits."""

@@ -137,20 +137,16 @@ def flow_yaml(value: Any) -> str:
                           width=float("inf")).strip().removesuffix("...").strip()
 
 
-#: parameters a grazing-curve hint prefers as the second one (the vocabulary's obstacle
-#: position, then the pendulum's wall distance), else the first other parameter
-CURVE_PREFERENCE = ("gap", "d")
-
-
 def continue_hints(restart: dict[str, Any], folder: str, doubling: bool = True,
                    curve_parameters: list[str] | None = None) -> list[dict[str, Any]]:
     """One entry per event of every branch of the restart record: the exact ``start:`` (and,
     for a grazing curve, ``continuation:``) to paste into a case that continues from there
     (:mod:`nsm_continuation.restart`). At a period doubling (when the problem can double its
     period, ``doubling``) and at a branch point: the branch born there (``switch: true``); at a
-    grazing of a hybrid orbit (``curve_parameters``: its problem's parameters): the grazing
-    curve in two parameters; at any other event: the orbit itself, restarted (in any
-    parameter: add ``continuation.parameter``)."""
+    grazing in one of ``curve_parameters`` (the parameters the problem's grazing curves may
+    free or continue, in order of preference: ``Problem.curve_parameters``): the grazing
+    curve freeing the continued parameter and continuing the first other one; at any other
+    event: the orbit itself, restarted (in any parameter: add ``continuation.parameter``)."""
     branches = restart.get("branches") or []
     many = len(branches) > 1
     continued = restart.get("continued")
@@ -172,8 +168,8 @@ def continue_hints(restart: dict[str, Any], folder: str, doubling: bool = True,
                 what = "the other branch through this point"
             elif kind == "grazing" and curve_parameters and continued in curve_parameters:
                 others = [q for q in curve_parameters if q != continued]
-                second = next((q for q in CURVE_PREFERENCE if q in others),
-                              others[0] if others else None)
+                # the problem's order of preference (Problem.curve_parameters)
+                second = others[0] if others else None
                 if second is None:
                     what = "this orbit, restarted"
                 else:

@@ -202,9 +202,8 @@ def restart_block(res: RunResult) -> dict[str, Any]:
     from . import __version__
 
     pr = res.problem
-    try:
-        parameters = pr.params.model_dump(mode="json")
-    except AttributeError:  # a problem whose parameters are not a pydantic model
+    parameters = pr.parameters_block()
+    if parameters is None:  # parameters that are not a pydantic model: the case's block
         parameters = dict(res.case.parameters)
     # a two-parameter curve is a run of its base problem, with what rebuilds the curve
     from .event_curves import CodimOneCurve
@@ -650,9 +649,10 @@ def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: R
     ``free`` solved for and ``parameter`` continued; one-line :class:`CaseError` naming
     ``start.curve`` / ``start.free`` / ``continuation.parameter`` where it cannot be built."""
     from .hybrid.codim1 import DEFAULT_MARGIN, GrazingCurve
-    from .hybrid.shooting import PERIOD, HybridCaseProblem
+    from .hybrid.shooting import PERIOD
 
-    if not isinstance(problem, HybridCaseProblem):
+    names = problem.curve_parameters()
+    if not names:
         raise _case_error(f"start.curve: problem {problem.name!r} is not a hybrid system; "
                           "grazing curves are continued for the orbits of hybrid problems "
                           "(impact_oscillator, two_mass_chain, double_pendulum, ...)")
@@ -663,15 +663,15 @@ def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: R
                     else "a CSV row (start.point)")
             raise _case_error(f"start.curve: a grazing curve starts from a grazing event of "
                               f"the run (start.event: grazing), not from {what}")
-    known = sorted(problem.values)
-    if free not in problem.values:
+    known = sorted(names)
+    if free not in names:
         raise _case_error(f"start.free: {free!r} is not a parameter of {problem.name!r} (one "
                           f"of {known})")
     if parameter == free:
         raise _case_error(f"start.free: the grazing curve needs two parameters, and {free!r} "
                           "is the one continued (continuation.parameter); continue another "
                           f"one (one of {[k for k in known if k != free]})")
-    if parameter == PERIOD or parameter not in problem.values:
+    if parameter == PERIOD or parameter not in names:
         raise _case_error(f"continuation.parameter: {parameter!r} is not a parameter of "
                           f"{problem.name!r} (one of {known})")
     try:
@@ -694,9 +694,8 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
                           f"periods, which problem {problem.name!r} cannot represent")
     cs = curve_of(spec, record)
     if cs is not None:
-        from .hybrid.shooting import HybridCaseProblem
-
-        hybrid = isinstance(base, HybridCaseProblem)
+        # a problem with grazing-curve parameters continues its grazing curves by C1
+        hybrid = bool(base.curve_parameters())
         if cs.kind == "grazing" and hybrid and cs.method == "located":
             raise _case_error("start.method: the grazing curve of a hybrid orbit is continued "
                               "by its augmented system (C1): at a grazing the family of orbits "

@@ -201,15 +201,13 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
 def hint_context(res: RunResult) -> dict[str, Any]:
     """What the ``continue_from_here`` lines need to know of the problem: whether it can
     switch at a period doubling (``Problem.iterated``), and the parameters a grazing curve
-    could continue (a hybrid problem's; none otherwise)."""
-    from .hybrid.shooting import HybridCaseProblem
+    could free or continue, in order of preference (``Problem.curve_parameters``; none for a
+    curve: its events restart the curve)."""
     from .protocol import Problem
 
     pr = res.problem
-    # a curve's events restart the curve (no grazing curve of a curve)
-    curve_parameters = list(pr.values) if isinstance(pr, HybridCaseProblem) else []
     return {"doubling": type(pr).iterated is not Problem.iterated,
-            "curve_parameters": curve_parameters}
+            "curve_parameters": list(pr.curve_parameters())}
 
 
 def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:

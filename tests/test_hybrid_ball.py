@@ -3,8 +3,8 @@
 finite differences of the simulated Poincaré map.
 
 Paper: Nordmark & Piiroinen (2009). The printed closed form (48) has one wrong entry (row 4,
-column 1: ``du/ds``); see :mod:`nsm_continuation.hybrid.saltation` for the derivation, checked
-here three ways (chain of (47), explicit trajectory, simulator).
+column 1: ``du/ds``); see :mod:`nsm_continuation.problems.impacting.bouncing_ball` for the
+derivation, checked here three ways (chain of (47), explicit trajectory, simulator).
 """
 
 from __future__ import annotations
@@ -14,19 +14,17 @@ import numpy as np
 import pytest
 from nsm_continuation.problems.impacting.bouncing_ball import (
     BouncingBallProblem,
+    ball_chatter_jacobian,
+    ball_extended_matrices,
+    ball_pn_chain,
+    ball_pn_closed_form,
     ball_system,
     closed_form,
     impact_times,
 )
+from oracles.bouncing_ball import ball_chatter_saltation
 
-from nsm_continuation.hybrid.saltation import (
-    ball_chatter_jacobian,
-    ball_chatter_saltation,
-    ball_extended_matrices,
-    ball_pn_chain,
-    ball_pn_closed_form,
-    saltation_matrix,
-)
+from nsm_continuation.hybrid.saltation import saltation_matrix
 from nsm_continuation.hybrid.simulate import SimOptions, Simulator
 
 G, E, S = 9.8, 0.8, 1.0                       # Fig. 4

@@ -133,7 +133,10 @@ def test_plastic_impact_sticks_immediately():
 
 def test_tiny_restitution_completes():
     e = 1e-6
-    res = Simulator(ball(e)).run(np.array([1.0, 0.0]), t_end=2.0)
+    # written at the former simulator default, order 2 (at order 3 the fourth impact
+    # velocity, ~1e-18 |v0'|, is below round-off and the sequence ends by plastic_stick)
+    res = Simulator(ball(e), SimOptions(chatter_order=2)).run(np.array([1.0, 0.0]),
+                                                               t_end=2.0)
     ch = [ev for ev in res.events if ev.kind == "chatter"]
     assert len(ch) == 1 and res.state == "s4"
     assert ch[0].info["t_complete"] == pytest.approx(closed_form(G, e, 1.0)["t_star"],
@@ -178,7 +181,8 @@ def test_tiny_impact_velocity_from_tiny_height():
     """Released from 1e-10: impact velocity 4.4e-5, chattering completes at the closed-form
     time (a sequence 1e5 times faster than the s = 1 one)."""
     s = 1e-10
-    res = Simulator(ball(0.8)).run(np.array([s, 0.0]), t_end=1.0)
+    # chatter_order 2: the former simulator default, at which these numbers were computed
+    res = Simulator(ball(0.8), SimOptions(chatter_order=2)).run(np.array([s, 0.0]), t_end=1.0)
     ch = [ev for ev in res.events if ev.kind == "chatter"]
     assert len(ch) == 1 and res.state == "s4"
     assert ch[0].info["t_complete"] == pytest.approx(closed_form(G, 0.8, s)["t_star"],
@@ -186,7 +190,9 @@ def test_tiny_impact_velocity_from_tiny_height():
 
 
 def test_start_on_surface_moving_in_impacts():
-    res = Simulator(ball(0.8)).run(np.array([0.0, -1e-9]), t_end=1.0)
+    # chatter_order 2: the former simulator default, at which this case was checked
+    res = Simulator(ball(0.8), SimOptions(chatter_order=2)).run(np.array([0.0, -1e-9]),
+                                                                 t_end=1.0)
     assert res.X[0] >= -1e-12
     assert res.state == "s4" and res.n_impacts >= 1
 

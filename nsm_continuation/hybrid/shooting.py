@@ -614,6 +614,11 @@ class HybridCaseProblem(HybridShootingProblem):
     #: fields of ``Parameters`` that set up the computation (numerics, the section) rather
     #: than the system: not CasADi parameters, and not continued
     setting_fields: ClassVar[tuple[str, ...]] = ("integrator",)
+    #: parameters :meth:`curve_parameters` puts first (the preferred second parameter of a
+    #: grazing curve's ``continue_from_here`` hint): the vocabulary's obstacle position
+    #: (``gap``); a family whose obstacle is placed otherwise overrides it (the double
+    #: pendulum: its wall distance ``d``)
+    curve_preference: ClassVar[tuple[str, ...]] = ("gap",)
 
     @abstractmethod
     def system(self) -> HybridSystem:
@@ -1113,6 +1118,14 @@ class HybridCaseProblem(HybridShootingProblem):
         else:
             new.set_parameter(self.parameter, self.returns)
         return new
+
+    def curve_parameters(self) -> list[str]:
+        """Every parameter of the system (not the ``setting_fields``): a grazing curve
+        (:class:`~nsm_continuation.hybrid.codim1.GrazingCurve`) may free or continue any of
+        them; those of ``curve_preference`` first (in its order), then the others in the
+        order of ``Parameters``."""
+        first = [q for q in self.curve_preference if q in self.values]
+        return first + [q for q in self.values if q not in first]
 
     def restart_start(self, y: np.ndarray) -> dict[str, Any]:
         """``{guess: <section coordinates of y>, returns: k}`` (and ``free_parameter`` for a

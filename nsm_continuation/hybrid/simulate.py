@@ -102,7 +102,7 @@ class SimOptions:
     #: tolerance on the chatter map's estimated error (scaled by 1 + |x|, sec. 3.4)
     chatter_tol: float = 1e-10
     #: 1: eqs. (30)-(31); 2: the improved estimate of eq. (35); 3: one more extrapolation level
-    chatter_order: int = 2
+    chatter_order: int = 3
     #: "map": the chatter map; "cut": the naive baseline that stops the sequence after
     #: ``cut_after`` impacts by a perfectly plastic impact (no map)
     chatter: str = "map"

@@ -150,11 +150,6 @@ def subharmonic_asymptote(k: int, n: int) -> float:
     return (n + 1) * (wk + 1) ** 2 / (wk * (n + 1) + n + 2)
 
 
-def internal_resonance(k: int) -> float:
-    """omega / omega_1 of the internal-resonance branches, eq. (17): 2k / (2k - 1)."""
-    return 2 * k / (2 * k - 1)
-
-
 class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     name = "wfem_bar"
     Parameters = WfemBarParameters

@@ -229,6 +229,8 @@ class NDofImpactProblem(Problem):
     """T-parametrised fixed points of the first return map R(T) (Legrand et al. 2017)."""
 
     name: ClassVar[str] = "ndof_impact"
+    #: a case continues the frequency unless it says otherwise (its unknown is T)
+    case_parameter: ClassVar[str | None] = "omega"
     Parameters: ClassVar[type[BaseModel]] = NDofParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
     energy_quantity = "energy"

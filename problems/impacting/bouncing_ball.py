@@ -19,6 +19,19 @@ Jacobian components ``dx1(t)/dx1(0)``, ``dx2(t)/dx1(0)``). With ``chatter_order:
 ``chatter_tol: 0.02`` the map is applied after ``N = 15`` impacts as in Fig. 4 (for the ball the
 first-order map's time and velocity are exact and its ``O(v^2)`` position error is removed by the
 projection onto the sticking set, so the result is still exact).
+
+**Jacobians of secs. 4.2-4.4 (eqs. 47-50).** Extended state ``(x1, x2, h, u)`` of sec. 4.3
+(``h = H/u``, ``u`` the latest outgoing velocity), ``F = (x2, -g)``; ``v_k' = -v_k = e^k v0'``
+(``v_k`` the initial velocity of flight ``k``). :func:`ball_extended_matrices` gives the printed
+matrices of eq. (47) (``P_0x``, ``D_k``, ``P_k``); the tests check that ``D_k`` is
+:func:`~nsm_continuation.hybrid.saltation.saltation_matrix` applied to the extended impact and
+that ``P_k`` is the flow Jacobian of the extended field. :func:`ball_pn_closed_form` gives
+``p_n`` of eq. (48). **Erratum in (48)**: the chained product of the (correct) matrices (47) has
+the ``(4, 1)`` entry (``du/ds``) ``-(g / v0') e^n`` — i.e. ``-(g/v0') e^n (1 - e) / (1 - e)`` —
+while the paper prints ``-(g/v0') e^n (1 - e^n) / (1 - e)``. The two agree for ``n = 1`` only.
+Direct derivation: after ``n`` impacts ``u = e^n sqrt(2 g s + w^2)``, so
+``du/ds = e^n g / sqrt(2 g s) = -(g / v0') e^n``. Every other entry of (48) is right, and so is
+(50). ``ball_pn_closed_form(..., as_printed=True)`` returns the printed version for comparison.
 """
 
 from __future__ import annotations
@@ -30,11 +43,6 @@ import casadi as ca
 import numpy as np
 from pydantic import BaseModel, Field
 
-from nsm_continuation.hybrid.saltation import (
-    ball_chatter_jacobian,
-    ball_pn_chain,
-    ball_pn_closed_form,
-)
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
 from nsm_continuation.preflight import STRICT
@@ -64,6 +72,73 @@ def ball_system(clock: bool = False) -> HybridSystem:
     if clock:
         kw = {"clock": ca.SX.sym("x3"), "state_names": ["x1", "x2", "x3"]}
     return HybridSystem.mechanical("ball", q, qd, {"g": g, "e": e}, ca.SX(1), -g, q, e, **kw)
+
+
+def ball_extended_matrices(e: float, g: float, v0: float, n: int
+                           ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """The printed matrices of eq. (47) for the bouncing ball released from rest.
+
+    ``v0`` is the first impact velocity ``v0' = -sqrt(2 g s) < 0``. Returns ``(P0x, D, P)``:
+    ``P0x`` (4 x 2) the Jacobian of the extended state ``(x1, x2, h, u)`` at the first impact
+    with respect to the initial ``(s, w)``; ``D[k]`` (4 x 4, ``k = 0..n-1``) the extended impact
+    saltation matrix at impact ``k`` (impact velocity ``v_k' = e^k v0'``); ``P[k - 1]``
+    (4 x 4, ``k = 1..n``) the extended flow Jacobian of flight ``k`` (initial velocity
+    ``v_k = -v_k'``, duration ``2 v_k / g``).
+    """
+    P0x = np.array([[1.0, -v0 / g],
+                    [0.0, 1.0],
+                    [-1.0 / v0, 1.0 / g],
+                    [-g / v0, 0.0]])
+    D, P = [], []
+    for k in range(n):
+        vk_ = e**k * v0                                   # impact velocity v_k'
+        D.append(np.array([[1.0, 0.0, (1 + e) * vk_, 0.0],
+                           [0.0, -e, (1 + e) * g, 0.0],
+                           [0.0, 0.0, -1.0, 0.0],
+                           [0.0, -e, e * g, 0.0]]))
+    for k in range(1, n + 1):
+        vk = -(e**k) * v0                                 # initial velocity of flight k
+        P.append(np.array([[1.0, 2 * vk / g, 0.0, 0.0],
+                           [0.0, 1.0, 0.0, 0.0],
+                           [0.0, 2.0 / g, 1.0, 0.0],
+                           [0.0, 0.0, 0.0, 1.0]]))
+    return P0x, D, P
+
+
+def ball_pn_chain(e: float, g: float, v0: float, n: int) -> np.ndarray:
+    """``p_n = (prod_{k=1}^n P_k D_{k-1}) P_0x`` multiplied out from (47) (4 x 2)."""
+    P0x, D, P = ball_extended_matrices(e, g, v0, n)
+    p = P0x
+    for k in range(1, n + 1):
+        p = P[k - 1] @ D[k - 1] @ p
+    return p
+
+
+def ball_pn_closed_form(e: float, g: float, v0: float, n: int,
+                        as_printed: bool = False) -> np.ndarray:
+    """Closed form of ``p_n`` (eq. 48): Jacobian of ``(x1, x2, h, u)`` just before impact ``n``
+    (``n`` impacts done) with respect to the initial ``(s, w)``.
+
+    The ``(4, 1)`` entry is the corrected ``-(g/v0') e^n`` (see the module docstring);
+    ``as_printed=True`` returns the paper's ``-(g/v0') e^n (1 - e^n) / (1 - e)`` instead.
+    """
+    en = e**n
+    u_s = en * (1 - en) if as_printed else en * (1 - e)
+    return np.array([
+        [en * (1 + e - 2 * e ** (n + 1)), -(v0 / g) * en * (1 - e)],
+        [-(g / v0) * (1 + e) * (1 - en), 1 - e],
+        [-(1 / v0) * (1 + e - 2 * e ** (n + 1)), (1 - e) / g],
+        [-(g / v0) * u_s, 0.0],
+    ]) / (1 - e)
+
+
+def ball_chatter_jacobian(e: float, n: int, v0: float) -> np.ndarray:
+    """``D_N`` of eq. (50) (2 x 4): the Jacobian of the discontinuity mapping of the exact
+    chatter map (49) ``E(x^) = (x1, 0)``, ``e(x^) = -2 e x2 / (g (1 - e))`` applied at impact
+    ``N = n`` (impact velocity ``e^n v0'``), dropping the extended variables. ``D_N p_N = 0``:
+    the sticking state does not depend on the initial condition."""
+    return np.array([[1.0, 0.0, e**n * v0, 0.0],
+                     [0.0, 0.0, 0.0, 0.0]])
 
 
 def closed_form(g: float, e: float, s: float, n: int = 0) -> dict[str, Any]:

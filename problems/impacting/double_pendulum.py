@@ -83,6 +83,8 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
     #: continued in the period (``continuation.parameter: period``, sec. 6.3), the torque is
     #: solved for unless ``start.free_parameter`` names another parameter
     period_partner: ClassVar[str | None] = "torque"
+    #: the wall distance is the preferred second parameter of a grazing curve's hint
+    curve_preference: ClassVar[tuple[str, ...]] = ("d",)
 
     def system(self) -> HybridSystem:
         q = ca.SX.sym("q", 2)

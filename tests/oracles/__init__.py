@@ -1,5 +1,6 @@
 """Test-only oracles: independent derivations the tests compare the package with (not part of
 the installed package). ``pendulum_lagrange``: the Euler-Lagrange derivation of the double
 pendulum of Nordmark & Piiroinen (2009), sec. 6, vs the printed eq. (53); ``pendulum_equilibria``:
-the sticking saddle of sec. 6.3 and its eigenvalues from a reduced 1-dof Lagrangian. Imported by
+the sticking saddle of sec. 6.3 and its eigenvalues from a reduced 1-dof Lagrangian;
+``bouncing_ball``: ``D_N`` of eq. (50) rebuilt from the saltation matrix (43). Imported by
 the tests as ``oracles.<module>`` (pytest puts ``tests/`` on ``sys.path``)."""
