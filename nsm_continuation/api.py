@@ -287,8 +287,9 @@ class Result:
         two parameters, ``free`` (the parameter this run continued) solved for and
         ``parameter=...`` continued: ``"grazing"`` by the augmented system
         (:mod:`nsm_continuation.hybrid.codim1`), ``"period_doubling"``, ``"fold"``,
-        ``"neimark_sacker"``, ``"sticking_lost"`` (and ``"grazing"`` with
-        ``method="located"``) as located events (:mod:`nsm_continuation.event_curves`).
+        ``"neimark_sacker"`` and any kind the problem maps a monitor to (e.g. a hybrid
+        orbit's ``"sticking_lost"``; ``"grazing"`` with ``method="located"``) as located
+        events (:func:`nsm_continuation.event_curves.curve_kinds`).
         ``parameters`` override this run's,
         ``settings`` are keys of the ``continuation:`` block (``parameter`` may be any
         parameter of the problem; the rest of the block is inherited when it is the same),

@@ -1,9 +1,9 @@
 """Two-parameter curves of codimension-one points, as sequences of located events.
 
 A codimension-one point of a family of orbits (a period doubling, a fold, a Neimark-Sacker
-point, a grazing, the loss of sticking, ...) is a zero of a scalar condition ``c`` on the
-orbit ``y = (z, p)`` of the base problem ``G(y; q) = 0``. With a second parameter ``q`` free
-the points form a curve in the ``(q, p)`` plane,
+point, a zero of a test or event function the problem maps to an event kind, ...) is a zero
+of a scalar condition ``c`` on the orbit ``y = (z, p)`` of the base problem ``G(y; q) = 0``.
+With a second parameter ``q`` free the points form a curve in the ``(q, p)`` plane,
 
     G(z, p; q) = 0,        c(z, p; q) = 0.                                           (L1)
 
@@ -64,16 +64,66 @@ from .protocol import Problem
 from .records import Branch, Event, Point
 from .settings import ContinuationSettings
 
-#: the event kinds a located curve can follow, with the condition ``c`` of (L1)
-CURVE_KINDS: dict[str, str] = {
+#: the multiplier kinds a located curve can follow for any problem, with the condition ``c``
+#: of (L1)
+MULTIPLIER_KINDS: dict[str, str] = {
     "period_doubling": "a multiplier at -1",
     "fold": "a limit point of the family (a multiplier at +1)",
     "neimark_sacker": "a complex pair of multipliers on the unit circle",
-    "sticking_lost": "the sticking time at zero (complete chattering lost)",
-    "grazing": "an admissibility test at zero (a grazing orbit of a family that goes on "
-               "smoothly through it: the chain's nonlinear grazing; the grazing of a hybrid "
-               "orbit is the augmented system C1's)",
 }
+#: the kind of a test or event function that its problem does not map
+#: (``Problem.test_kinds``, ``Problem.event_function_kinds``: unlisted ones raise this kind)
+DEFAULT_MONITOR_KIND = "grazing"
+
+
+def monitor_kind(problem: Problem, source: str, name: str) -> str:
+    """The event kind a zero of the monitor ``name`` of ``problem`` raises: ``source`` is
+    ``"test"`` (an admissibility test, ``Problem.test_kinds``) or ``"function"`` (an event
+    function, ``Problem.event_function_kinds``)."""
+    kinds = problem.test_kinds if source == "test" else problem.event_function_kinds
+    return kinds.get(name, DEFAULT_MONITOR_KIND)
+
+
+def monitor_kinds(problem: Problem) -> set[str]:
+    """The event kinds ``problem`` maps its test and event functions to (the declared
+    ``test_kinds`` and ``event_function_kinds``, and the default kind of unlisted ones when
+    the problem has test or event functions at all)."""
+    cls = type(problem)
+    kinds = {*cls.test_kinds.values(), *cls.event_function_kinds.values()}
+    if (cls.admissibility is not Problem.admissibility
+            or cls.event_functions is not Problem.event_functions):
+        kinds.add(DEFAULT_MONITOR_KIND)
+    return kinds
+
+
+def curve_kinds(problem: Problem) -> set[str]:
+    """The kinds of codimension-one point a located curve of ``problem`` can follow: the
+    multiplier kinds (:data:`MULTIPLIER_KINDS`) and every kind the problem maps one of its
+    test or event functions to (:func:`monitor_kinds`)."""
+    return set(MULTIPLIER_KINDS) | monitor_kinds(problem)
+
+
+def curve_kind_refusal(problem: Problem, kind: str) -> str | None:
+    """None if a located curve of ``problem`` can follow ``kind`` points (:func:`curve_kinds`),
+    else the one-line refusal naming ``start.curve`` and the kinds this problem offers (its
+    monitors' kinds, then the multiplier kinds)."""
+    offered = curve_kinds(problem)
+    if kind in offered:
+        return None
+    names = [repr(k) for k in (*sorted(offered - set(MULTIPLIER_KINDS)), *MULTIPLIER_KINDS)]
+    listing = ", ".join(names[:-1]) + f" or {names[-1]}" if len(names) > 1 else names[0]
+    return (f"start.curve: Input should be {listing} (the kinds of codimension-one point a "
+            f"curve of problem {problem.name!r} can follow), not {kind!r}")
+
+
+def condition_meaning(kind: str) -> str:
+    """The condition ``c`` of (L1) for a curve of ``kind`` points, in words."""
+    if kind in MULTIPLIER_KINDS:
+        return MULTIPLIER_KINDS[kind]
+    return (f"a test or event function the problem maps to {kind} at zero "
+            "(Problem.test_kinds, Problem.event_function_kinds)")
+
+
 #: growth of the step in ``q`` after a located point, and of the window of ``p`` after a miss
 STEP_GROWTH = 1.5
 WINDOW_GROWTH = 4.0
@@ -116,9 +166,9 @@ class LocatedCurve(CodimOneCurve):
     def __init__(self, base: Problem, kind: str, free: str, parameter: str,
                  base_settings: dict[str, Any] | None = None) -> None:
         super().__init__(base.params)
-        if kind not in CURVE_KINDS:
-            raise ValueError(f"start.curve: {kind!r} is not a kind of codimension-one point a "
-                             f"curve can follow (one of {sorted(CURVE_KINDS)})")
+        refusal = curve_kind_refusal(base, kind)
+        if refusal is not None:
+            raise ValueError(refusal)
         if free == parameter:
             raise ValueError(f"continuation.parameter: the {kind} curve needs two parameters "
                              f"(free {free!r} and continued {parameter!r} are the same)")
@@ -136,8 +186,8 @@ class LocatedCurve(CodimOneCurve):
         self.parameter = parameter
         self.variables = list(probe.variables) + [parameter]
         #: what the continuations of the base problem keep of the base run's settings
-        #: (:data:`BASE_SETTINGS`: its Newton tolerance, its bounds, such as the sticking
-        #: time's floor that defines ``sticking_lost``, and its initial step, the scale of
+        #: (:data:`BASE_SETTINGS`: its Newton tolerance, its bounds, such as the floor of a
+        #: derived quantity that defines the problem's event, and its initial step, the scale of
         #: the first window); the case's own settings are those of the curve
         self.base_settings = dict(base_settings or {})
         self._at: tuple[float, Problem] | None = None
@@ -194,7 +244,9 @@ class LocatedCurve(CodimOneCurve):
         ``(z, p)``): ``min |lambda + 1|`` (period doubling), ``min |lambda - 1|`` over the
         non-trivial multipliers (fold; the tangent's parameter component if there are none),
         ``min ||lambda| - 1|`` over complex pairs (Neimark-Sacker), ``min |value|`` of the
-        test and event functions (grazing, loss of sticking). NaN where it is not defined."""
+        test and event functions the base problem maps to the curve's kind
+        (``Problem.test_kinds``, ``Problem.event_function_kinds``: :func:`monitor_kind`).
+        NaN where it is not defined."""
         m = point.multipliers
         kind = self.curve_kind
         if kind in ("period_doubling", "fold", "neimark_sacker"):
@@ -209,11 +261,11 @@ class LocatedCurve(CodimOneCurve):
                 return float(np.min(np.abs(m - 1.0)))
             pairs = m[np.abs(m.imag) > 1e-9 * np.maximum(1.0, np.abs(m))]
             return float(np.min(np.abs(np.abs(pairs) - 1.0))) if len(pairs) else float("nan")
-        values = [abs(v) for v in (*point.tests.values(), *point.event_values.values())
-                  if np.isfinite(v)]
-        if kind == "sticking_lost":
-            values = [abs(v) for k, v in point.tests.items() if "sticking" in k
-                      and np.isfinite(v)] or values
+        # the test and event functions the base problem maps to the curve's kind
+        values = [abs(v) for source, monitors in (("test", point.tests),
+                                                  ("function", point.event_values))
+                  for name, v in monitors.items()
+                  if monitor_kind(self.base, source, name) == kind and np.isfinite(v)]
         return float(min(values)) if values else float("nan")
 
     # ------------------------------------------------------------------ presentation
@@ -241,7 +293,7 @@ class LocatedCurve(CodimOneCurve):
         return {"curve": f"{self.curve_kind} points of {self.base.name} (eq. L1 of "
                          "nsm_continuation.event_curves: each point a located event)",
                 "continued": self.parameter, "free": self.free,
-                "condition": CURVE_KINDS[self.curve_kind],
+                "condition": condition_meaning(self.curve_kind),
                 "unknowns": list(self.variables)}
 
 
@@ -528,4 +580,6 @@ class CurveTracer:
         return out
 
 
-__all__ = ["CURVE_KINDS", "CodimOneCurve", "CurveTracer", "LocatedCurve"]
+__all__ = ["DEFAULT_MONITOR_KIND", "MULTIPLIER_KINDS", "CodimOneCurve", "CurveTracer",
+           "LocatedCurve", "condition_meaning", "curve_kind_refusal", "curve_kinds",
+           "monitor_kind", "monitor_kinds"]

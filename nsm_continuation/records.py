@@ -23,11 +23,11 @@ CORE_EVENT_KINDS: dict[str, str] = {
                       "system, after a Krein collision): quasi-periodic motion nearby",
     "stability_change": "the number of multipliers outside the unit circle becomes zero or "
                         "non-zero",
-    "grazing": "the orbit touches the obstacle tangentially (nonlinear grazing) or leaves it "
-               "with zero velocity (linear grazing). Where the impacts are prescribed by the "
-               "formulation (the chain, the bar) an admissibility test vanishes and beyond it "
-               "the orbit is a phantom; for a hybrid orbit an impact is born or vanishes and the "
-               "branch goes on with the changed event sequence",
+    "grazing": "an admissibility test or event function reaches zero: the orbit touches the "
+               "obstacle tangentially (nonlinear grazing) or leaves it with zero velocity "
+               "(linear grazing). Where the test is an admissibility test the orbit beyond it "
+               "is a phantom; where it is an event function an impact is born or vanishes and "
+               "the branch goes on with the changed event sequence",
     "endpoint": "end of the computed branch (bound reached or numerical termination)",
     "asymptote": "a monitored quantity (the energy, the size of the unknowns) grows without "
                  "bound as the parameter approaches a limit (estimated from the last points)",

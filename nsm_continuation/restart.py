@@ -100,9 +100,10 @@ class RestartSpec(BaseModel):
     direction: Literal["both", "increase", "decrease"] | None = None
     label: str | None = None
     #: continue a curve of codimension-one points in two parameters from the point instead of
-    #: its orbit (:mod:`nsm_continuation.hybrid.codim1`): ``grazing`` (eq. C1)
-    curve: Literal["grazing", "period_doubling", "fold", "neimark_sacker",
-                   "sticking_lost"] | None = None
+    #: its orbit (:mod:`nsm_continuation.hybrid.codim1`): ``grazing`` (eq. C1); any kind name
+    #: here, checked once the problem is loaded (a multiplier kind or one the problem maps a
+    #: test or event function to: :func:`nsm_continuation.event_curves.curve_kinds`)
+    curve: Annotated[str, Field(min_length=1)] | None = None
     #: how the curve is solved: ``augmented`` (the grazing curve's system C1, exact gradient;
     #: grazing only) or ``located`` (:mod:`nsm_continuation.event_curves`, L1: each point an
     #: event located by a continuation of the base problem; the other kinds only). Implied by
@@ -694,6 +695,11 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
                           f"periods, which problem {problem.name!r} cannot represent")
     cs = curve_of(spec, record)
     if cs is not None:
+        from .event_curves import curve_kind_refusal
+
+        refusal = curve_kind_refusal(base, cs.kind)
+        if refusal is not None:
+            raise _case_error(refusal)
         # a problem with grazing-curve parameters continues its grazing curves by C1
         hybrid = bool(base.curve_parameters())
         if cs.kind == "grazing" and hybrid and cs.method == "located":

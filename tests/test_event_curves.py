@@ -10,16 +10,26 @@ doublings of the orbit meet there).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 import yaml
 from oracles.impact_oscillator import period_doubling_function, section_state
+from pydantic import BaseModel
 from scipy.optimize import brentq, minimize_scalar
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
+from nsm_continuation.event_curves import (
+    DEFAULT_MONITOR_KIND,
+    MULTIPLIER_KINDS,
+    LocatedCurve,
+    curve_kinds,
+    monitor_kinds,
+)
+from nsm_continuation.protocol import Problem
+from nsm_continuation.records import Point
 
 R = 0.8
 #: the closed-form slope of (O2) in omega is ~3: 1e-7 in (O2) is ~3e-8 in omega
@@ -172,6 +182,23 @@ def test_curve_from_an_event_of_another_kind_is_refused(saved: Path, tmp_path: P
     assert "start.curve" in capsys.readouterr().err
 
 
+def test_a_curve_kind_the_problem_does_not_offer_is_refused(saved: Path, tmp_path: Path,
+                                                           capsys: Any) -> None:
+    """Any kind name passes the schema; one that is neither a multiplier kind nor a kind the
+    problem maps a test or event function to is refused before computing, in one line naming
+    start.curve and the kinds this problem offers."""
+    from nsm_continuation.registry import get
+
+    start = {"from": str(saved), "event": "period_doubling", "curve": "endpoint"}
+    assert _yaml(tmp_path, "bad3", start) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "start.curve" in err[0] and "'endpoint'" in err[0], err
+    offered = curve_kinds(get("impact_oscillator")({}))
+    assert err[0].startswith("error: start.curve: Input should be "), err
+    assert all(repr(k) in err[0] for k in offered), err
+    assert not (tmp_path / "bad3").exists()
+
+
 # ---------------------------------------------------------------------- the chain's point B
 def test_chain_nonlinear_grazing_curve_follows_the_time_scaling() -> None:
     """Point B of Fig. 5.1 (the nonlinear grazing orbit ending branch 1 of the 5-dof chain)
@@ -199,3 +226,89 @@ def test_chain_nonlinear_grazing_curve_follows_the_time_scaling() -> None:
         k = p.derived["stiffness"]
         assert p.derived["omega"] == pytest.approx(omega_b * np.sqrt(k / 5.0), rel=1e-9)
         assert p.derived["condition"] < 1e-9
+
+
+# ---------------------------------------------------------------------- kinds from the problem
+class _MonitorParameters(BaseModel):
+    a: float = 1.0
+    b: float = 2.0
+
+
+class _Monitored(Problem):
+    """A problem whose test and event functions map to core kinds other than the default
+    (declared members only): a located curve follows those kinds, on those functions."""
+
+    name: ClassVar[str] = "monitored"
+    Parameters: ClassVar[type[BaseModel]] = _MonitorParameters
+    test_kinds: ClassVar[dict[str, str]] = {"speed": "stability_change"}
+    event_function_kinds: ClassVar[dict[str, str]] = {"margin": "branch_point"}
+
+    def __init__(self, params: BaseModel) -> None:
+        super().__init__(params)
+        self.variables = ["x", "a"]
+        self.parameter = "a"
+
+    def residual(self, y: Any) -> Any:
+        return y[0] - y[1]
+
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        return {"speed": float(y[0]), "clearance": float(y[0] - 1.0)}
+
+    def event_functions(self, y: np.ndarray) -> dict[str, float]:
+        return {"margin": float(y[0] + 1.0)}
+
+    def with_parameters(self, values: dict[str, float]) -> Problem | None:
+        return _Monitored(self.params.model_copy(update=values))
+
+
+class _Unmonitored(_Monitored):
+    """No test or event functions: only the multiplier kinds."""
+
+    test_kinds: ClassVar[dict[str, str]] = {}
+    event_function_kinds: ClassVar[dict[str, str]] = {}
+    admissibility = Problem.admissibility
+    event_functions = Problem.event_functions
+
+
+def _point(tests: dict[str, float], events: dict[str, float]) -> Point:
+    return Point(y=np.zeros(2), s=0.0, tangent=np.array([0.0, 1.0]), tests=tests,
+                 multipliers=np.array([-0.9, 0.5]), trivial_error=0.0, n_unstable=0,
+                 derived={}, bordered_det=1.0, event_values=events)
+
+
+def test_curve_kinds_are_the_multiplier_kinds_and_the_problems_mapped_kinds() -> None:
+    multipliers = {"period_doubling", "fold", "neimark_sacker"}
+    assert set(MULTIPLIER_KINDS) == multipliers
+    pr = _Monitored(_MonitorParameters())
+    # unlisted tests ("clearance") raise the default kind
+    assert monitor_kinds(pr) == {"stability_change", "branch_point", DEFAULT_MONITOR_KIND}
+    assert curve_kinds(pr) == multipliers | {"stability_change", "branch_point", "grazing"}
+    assert curve_kinds(_Unmonitored(_MonitorParameters())) == multipliers
+    # a hybrid problem offers the kinds its declared members map monitors to
+    from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
+
+    hybrid = DoublePendulumProblem({})
+    assert curve_kinds(hybrid) == multipliers | {
+        *type(hybrid).test_kinds.values(), *type(hybrid).event_function_kinds.values()}
+
+
+def test_condition_is_the_value_of_the_monitor_mapped_to_the_kind() -> None:
+    """The condition of a monitor's kind is the value of the monitors the problem maps to it
+    (by its declared members, not by their names), and a multiplier kind keeps its
+    multiplier condition."""
+    base = _Monitored(_MonitorParameters())
+    pt = _point({"speed": -0.25, "clearance": 0.5, "gone": float("nan")}, {"margin": 0.125})
+    expected = {"stability_change": 0.25, "branch_point": 0.125, "grazing": 0.5,
+                "period_doubling": 0.1}
+    for kind, value in expected.items():
+        curve = LocatedCurve(base, kind, "a", "b")
+        assert curve.condition(pt) == pytest.approx(value)
+    # a kind none of the point's monitors maps to: undefined
+    assert np.isnan(LocatedCurve(base, "branch_point", "a", "b").condition(_point({}, {})))
+
+
+def test_a_kind_the_problem_does_not_offer_is_refused_naming_its_kinds() -> None:
+    base = _Unmonitored(_MonitorParameters())
+    listed = "Input should be 'period_doubling', 'fold' or 'neimark_sacker'"
+    with pytest.raises(ValueError, match=rf"^start\.curve: {listed} .*'monitored'.*'grazing'$"):
+        LocatedCurve(base, "grazing", "a", "b")

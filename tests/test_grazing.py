@@ -241,10 +241,11 @@ def test_grazing_curve_is_the_closed_form(zeta: float) -> None:
     """The grazing curve in (omega, gap) (``hybrid.codim1.GrazingCurve``, eq. C1, continued in
     the gap) is the closed form ``1/sqrt((1 - w^2)^2 + (2 zeta w)^2) = -gap - margin`` (the
     continued orbits miss the stop by the documented margin) at every point, to 1e-10."""
+    from oracles.hybrid_codim1 import grazing_curve_start
     from scipy.optimize import brentq
 
     import nsm_continuation as nsm
-    from nsm_continuation.hybrid.codim1 import GrazingCurve, grazing_curve_start
+    from nsm_continuation.hybrid.codim1 import GrazingCurve
     from nsm_continuation.protocol import StartPoint
 
     curve = GrazingCurve(problem(zeta), "omega", "gap")

@@ -296,3 +296,15 @@ def test_hybrid_restart_in_another_parameter(flip_run: tuple[Any, Path]) -> None
     assert p0.y[-1] == 0.5
     assert np.linalg.norm(p0.y[:-1] - pd.point.y[:-1], np.inf) < 1e-9
     assert np.min(np.abs(p0.multipliers + 1.0)) < 1e-8
+
+
+def test_start_curve_takes_any_kind_name_checked_with_the_problem() -> None:
+    """``start.curve`` is any kind name in the schema (the kinds a problem's curves can follow
+    come from the problem, :func:`nsm_continuation.event_curves.curve_kinds`, checked once it
+    is loaded); an empty name is refused naming the key."""
+    from nsm_continuation.restart import parse_spec
+
+    spec = parse_spec({"from": "runs/x", "event": "some_family_kind", "curve": "some_family_kind"})
+    assert spec.curve == "some_family_kind"
+    with pytest.raises(Exception, match=r"start\.curve"):
+        parse_spec({"from": "runs/x", "event": "fold", "curve": ""})

@@ -13,12 +13,12 @@ from nsm_continuation.problems.bar.wfem_operators import (
     from_ring,
     pattern_from_counts,
     phase_operator,
-    ring_basis,
     ring_energy,
     ring_step,
     simulate_ring,
     to_ring,
 )
+from oracles.wfem_bar import ring_basis
 
 Z = 1.7  # rho c (rho = 1.7, c = 1)
 

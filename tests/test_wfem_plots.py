@@ -30,7 +30,6 @@ from nsm_continuation.problems.bar.plots import (  # noqa: E402
     displacement_field,
     end_time_series,
     extra_plots,
-    integrated_end_displacement,
     manifold_section,
     orbit_section,
     resolve_point,
@@ -43,6 +42,7 @@ from nsm_continuation.problems.bar.wfem_lattice import (  # noqa: E402
     node_solutions,
 )
 from nsm_continuation.problems.bar.wfem_operators import from_ring, simulate_ring  # noqa: E402
+from oracles.wfem_bar import integrated_end_displacement  # noqa: E402
 
 
 def orbit(N: int, g0: float, counts: tuple[int, ...]) -> LatticeSolution:

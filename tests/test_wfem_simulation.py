@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 import pytest
-from nsm_continuation.problems.bar.bouncing_bar_exact import BouncingBarExact, falling_bar_exact
+from nsm_continuation.problems.bar.bouncing_bar_exact import BouncingBarExact
 from nsm_continuation.problems.bar.wfem_operators import floating_bc_contact
 from nsm_continuation.problems.bar.wfem_simulation import (
     BarParams,
@@ -43,6 +43,7 @@ from nsm_continuation.problems.bar.wfem_simulation import (
     steady_multiple,
     steady_state_rule,
 )
+from oracles.wfem_bar import falling_bar_exact
 
 TABLE1 = {"E": 900.0, "rho": 1.0, "L": 10.0, "g0": 5.0, "F0": 10.0}
 

@@ -232,10 +232,3 @@ class GrazingCurve(CodimOneCurve):
     def restart_curve(self) -> dict[str, Any]:
         """What a restart record keeps to build this curve again."""
         return {**super().restart_curve(), "method": "augmented", "margin": self.margin}
-
-
-def grazing_curve_start(curve: GrazingCurve, y_grazing: np.ndarray) -> np.ndarray:
-    """The curve's unknowns from a grazing orbit of the base problem (unknowns ``(z, p)`` with
-    ``p`` = ``curve.free``): the continued parameter's value is the base problem's."""
-    y = np.asarray(y_grazing, dtype=float)
-    return np.append(y, curve.base.values[curve.parameter])

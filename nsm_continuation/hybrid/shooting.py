@@ -591,8 +591,9 @@ class HybridCaseProblem(HybridShootingProblem):
     symbolic = "SX"
 
     def __init__(self, params: BaseModel | dict[str, Any]) -> None:
-        if isinstance(params, dict):
-            params = self.Parameters.model_validate(params)
+        from ..vocabulary import as_parameters
+
+        params = as_parameters(self.Parameters, params)
         super().__init__(params)
         dumped = params.model_dump()
         self.integrator: IntegratorSpec = params.integrator  # type: ignore[attr-defined]

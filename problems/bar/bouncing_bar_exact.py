@@ -347,19 +347,3 @@ class BouncingBarExact:
         if len(self.impacts) < 3:
             raise ValueError("t_end too short: fewer than three impacts")
         return self.impacts[2] - self.impacts[0]
-
-
-def falling_bar_exact(t: np.ndarray | float, t_end: float | None = None,
-                      **params: float | str) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                      np.ndarray]:
-    """``(u_end, v_end, contact_force, energy)`` of the Table 1 bouncing bar at times ``t``.
-
-    ``params`` override the Table 1 values (E, rho, L, g0, F0, S, left). ``energy`` is the
-    elastic + kinetic energy of the bar (the body-force potential is
-    :meth:`BouncingBarExact.potential`).
-    """
-    tt = np.atleast_1d(np.asarray(t, dtype=float))
-    horizon = float(np.max(tt)) + 1.0 if t_end is None else t_end
-    sol = BouncingBarExact(t_end=horizon, **params)  # type: ignore[arg-type]
-    en = np.array([sol.energy(float(ti)) for ti in tt])
-    return sol.u_end(tt), sol.v_end(tt), sol.contact_force(tt), en

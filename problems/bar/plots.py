@@ -80,15 +80,6 @@ def contact_force(sol: LatticeSolution) -> np.ndarray:
     return np.where(contact_mask(sol), -sol.J, 0.0)
 
 
-def integrated_end_displacement(sol: LatticeSolution) -> np.ndarray:
-    """``u_(N+1/2)(t_n)``, n = 0..M, as ``g0 + dt sum_(j<n) v_(N+1/2)[j]`` (gap normalisation).
-
-    For amplitude-free orbits (``g0 = 0``) the start is 0 as well: ``sum w = 0`` there.
-    """
-    v = end_velocity(sol)
-    return sol.model.g0 + sol.model.dt * np.concatenate([[0.0], np.cumsum(v)])
-
-
 def displacement_field(sol: LatticeSolution, periods: float = 1.0, max_rows: int | None = None
                        ) -> Field:
     """``u(x_(i+1/2), t_n)`` from the stresses, for ``n = 0..round(periods M)``.

@@ -306,15 +306,6 @@ def dense_operator(N: int, Z: float, end: str = "free", corners: str = "derived"
     return np.block([[A1, A2], [A3, A4]])
 
 
-def ring_basis(N: int, Z: float) -> np.ndarray:
-    """Matrix ``T`` with ``w = T Q`` for ``Q = [sigma; v]`` (tests: ``A_ring = T A T^-1``)."""
-    T = np.zeros((2 * N, 2 * N))
-    for i in range(N):
-        T[i, i], T[i, N + i] = 1.0, -Z                  # b_i
-        T[2 * N - 1 - i, i], T[2 * N - 1 - i, N + i] = 1.0, Z  # a_i
-    return T
-
-
 def kernel_dimensions_at_period(N: int, M: int) -> np.ndarray:
     """``h(m)`` for every one-contact-phase node ``(m, M - m)``, m = 1..M-1, in one sweep.
 
