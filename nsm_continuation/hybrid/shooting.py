@@ -133,8 +133,10 @@ class HybridShooting:
             except SimulationError as exc:
                 hit = exc.reason
                 if hit.startswith("initial state on the inadmissible side"):
-                    # the orbit touches the surface at the section itself
-                    hit += ("; the orbit grazes at the Poincare section: place the section "
+                    # the orbit is at the surface at the section itself: an impact or a
+                    # grazing at the section's time (the state there is on the surface)
+                    hit += ("; the orbit meets the impact surface at the Poincare section (an "
+                            "impact or a grazing at the section's time): place the section "
                             "elsewhere (a forced system: another section phase)")
             except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
                 hit = str(exc)
