@@ -262,3 +262,30 @@ def test_grazing_curve_is_the_closed_form(zeta: float) -> None:
         omega, gap = p.y[-2], p.y[-1]
         assert amplitude(omega, zeta) == pytest.approx(-gap - curve.target(p.y), abs=1e-10)
         assert curve.shooting.simulate(p.y).n_impacts == 0
+
+
+def test_fig2_oscillator_continues_below_0_3465_without_event() -> None:
+    """Issue 11: the bundled sticking oscillator (Fig. 2 case) used to end near omega =
+    0.3465 with "Newton did not converge" after a false ``impact_sequence_change``. Continued
+    down from 0.4 to 0.33 it now reaches the window's bound with no event in between (the
+    acceleration at the first impact changes sign near 0.338, which is no change of the
+    orbit), and the orbit's structure, simulated again at both ends, is the same: complete
+    chattering and one sticking phase per period."""
+    from pathlib import Path
+
+    import nsm_continuation as nsm
+
+    case = Path(__file__).resolve().parents[1] / "yaml_cases" / \
+        "impact_oscillator_fig2_sticking.yaml"
+    res = nsm.run(nsm.load_case(case, {"output.plots": False, "output.progress": False,
+                                       "start.direction": "decrease",
+                                       "continuation.min": 0.33}))
+    (br,) = res.run_result.branches
+    assert br.termination == {"forward": "bound: omega = min"}
+    assert [e.kind for e in br.events] == ["endpoint"]
+    omega = res.branches[0]["omega"]
+    assert omega.max() >= 0.4 - 1e-12 and omega.min() == pytest.approx(0.33, abs=1e-12)
+    shooting = res.run_result.problem.shooting
+    ends = [shooting.simulate(p.y) for p in (br.points[0], br.points[-1])]
+    assert [r.signature for r in ends] == ["CS", "CS"]  # complete chattering, then sticking
+    assert all(len(r.sticking_intervals) == 1 and r.sticking_time > 0 for r in ends)
