@@ -289,3 +289,51 @@ def test_fig2_oscillator_continues_below_0_3465_without_event() -> None:
     ends = [shooting.simulate(p.y) for p in (br.points[0], br.points[-1])]
     assert [r.signature for r in ends] == ["CS", "CS"]  # complete chattering, then sticking
     assert all(len(r.sticking_intervals) == 1 and r.sticking_time > 0 for r in ends)
+
+
+def test_two_mass_chain_grazing_at_0_772_against_fixed_frequency_solves() -> None:
+    """Issue 11: the bundled two-mass chain used to end at omega = 0.772 with "Newton did not
+    converge". Its branch now reaches the grazing there (a second, low-velocity impact is
+    born: sequence ``I -> II``) and goes on past it to the window's bound. Second method:
+    one-impact orbits at fixed frequencies just below it (Newton in the section unknowns at
+    fixed omega, from the located point): the line through their grazing margins vanishes
+    within 1e-9 of the located omega."""
+    from pathlib import Path
+
+    import nsm_continuation as nsm
+
+    case = Path(__file__).resolve().parents[1] / "yaml_cases" / "chain_two_mass_wall.yaml"
+    res = nsm.run(nsm.load_case(case, {"output.plots": False, "output.progress": False,
+                                       "continuation.max": 0.7725}))
+    (br,) = res.run_result.branches
+    (ev,) = [e for e in br.events if e.kind == "grazing"]
+    assert (ev.data["signature_before"], ev.data["signature_after"]) == ("I", "II")
+    assert br.termination["forward"] == "bound: omega = max"
+    pb = res.run_result.problem
+    ip = pb.parameter_index
+    w_g = float(ev.point.y[ip])
+    assert w_g == pytest.approx(0.7720148, abs=1e-6)
+
+    def margin(w: float) -> float:
+        """The grazing margin of the one-impact orbit at the fixed frequency ``w``."""
+        y = np.array(ev.point.y, dtype=float)
+        y[ip] = w
+        free = [k for k in range(y.size) if k != ip]
+        for _ in range(30):
+            g, J = pb.evaluate_with_jacobian(y)
+            dy = np.linalg.solve(J[:, free], -np.asarray(g))
+            y[free] += dy
+            if np.max(np.abs(dy)) < 1e-14 * (1 + np.max(np.abs(y))):
+                break
+        sim = pb.shooting.simulate(y)
+        assert sim.signature == "I"
+        return float(sim.grazing_function())
+
+    # the one-impact side, below the grazing: the margin (the rebound's distance to the
+    # wall) is smooth and positive there; its line's zero is the grazing
+    ws = w_g - np.array([4e-9, 3e-9, 2e-9, 1e-9])
+    ms = np.array([margin(w) for w in ws])
+    assert np.all(ms > 0)
+    slope, icpt = np.polyfit(ws - w_g, ms, 1)
+    root = w_g - icpt / slope
+    assert abs(root - w_g) < 1e-9
