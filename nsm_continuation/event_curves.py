@@ -72,16 +72,8 @@ MULTIPLIER_KINDS: dict[str, str] = {
     "neimark_sacker": "a complex pair of multipliers on the unit circle",
 }
 #: the kind of a test or event function that its problem does not map
-#: (``Problem.test_kinds``, ``Problem.event_function_kinds``: unlisted ones raise this kind)
-DEFAULT_MONITOR_KIND = "grazing"
-
-
-def monitor_kind(problem: Problem, source: str, name: str) -> str:
-    """The event kind a zero of the monitor ``name`` of ``problem`` raises: ``source`` is
-    ``"test"`` (an admissibility test, ``Problem.test_kinds``) or ``"function"`` (an event
-    function, ``Problem.event_function_kinds``)."""
-    kinds = problem.test_kinds if source == "test" else problem.event_function_kinds
-    return kinds.get(name, DEFAULT_MONITOR_KIND)
+#: (:attr:`Problem.default_monitor_kind`)
+DEFAULT_MONITOR_KIND = Problem.default_monitor_kind
 
 
 def monitor_kinds(problem: Problem) -> set[str]:
@@ -92,7 +84,7 @@ def monitor_kinds(problem: Problem) -> set[str]:
     kinds = {*cls.test_kinds.values(), *cls.event_function_kinds.values()}
     if (cls.admissibility is not Problem.admissibility
             or cls.event_functions is not Problem.event_functions):
-        kinds.add(DEFAULT_MONITOR_KIND)
+        kinds.add(cls.default_monitor_kind)
     return kinds
 
 
@@ -245,7 +237,7 @@ class LocatedCurve(CodimOneCurve):
         non-trivial multipliers (fold; the tangent's parameter component if there are none),
         ``min ||lambda| - 1|`` over complex pairs (Neimark-Sacker), ``min |value|`` of the
         test and event functions the base problem maps to the curve's kind
-        (``Problem.test_kinds``, ``Problem.event_function_kinds``: :func:`monitor_kind`).
+        (:meth:`Problem.monitor_kind`).
         NaN where it is not defined."""
         m = point.multipliers
         kind = self.curve_kind
@@ -265,7 +257,7 @@ class LocatedCurve(CodimOneCurve):
         values = [abs(v) for source, monitors in (("test", point.tests),
                                                   ("function", point.event_values))
                   for name, v in monitors.items()
-                  if monitor_kind(self.base, source, name) == kind and np.isfinite(v)]
+                  if self.base.monitor_kind(source, name) == kind and np.isfinite(v)]
         return float(min(values)) if values else float("nan")
 
     # ------------------------------------------------------------------ presentation
@@ -582,4 +574,4 @@ class CurveTracer:
 
 __all__ = ["DEFAULT_MONITOR_KIND", "MULTIPLIER_KINDS", "CodimOneCurve", "CurveTracer",
            "LocatedCurve", "condition_meaning", "curve_kind_refusal", "curve_kinds",
-           "monitor_kind", "monitor_kinds"]
+           "monitor_kinds"]

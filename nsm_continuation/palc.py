@@ -478,7 +478,7 @@ class ContinuationEngine:
             "function": name, "value_before": value,
             "value_after": float(p1.event_values.get(name, np.nan)), "kink": True,
             "signature_before": a.signature, "signature_after": p1.signature}
-        kind = self.problem.event_function_kinds.get(name, "grazing")
+        kind = self.problem.monitor_kind("function", name)
         found = [Event(kind, pg, f"event function '{name}' vanishes; the branch has a kink "
                        "here and goes on beyond it (the problem's local parametrisation)",
                        data=data, bracket=0.0)]
@@ -927,7 +927,7 @@ class ContinuationEngine:
                     self.unlocated_events += 1
                     continue
                 leaving = flo >= 0 > fhi
-                kind = self.problem.test_kinds.get(name, "grazing")
+                kind = self.problem.monitor_kind("test", name)
                 ev = Event(kind, p, f"test function '{name}' "
                            + ("becomes negative: admissibility lost" if leaving
                               else "becomes positive: admissibility regained"),
@@ -954,7 +954,6 @@ class ContinuationEngine:
         function missing or not finite at either end raises nothing, nor does one that is
         exactly zero at ``a`` (that zero was recorded by the step that reached it)."""
         found: list[Event] = []
-        kinds = self.problem.event_function_kinds
         for name, fb in b.event_values.items():
             fa = a.event_values.get(name, np.nan)
             if not (np.isfinite(fa) and np.isfinite(fb)) or fa == 0.0:
@@ -972,7 +971,7 @@ class ContinuationEngine:
                                          "is not on the step's arc")
                     self.unlocated_events += 1
                     continue
-                found.append(Event(kinds.get(name, "grazing"), p,
+                found.append(Event(self.problem.monitor_kind("function", name), p,
                                    f"event function '{name}' vanishes ({flo:+.3g} -> "
                                    f"{fhi:+.3g})",
                                    data={"function": name, "value_before": float(flo),
@@ -1025,7 +1024,7 @@ class ContinuationEngine:
             p = b if hi >= b.s - a.s else (self._point_at(a, b, hi) or b)
         else:
             p = self.full(p)
-        kind = self.problem.test_kinds.get(name, "grazing")
+        kind = self.problem.monitor_kind("test", name)
         return Event(kind, p, f"test function '{name}' "
                      + ("ceases to be defined" if was else "becomes defined"),
                      data={"test": name, "defined_before": bool(vl),

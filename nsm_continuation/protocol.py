@@ -351,6 +351,17 @@ class Problem(ABC):
     #: event function name -> event kind raised at its zeros (functions not listed raise
     #: ``grazing``); see :meth:`event_functions`
     event_function_kinds: ClassVar[dict[str, str]] = {}
+    #: the kind raised by a test or event function that ``test_kinds`` /
+    #: ``event_function_kinds`` do not list
+    default_monitor_kind: ClassVar[str] = "grazing"
+
+    def monitor_kind(self, source: str, name: str) -> str:
+        """The event kind a zero of the monitor ``name`` raises: ``source`` is ``"test"`` (an
+        admissibility test, :attr:`test_kinds`) or ``"function"`` (an event function,
+        :attr:`event_function_kinds`); unlisted ones raise :attr:`default_monitor_kind`. The
+        engine's events and the located curves' conditions both read this."""
+        kinds = self.test_kinds if source == "test" else self.event_function_kinds
+        return kinds.get(name, self.default_monitor_kind)
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
         """Named continuous test functions, ``>= 0`` where ``y`` is admissible (physically
