@@ -37,7 +37,7 @@ from pydantic import ValidationError
 from . import cases, registry
 from .cases import Case, CaseError
 from .protocol import Problem, StartPoint
-from .records import Branch, Point
+from .records import Branch, OrbitTrace, Point
 from .results import branch_rows, build_report, event_record, termination_text, write_outputs
 from .runner import RunResult, run_case
 
@@ -320,6 +320,38 @@ class Result:
         case, problem = cases.validate(raw, restart_record=record,
                                        problem_class=type(self.problem))
         return Result(run_case(case, problem, progress=False))
+
+    def orbit(self, branch: int = 0, point: int = -1, periods: int = 1) -> OrbitTrace:
+        """The periodic orbit at row ``point`` of branch ``branch`` (a negative row counts from
+        the end) over ``periods`` periods (:meth:`Problem.orbit
+        <nsm_continuation.protocol.Problem.orbit>`): time ``t``, named ``signals``, their
+        ``labels``, impact ``marks``, sticking ``intervals`` and the family's ``views``.
+        ``ValueError`` if the problem does not draw its orbits."""
+        from .orbits import problem_of
+
+        br = self.run_result.branches[branch]
+        p = br.points[point]
+        trace = problem_of(self.run_result, br, p).orbit(p.y, int(periods))
+        if trace is None:
+            raise ValueError(f"problem {self.problem.name!r} does not draw its orbits "
+                             "(Problem.orbit is not implemented)")
+        return trace
+
+    def plot_orbits(self, points: Sequence[str | float] = ("first", "last"),
+                    view: str = "time", ax: Any = None, periods: int = 1,
+                    log: Sequence[str] = ()) -> Any:
+        """An orbit figure as the case key ``output.orbits`` draws it
+        (:mod:`nsm_continuation.orbits`): the ``view`` (``time``, ``phase`` or ``manifold``)
+        of the orbits at ``points`` (``first``, ``last``, ``events``, an event kind or a value
+        of the continued parameter), on ``ax`` (a new figure if None; the time view then
+        draws its first signal only). Returns the matplotlib Figure; :class:`CaseError`
+        naming the argument for a point or view it does not know."""
+        from . import orbits
+
+        if view not in cases.ORBIT_VIEWS:
+            raise CaseError(f"view: {view!r} is not one of {', '.join(cases.ORBIT_VIEWS)}")
+        cases.check_orbits(list(points), self.problem, "plot_orbits")
+        return orbits.plot(self.run_result, list(points), view, ax, int(periods), log)
 
     def plot(self, ax: Any = None) -> Any:
         """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);

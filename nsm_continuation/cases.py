@@ -151,6 +151,43 @@ class AnalysisSpec(BaseModel):
     max_multiplier_step: PosFloat = 0.02
 
 
+#: the views of ``output.orbits`` (:mod:`nsm_continuation.orbits`): signals against t / T, a
+#: phase portrait, a 3-D projection of orbits along the first branch
+ORBIT_VIEWS = ("time", "phase", "manifold")
+#: the words of ``output.orbits.points`` besides event kinds and numbers
+ORBIT_POINT_WORDS = ("first", "last", "events")
+#: most points ``output.orbits.points`` may select (one line per point in a figure)
+MAX_ORBIT_POINTS = 12
+OrbitView = Literal["time", "phase", "manifold"]
+Name = Annotated[str, Field(min_length=1, max_length=100, strict=True)]
+
+
+class OrbitsSpec(BaseModel):
+    """``output.orbits``: figures of the periodic orbits at chosen points
+    (:mod:`nsm_continuation.orbits`, from :meth:`Problem.orbit
+    <nsm_continuation.protocol.Problem.orbit>`). ``points``: ``first`` / ``last`` (of each
+    branch), ``events`` (every located event but the branch ends), an event kind (every event
+    of that kind) or a number (the point nearest that value of ``continuation.parameter``);
+    ``views``: ``time`` (``orbits_time.png``), ``phase`` (``orbits_phase.png``), ``manifold``
+    (``manifold.png``: orbits spread along the first branch); ``periods``: periods drawn per
+    orbit; ``log``: signals of the time view drawn as ``|value|`` on a log scale;
+    ``branches``: the branch ids drawn (default all); ``figures``: a caption per view (e.g.
+    the paper figure it reproduces), put in its title."""
+
+    model_config = ConfigDict(extra="forbid")
+    points: Annotated[list[Name | Finite], Field(min_length=1, max_length=MAX_ORBIT_POINTS)
+                      ] = ["first", "last"]
+    views: Annotated[list[OrbitView], Field(min_length=1), AfterValidator(_unique)] = [
+        "time", "phase"]
+    periods: Annotated[int, Field(ge=1, le=50, strict=True)] = 1
+    log: list[Name] = []
+    #: the branches (ids, as in ``branch_<id>.csv``) the points and the manifold are taken
+    #: from; default every branch (the manifold: the first with points)
+    branches: Annotated[list[Annotated[int, Field(ge=0, strict=True)]], Field(min_length=1),
+                        AfterValidator(_unique)] | None = None
+    figures: dict[OrbitView, Annotated[str, Field(max_length=200, strict=True)]] = {}
+
+
 class OutputSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     dir: Annotated[str, Field(min_length=1, strict=True)] | None = None
@@ -163,6 +200,8 @@ class OutputSpec(BaseModel):
     #: ``[d, q2]`` (default: the problem's diagram axes)
     axes: Annotated[list[Annotated[str, Field(min_length=1, strict=True)]],
                     Field(min_length=2, max_length=2)] | None = None
+    #: figures of the periodic orbits at chosen points (default None: none)
+    orbits: OrbitsSpec | None = None
 
 
 #: the protocols of a Dask scheduler's address
@@ -537,6 +576,8 @@ def _check_diagram(case: Case, problem: Problem) -> None:
             if name not in known:
                 raise CaseError(f"output.axes[{i}]: {name!r} is not a quantity of problem "
                                 f"{case.problem!r} (one of: {', '.join(known)})")
+    if case.output.orbits is not None:
+        check_orbits(case.output.orbits.points, problem, "output.orbits")
     spec = case.analysis.branch_switching
     if spec is None:
         return
@@ -560,6 +601,21 @@ def _check_diagram(case: Case, problem: Problem) -> None:
     if not case.analysis.bifurcations:
         raise CaseError("analysis.branch_switching: needs analysis.bifurcations: true (the "
                         "branches start at the detected points)")
+
+
+def check_orbits(points: list[str | float], problem: Problem, key: str) -> None:
+    """Orbit figures (``output.orbits``, ``Result.plot_orbits``) need a problem that draws its
+    orbits (:meth:`Problem.orbit` overridden), and each named point is ``first``, ``last``,
+    ``events`` or an event kind of the problem: else a :class:`CaseError` naming ``key``."""
+    if type(problem).orbit is Problem.orbit:
+        raise CaseError(f"{key}: problem {problem.name!r} does not draw its orbits "
+                        "(Problem.orbit is not implemented)")
+    kinds = [k for k in problem.all_event_kinds() if k != "endpoint"]
+    for i, entry in enumerate(points):
+        if isinstance(entry, str) and entry not in ORBIT_POINT_WORDS and entry not in kinds:
+            raise CaseError(f"{key}.points[{i}]: {entry!r} is not first, last, events, a "
+                            f"number or an event kind of problem {problem.name!r} (one of: "
+                            f"{', '.join(kinds)})")
 
 
 def _validate_restart(case: Case, problem: Problem, resolved: tuple[Any, ...],

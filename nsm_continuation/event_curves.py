@@ -379,6 +379,7 @@ class CurveTracer:
             y0[ip] = centre - sign * width
             engine: ContinuationEngine = StartTangentEngine(
                 base, self._inner_settings(centre, width, sign, rate))
+            engine.recharts = False  # the event's unknowns are those of the curve's chart
             # Newton at fixed parameter first; along the base branch's tangent (well posed
             # at a fold) where that fails
             for t in (None, tangent) if tangent is not None else (None,):

@@ -109,6 +109,13 @@ class ContinuationEngine:
         self._retry_allowed = False
         #: running minimum of each monitored quantity along the current half-branch
         self._monitor_min: dict[str, float] = {}
+        #: every move to another chart in the run (:meth:`_rechart`), for the report
+        self.rechart_notes: list[str] = []
+        #: whether the problem may move its branches to another chart (off: the inner
+        #: continuations of a two-parameter curve, whose unknowns are in the curve's chart)
+        self.recharts = True
+        #: sign changes of an event function that are not zeros (poles, jumps: no event)
+        self.sign_changes_without_zero = 0
 
     # ------------------------------------------------------------------ linear algebra
     # every solve is with the bordered matrix [G_y(y); r^T], factorised by the problem
@@ -202,7 +209,7 @@ class ContinuationEngine:
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
             circle_tol=circle_tol,
             signature=pr.signature(y) if pr.signature_kind is not None else None,
-            event_values=event_values,
+            event_values=event_values, chart=pr.chart(),
         )
 
     def _floquet(self, y: np.ndarray, t: np.ndarray) -> FloquetData | None:
@@ -251,6 +258,7 @@ class ContinuationEngine:
     def run(self, start: StartPoint, branch_id: int = 0) -> Branch:
         """Continue the branch through ``start``; never raises: every failure, numerical or
         not, ends the branch (or the half-branch) with a recorded reason."""
+        moved_before = len(self.rechart_notes)
         try:
             p0, why = self.correct_start(start)
         except Exception as exc:  # a bug in a hook must not take the whole run down
@@ -287,7 +295,10 @@ class ContinuationEngine:
                 points = points + pts
             events.extend(evs)
         events.sort(key=lambda ev: ev.point.s)
-        return Branch(branch_id, start.label, points, events, termination, dict(start.info))
+        info = dict(start.info)
+        if len(self.rechart_notes) > moved_before:
+            info["chart_moves"] = self.rechart_notes[moved_before:]
+        return Branch(branch_id, start.label, points, events, termination, info)
 
     def _continue_one_direction(self, p0: Point) -> tuple[list[Point], list[Event], str]:
         """One half-branch from ``p0``: ``(points, events, termination reason)``. Never raises:
@@ -295,11 +306,39 @@ class ContinuationEngine:
         ``internal error: Type: message``, keeping the points computed so far."""
         pts = [p0]
         events: list[Event] = []
+        base = self.problem
         try:
             reason = self._walk(pts, events)
         except Exception as exc:  # noqa: BLE001 - recorded, never raised
             reason = f"internal error: {type(exc).__name__}: {exc}"
+        finally:  # the other half starts from p0, in p0's chart
+            self.problem = base
         return pts, events, reason
+
+    def _rechart(self, pts: list[Point]) -> None:
+        """Move to the problem's new chart where it asks for one (:meth:`Problem.rechart`):
+        the last point is replaced by the same orbit analysed in the new unknowns, at the same
+        arclength, and the rest of the half-branch is continued with the new problem."""
+        a = pts[-1]
+        if not self.recharts:
+            return
+        try:
+            moved = self.problem.rechart(a.y, a.tangent)
+        except (*NUMERICAL_ERRORS, EvaluationError):
+            return  # no better chart: go on in this one
+        if moved is None:
+            return
+        previous = self.problem
+        self.problem = moved.problem
+        try:
+            pts[-1] = self.analyse(np.asarray(moved.y, dtype=float),
+                                   np.asarray(moved.tangent, dtype=float), a.s,
+                                   a.newton_iterations)
+        except NUMERICAL_ERRORS:
+            self.problem = previous
+            return
+        self.rechart_notes.append(f"{moved.note} (at {self.problem.parameter} = "
+                                  f"{a.y[self.ip]:.10g})")
 
     def _walk(self, pts: list[Point], events: list[Event]) -> str:
         """Steps from ``pts[-1]``, appending accepted points and located events in place;
@@ -319,6 +358,7 @@ class ContinuationEngine:
         why = ""
         self._monitor_min = {}
         while len(pts) < st.max_points:
+            self._rechart(pts)
             a = pts[-1]
             res = STEP_RESOLUTION * (1.0 + float(np.linalg.norm(a.y, np.inf)))
             if h < res:
@@ -462,6 +502,8 @@ class ContinuationEngine:
             pg = self.analyse(yg, prev.tangent, prev.s + float(np.linalg.norm(yg - prev.y)),
                               floquet=False)
             d = y1 - yg
+            if not self._kink_is_real(name, value, pg, prev, d):
+                return None
             p1 = self.analyse(y1, self.tangent(y1, d / np.linalg.norm(d)),
                               pg.s + float(np.linalg.norm(d)))
         except (*NUMERICAL_ERRORS, EvaluationError):
@@ -489,6 +531,22 @@ class ContinuationEngine:
         if self.progress is not None:
             self.progress(len(path) + 2)
         return [*path, pg, p1], found
+
+    def _kink_is_real(self, name: str, value: float, zero: Point, prev: Point,
+                      beyond: np.ndarray) -> bool:
+        """The problem's kink point is a zero of the event function (to ``1e-6`` of the value
+        it started from, or where the function is not defined: a grazing orbit whose margin
+        is exactly where the event sequence changes) and the point beyond it leaves the zero
+        away from the side the branch came from (its step does not turn back onto the
+        approach, which would retrace the branch)."""
+        fz = zero.event_values.get(name, np.nan)
+        if np.isfinite(fz) and abs(fz) > 1e-6 * max(abs(value), 1e-300):
+            return False
+        back = zero.y - prev.y
+        nb, nd = float(np.linalg.norm(back)), float(np.linalg.norm(beyond))
+        if nb == 0.0 or nd == 0.0:
+            return True
+        return bool(beyond @ back / (nb * nd) > -0.99)
 
     def _step_length(self, pts: list[Point], h: float, res: float
                      ) -> tuple[float, float | None] | None:
@@ -970,6 +1028,11 @@ class ContinuationEngine:
                         raise _RetryStep(f"event function '{name}' changes sign but its zero "
                                          "is not on the step's arc")
                     self.unlocated_events += 1
+                    continue
+                if not abs(fun(p)) < min(abs(flo), abs(fhi)):
+                    # the sign changed through a pole or a jump (e.g. a margin -v^2/(2a) as
+                    # the acceleration at an impact passes zero), not a zero: no event
+                    self.sign_changes_without_zero += 1
                     continue
                 found.append(Event(self.problem.monitor_kind("function", name), p,
                                    f"event function '{name}' vanishes ({flo:+.3g} -> "

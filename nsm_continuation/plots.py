@@ -316,8 +316,9 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
 
 def make_all(res: RunResult, out: Path) -> list[str]:
     """Every figure of a run written into ``out`` (the branch diagram, the multipliers, the
-    problem's own figures, the bifurcation diagram of a tree): their file names, in this
-    order. Drawn in two processes where that is possible (:func:`in_two_processes`)."""
+    problem's own figures, the bifurcation diagram of a tree, the orbit figures of
+    ``output.orbits``, :mod:`nsm_continuation.orbits`): their file names, in this order.
+    Drawn in two processes where that is possible (:func:`in_two_processes`)."""
 
     def branch_diagram() -> list[str]:
         if res.branches and any(br.points for br in res.branches):
@@ -343,7 +344,15 @@ def make_all(res: RunResult, out: Path) -> list[str]:
 
         return ["diagram.png"] if figure(res, out / "diagram.png") else []
 
-    return in_two_processes([branch_diagram, along, plane, problem_figures, tree])
+    def orbit_figures() -> list[str]:
+        if res.case.output.orbits is None:
+            return []
+        from .orbits import make_figures
+
+        return make_figures(res, out)
+
+    return in_two_processes([branch_diagram, along, plane, problem_figures, tree,
+                             orbit_figures])
 
 
 #: :func:`in_two_processes` forks only here (POSIX ``fork`` without the macOS caveats)

@@ -23,7 +23,9 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
 
    - *unknowns & parameter*: ``variables``, ``parameter``, ``algorithms`` (the continuation
      algorithms that can continue the problem, :mod:`nsm_continuation.algorithms`),
-     ``energy_quantity`` / ``energy_cap``;
+     ``energy_quantity`` / ``energy_cap``; charts: :meth:`rechart` (the same orbit in
+     other unknowns, where the present ones degenerate: a forced hybrid system's section
+     moved off an impact) and :meth:`in_chart` (the problem a point's ``chart`` belongs to);
    - *residual & Jacobian*: :meth:`residual` or :meth:`evaluate` / :meth:`jacobian`; with
      structure, :meth:`bordered_factor` / :meth:`residual_and_factor` (the engine's bordered
      systems, :mod:`nsm_continuation.bordered`; dense by default);
@@ -47,7 +49,10 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      ``diagram_title``, ``diagram_yscale``), CSV and report columns (``csv_head``,
      ``event_columns``), figures and report extras, all pure functions of the results
      (:meth:`plot_decorations`, :meth:`legend_handles`, :meth:`extra_plots`,
-     :meth:`report_extras`, :meth:`summary`, :meth:`warnings`);
+     :meth:`report_extras`, :meth:`summary`, :meth:`warnings`), and the periodic orbit at a
+     point sampled in time (:meth:`orbit`, an :class:`~nsm_continuation.records.OrbitTrace`
+     with the family's default views; default None: no orbit figures), which the generic
+     orbit figures of ``output.orbits`` draw (:mod:`nsm_continuation.orbits`);
    - *restart & two-parameter curves*: :meth:`period_multiple`, :meth:`iterated`,
      :meth:`with_parameters`, :meth:`restart_start`, :meth:`parameters_block` (the
      parameters written to the restart record; default the ``params`` model, dumped) and
@@ -70,7 +75,7 @@ import numpy as np
 from pydantic import BaseModel, TypeAdapter
 
 from .bordered import BorderedFactor, DenseBorderedFactor
-from .records import CORE_EVENT_KINDS, register_event_kinds
+from .records import CORE_EVENT_KINDS, OrbitTrace, register_event_kinds
 
 
 class EvaluationError(RuntimeError):
@@ -110,6 +115,18 @@ class KinkCrossing:
     approach: list[np.ndarray]
     zero: np.ndarray
     beyond: np.ndarray
+
+
+@dataclass
+class Rechart:
+    """The same solution in another chart (:meth:`Problem.rechart`): the ``problem`` whose
+    unknowns are the new chart's (its :meth:`Problem.chart` names it), the point ``y`` and the
+    unit ``tangent`` of the branch in them, and a one-line ``note`` for the report."""
+
+    problem: Problem
+    y: np.ndarray
+    tangent: np.ndarray
+    note: str
 
 
 @dataclass
@@ -397,6 +414,25 @@ class Problem(ABC):
         branch is smooth through the zero, or the problem cannot resolve it there."""
         return None
 
+    def rechart(self, y: np.ndarray, tangent: np.ndarray) -> Rechart | None:
+        """The point ``y`` (unit tangent ``tangent``) in new unknowns where the present ones are
+        about to degenerate, or None (the default: one chart for the whole branch). The engine
+        asks at every accepted point; after a move it continues with ``Rechart.problem``, whose
+        :meth:`chart` every later point records (``Point.chart``). Multipliers, derived
+        quantities and event functions are those of the orbit, the same in every chart."""
+        return None
+
+    def chart(self) -> dict[str, float] | None:
+        """The numbers that name the chart of this problem's unknowns where it is not the
+        declared one (e.g. ``{"phase": 3.46}``, a moved section), else None."""
+        return None
+
+    def in_chart(self, chart: dict[str, float] | None) -> Problem:
+        """The problem whose unknowns are those of ``chart`` (a ``Point.chart``; None: the
+        declared one): what reads a point's ``y`` after the run (restarts, orbit figures) asks
+        it first."""
+        return self
+
     def derived(self, y: np.ndarray) -> dict[str, float]:
         """Named derived quantities (period, frequency, energy, ...) written with each point."""
         return {}
@@ -494,6 +530,17 @@ _locate_collision`)."""
                     window: tuple[float | None, float | None]) -> list[str]:
         """Write problem-specific figures into ``out_dir``; return their file names."""
         return []
+
+    def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace | None:
+        """The periodic orbit at the unknowns ``y``, sampled densely over ``periods`` periods
+        from ``t = 0`` (the state ``y`` describes): named signals with their axis labels,
+        marked instants (impacts), intervals (sticking) and the family's default views
+        (``time``, ``phase``, optionally ``manifold``), drawn by the orbit figures of
+        ``output.orbits`` (:mod:`nsm_continuation.orbits`) and ``Result.orbit``. May raise
+        :class:`EvaluationError` where the orbit cannot be computed (the figure skips that
+        point). Default None: the problem has no orbit figures (``output.orbits`` is refused
+        before computing)."""
+        return None
 
     def summary(self) -> dict[str, Any]:
         """Problem facts for the report (linear frequencies, coefficients, ...)."""

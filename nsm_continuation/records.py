@@ -1,7 +1,9 @@
 """The records a continuation produces: :class:`Point` (one solution and everything computed
 there), :class:`Event` (a located change along a branch) and :class:`Branch`. Every algorithm
 (:mod:`nsm_continuation.palc`, :mod:`nsm_continuation.lattice`) returns them, and the outputs
-(:mod:`nsm_continuation.results`, :mod:`nsm_continuation.plots`) read only them."""
+(:mod:`nsm_continuation.results`, :mod:`nsm_continuation.plots`) read only them.
+:class:`OrbitTrace` is the periodic orbit at one point, sampled in time
+(:meth:`nsm_continuation.protocol.Problem.orbit`), drawn by :mod:`nsm_continuation.orbits`."""
 
 from __future__ import annotations
 
@@ -85,6 +87,9 @@ class Point:
     #: values of the problem's event functions (``Problem.event_functions``): a zero between
     #: two points is located and raises an event, but never ends the branch
     event_values: dict[str, float] = field(default_factory=dict)
+    #: the chart of ``y`` when the problem moved to another one on the way
+    #: (``Problem.rechart``; ``Problem.in_chart`` gives its problem); None: the problem's own
+    chart: dict[str, float] | None = None
 
     @property
     def admissible(self) -> bool:
@@ -117,3 +122,41 @@ class Branch:
     @property
     def n_points(self) -> int:
         return len(self.points)
+
+
+@dataclass(frozen=True)
+class OrbitTrace:
+    """The periodic orbit at one point of a branch, sampled densely in time
+    (:meth:`nsm_continuation.protocol.Problem.orbit`; drawn by :mod:`nsm_continuation.orbits`).
+
+    ``t`` runs from 0 (the state the problem's unknowns describe: the post-impact state of the
+    chain, the Poincare section of a hybrid orbit) over ``periods`` periods of length
+    ``period``; an instant may appear twice (the states before and after an impact).
+    ``signals`` are named time series sampled at ``t`` (e.g. ``u5``, ``du5``, ``X``, ``dY``),
+    ``labels`` their axis labels (units, LaTeX), ``marks`` instants ``(t, kind)`` such as
+    impacts, ``intervals`` spans ``(t0, t1, kind)`` such as sticking phases, and ``views`` the
+    family's default views: ``"time": (signal, ...)`` (each against ``t / period``),
+    ``"phase": (x, y)`` and optionally ``"manifold": (a, b, c)`` (a 3-D projection drawn for
+    many orbits along a branch)."""
+
+    t: np.ndarray
+    period: float
+    signals: dict[str, np.ndarray]
+    labels: dict[str, str] = field(default_factory=dict)
+    marks: list[tuple[float, str]] = field(default_factory=list)
+    intervals: list[tuple[float, float, str]] = field(default_factory=list)
+    views: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def label(self, name: str) -> str:
+        """The axis label of signal ``name`` (its name if none is declared)."""
+        return self.labels.get(name, name)
+
+    def at(self, name: str, t: float) -> float:
+        """Signal ``name`` at time ``t`` (linear interpolation between samples; at a repeated
+        instant, the later sample: the state after an impact)."""
+        k = int(np.searchsorted(self.t, t, side="right")) - 1
+        k = min(max(k, 0), self.t.size - 1)
+        if k + 1 < self.t.size and self.t[k + 1] > self.t[k] and t > self.t[k]:
+            w = (t - self.t[k]) / (self.t[k + 1] - self.t[k])
+            return float((1.0 - w) * self.signals[name][k] + w * self.signals[name][k + 1])
+        return float(self.signals[name][k])

@@ -292,6 +292,13 @@ def markdown(rep: dict[str, Any]) -> str:
         lines.append(f"| {b['id']} | {b['label']} | {link_text(b.get('parent'))} | "
                      f"{b['n_points']} | {b['admissible_points']} | {rng} | "
                      f"{b['termination']} |")
+    moves = [(b["id"], m) for b in rep["branches"] for m in b.get("info", {}).get(
+        "chart_moves", [])]
+    if moves:
+        lines += ["", "Unknowns moved to another chart on the way (the same orbits; each "
+                  "row of the CSV is in the chart its `section_*` column names, and a "
+                  "restart reads it there):", ""]
+        lines += [f"- branch {i}: {m}" for i, m in moves]
     lines += ["", *_tree_lines(rep)]
     cols = list(rep.get("event_columns") or [])
     par = rep["continuation"]["parameter"]

@@ -222,7 +222,12 @@ def restart_block(res: RunResult) -> dict[str, Any]:
             p = ev.point
             events.append({"kind": ev.kind, "index": n, "row": rows.get(id(p)),
                            "parameter": float(p.y[pr.parameter_index]), "s": float(p.s),
-                           "y": _floats(p.y), "tangent": _floats(p.tangent)})
+                           "y": _floats(p.y), "tangent": _floats(p.tangent)}
+                          | ({"chart": dict(p.chart)} if p.chart else {}))
+        # the rows from which the unknowns are in another chart (Problem.rechart)
+        charts = [{"from_row": k, "chart": dict(p.chart or {})}
+                  for k, p in enumerate(br.points)
+                  if (p.chart or None) != (br.points[k - 1].chart or None if k else None)]
         multiple = br.info.get("period_multiple", br.info.get("returns"))
         bpr = res.branch_problems.get(br.id, pr)
         branches.append({
@@ -231,7 +236,7 @@ def restart_block(res: RunResult) -> dict[str, Any]:
             "parameter": pr.parameter,
             "period_multiple": (int(multiple) if multiple is not None
                                 else period_multiple(bpr)),
-            "events": events})
+            "events": events} | ({"charts": charts} if charts else {}))
     block = {"format": RESTART_FORMAT, "version": RESTART_VERSION, "tool_version": __version__,
              "problem": problem_name, "parameters": parameters,
              "continued": res.case.continuation.parameter, "branches": branches}
@@ -336,6 +341,9 @@ class Selection:
             return None
         return np.asarray(self.event["tangent"], dtype=float)
 
+    #: the chart of ``y`` (``Point.chart``; None: the problem's own), set by :func:`select`
+    chart: dict[str, float] | None = None
+
 
 def _kinds(events: list[dict[str, Any]]) -> str:
     counts: dict[str, int] = {}
@@ -386,7 +394,7 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
         ev = evs[index]
         y = np.asarray(ev["y"], dtype=float)
         what = f"{kind} #{index} of branch {br['id']}"
-        sel = Selection(br, y, ev, what)
+        sel = Selection(br, y, ev, what, ev.get("chart") or None)
     else:
         assert spec.point is not None
         row = spec.point if spec.point >= 0 else n + spec.point
@@ -394,7 +402,9 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
             raise _case_error(f"start.point: {where} has {n} points (rows 0..{n - 1}), not "
                               f"{spec.point}")
         y = _csv_row(record, br, row)
-        sel = Selection(br, y, None, f"point {row} of branch {br['id']}")
+        moves = [c for c in br.get("charts", []) if int(c["from_row"]) <= row]
+        sel = Selection(br, y, None, f"point {row} of branch {br['id']}",
+                        (moves[-1]["chart"] or None) if moves else None)
     if y.size != len(br["variables"]) or not np.all(np.isfinite(y)):
         raise _case_error(f"start.from: the unknowns of {sel.what} in {record.label} are not "
                           f"{len(br['variables'])} finite numbers")
@@ -693,6 +703,8 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
     if base is None:
         raise _case_error(f"start.from: {sel.what} of {record.label} is an orbit of {k} base "
                           f"periods, which problem {problem.name!r} cannot represent")
+    # the point's unknowns are those of its chart (the run may have moved its section)
+    base = base.in_chart(sel.chart)
     cs = curve_of(spec, record)
     if cs is not None:
         from .event_curves import curve_kind_refusal

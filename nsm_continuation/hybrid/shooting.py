@@ -64,8 +64,10 @@ import casadi as ca
 import numpy as np
 
 from ..preflight import one_or_many
-from ..protocol import EvaluationError, FloquetData, KinkCrossing, Problem
+from ..protocol import EvaluationError, FloquetData, KinkCrossing, Problem, Rechart
+from ..records import OrbitTrace
 from .grazing import locate_grazing, step_beyond, tangent_beyond
+from .orbit_trace import OrbitDeclarations, orbit_trace
 from .presentation import HybridPresentation
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
 from .system import CompiledHybrid
@@ -339,7 +341,7 @@ def period_reach(c: float, mu: float, p: float, resolution: float | None = None)
     return float(c + np.log(1.0 / res) / mu)
 
 
-class HybridShootingProblem(HybridPresentation, Problem):
+class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
     """Base class of shooting problems on a hybrid system (the concrete problem builds
     ``self.shooting`` in ``__init__`` and sets ``variables`` / ``parameter``).
 
@@ -378,8 +380,142 @@ class HybridShootingProblem(HybridPresentation, Problem):
                                              # continued in the period: where it is no
                                              # longer resolved in double precision
                                              "period_uncertainty": "homoclinic_approach"}
+    #: a section on the clock of a forced system is moved (:meth:`rechart`) once an event of
+    #: the orbit (an impact, a chattering sequence, a release, a near approach, a sticking
+    #: phase) comes within this fraction of the period of it
+    SECTION_CLEARANCE: ClassVar[float] = 0.002
+    #: the events that put the orbit on, or next to, the impact surface
+    SURFACE_EVENTS: ClassVar[tuple[str, ...]] = (
+        "impact", "chatter", "chatter_broken", "release", "near_approach", "plastic_stick")
+    #: a near approach closer to the surface than this fraction of the orbit's extent (the
+    #: largest range of a position over the period) counts among them
+    NEAR_APPROACH: ClassVar[float] = 0.05
+
     def residual(self, y: Any) -> Any:  # pragma: no cover - numeric problem
         raise NotImplementedError("hybrid shooting problems evaluate numerically")
+
+    # ------------------------------------------------------------------ charts
+    def _clock_section(self) -> Section | None:
+        """The section when it lies on the clock of a forced system (it can then be placed at
+        any phase), else None."""
+        sh = self.shooting
+        clock = self.hybrid.clock_index
+        if type(sh) is not HybridShooting or clock is None or sh.section.index != clock:
+            return None
+        return sh.section
+
+    def section_clearance(self, y: np.ndarray) -> tuple[float, float] | None:
+        """``(clearance, phase)``: the time from the section to the nearest event that puts
+        the orbit on or next to the impact surface (:data:`SURFACE_EVENTS`, and every sticking
+        phase), as a fraction of the period, and the fraction of the period at the middle of
+        the longest stretch free of them. None without a clock section, a simulation or such
+        an event.
+
+        A section must not sit on such an event: the state at the section then jumps along the
+        branch (pre- to post-impact as the impact time crosses the section's), or the section
+        state lies on the surface (a grazing at the section), and the shooting residual is
+        discontinuous there (issue 11, F1/F2)."""
+        if self._clock_section() is None:
+            return None
+        res = self.sim(y)
+        if res is None or not res.t > 0:
+            return None
+        P = float(res.t)
+        # a near approach far from the surface is no event of the surface: one counts where
+        # its distance H_min is below NEAR_APPROACH of the orbit's extent in its positions
+        span = np.inf
+        if res.extremes is not None:
+            k = self.hybrid.n_config or self.hybrid.n
+            span = float(np.max(res.extremes[:k, 1] - res.extremes[:k, 0]))
+        busy = [(ev.t / P, ev.t / P) for ev in res.events if ev.kind in self.SURFACE_EVENTS
+                and not (ev.kind == "near_approach"
+                         and ev.info.get("H", 0.0) > self.NEAR_APPROACH * span)]
+        busy += [(a / P, b / P) for a, b in res.sticking_intervals]
+        if not busy:
+            return None
+        busy.sort()
+        clearance = min(min(a, 1.0 - b) for a, b in busy)
+        merged = [list(busy[0])]
+        for a, b in busy[1:]:
+            if a <= merged[-1][1]:
+                merged[-1][1] = max(merged[-1][1], b)
+            else:
+                merged.append([a, b])
+        # the free stretches between busy ones, the last one round the end of the period
+        gaps = [(merged[k + 1][0] - merged[k][1], merged[k][1])
+                for k in range(len(merged) - 1)]
+        gaps.append((merged[0][0] + 1.0 - merged[-1][1], merged[-1][1]))
+        width, left = max(gaps)
+        return max(clearance, 0.0), float((left + 0.5 * width) % 1.0)
+
+    def rechart(self, y: np.ndarray, tangent: np.ndarray) -> Rechart | None:
+        """Move a clock section off the orbit's impacts (:meth:`section_clearance` below
+        :data:`SECTION_CLEARANCE`) to the middle of the longest stretch without one: the state
+        there is the flow of the present section state (one simulation, whose sensitivity maps
+        the tangent: ``dz'/dz = P_z``, ``dz'/dp = P_p`` at the new section, the parameters
+        unchanged). The orbit, its multipliers and derived quantities are the same."""
+        sec = self._clock_section()
+        found = self.section_clearance(y)
+        if sec is None or found is None or found[0] >= self.SECTION_CLEARANCE:
+            return None
+        fraction = found[1]
+        sh = self.shooting
+        value = sec.value + sec.shift * fraction
+        period = abs(sec.shift)
+        new_value = float(value % period) if period > 0 else float(value)
+        try:
+            res = sh.sim.run(sh.x0(y), section=(sec.index, value, sec.direction))
+        except (SimulationError, HybridDeclarationError):
+            return None
+        if res.J is None:
+            return None
+        c = sh.c
+        fi = sh.free_idx
+        cols = fi + list(range(c.n, c.N))
+        y_new = np.concatenate([res.X[fi], np.asarray(y, dtype=float)[c.n - 1:]])
+        D = np.eye(len(y))
+        D[: len(fi), :] = res.J[np.ix_(fi, cols)]
+        t_new = D @ np.asarray(tangent, dtype=float)
+        norm = float(np.linalg.norm(t_new))
+        if not (np.isfinite(norm) and norm > 0 and np.all(np.isfinite(y_new))):
+            return None
+        name = self.hybrid.state_names[sec.index]
+        return Rechart(self.in_chart({name: new_value}), y_new, t_new / norm,
+                       f"Poincare section moved from {name} = {sec.value:.6g} to "
+                       f"{new_value:.6g}: an event of the orbit came within "
+                       f"{found[0]:.2g} of a period of it")
+
+    #: the value of the section coordinate that the problem declares (:meth:`chart` is None
+    #: there); set where the shooting problem is built
+    declared_section: float | None = None
+
+    def chart(self) -> dict[str, float] | None:
+        """``{clock name: section value}`` where a clock section was moved (:meth:`rechart`)
+        from the declared one, else None."""
+        sec = self._clock_section()
+        if sec is None or self.declared_section is None or sec.value == self.declared_section:
+            return None
+        return {self.hybrid.state_names[sec.index]: float(sec.value)}
+
+    def in_chart(self, chart: dict[str, float] | None) -> HybridShootingProblem:
+        """This problem with its clock section at ``chart``'s value of the clock (a
+        :meth:`rechart`), or at the declared one for None; itself where that is where it is,
+        or for a chart of another coordinate."""
+        sec = self._clock_section()
+        if sec is None:
+            return self
+        name = self.hybrid.state_names[sec.index]
+        target = (self.declared_section if not chart else chart.get(name))
+        if target is None or float(target) == sec.value:
+            return self
+        chart = {name: float(target)}
+        import copy
+
+        new = copy.copy(self)
+        sh = self.shooting
+        new.shooting = HybridShooting(sh.c, Section(sec.index, float(chart[name]), sec.shift),
+                                      sh.sim.o, sh.cache_size)
+        return new
 
     def evaluate(self, y: np.ndarray) -> np.ndarray:
         return self.evaluate_with_jacobian(y)[0]
@@ -420,6 +556,12 @@ class HybridShootingProblem(HybridPresentation, Problem):
         return FloquetData(multipliers=mult, trivial_error=triv,
                            matrix_norm=float(np.linalg.norm(P, 2)), noise=float(noise))
 
+    def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace:
+        """The orbit at ``y`` simulated again with its trajectory recorded over ``periods``
+        periods, impacts marked and sticking phases as intervals
+        (:func:`~nsm_continuation.hybrid.orbit_trace.orbit_trace`)."""
+        return orbit_trace(self, y, periods)
+
     def sim(self, y: np.ndarray) -> SimResult | None:
         try:
             return self.shooting.simulate(np.asarray(y, dtype=float))
@@ -446,6 +588,9 @@ class HybridShootingProblem(HybridPresentation, Problem):
             "grazing_margin": (float(res.grazing_margin) if np.isfinite(res.grazing_margin)
                                else np.nan),
         }
+        sec = self._clock_section()
+        if sec is not None:  # where the section state was taken (it moves: rechart)
+            out[f"section_{self.hybrid.state_names[sec.index]}"] = float(sec.value)
         if res.extremes is not None:
             names = self.shooting.c.system.state_names
             for k, name in enumerate(names):
@@ -865,6 +1010,7 @@ class HybridCaseProblem(HybridShootingProblem):
         sec = self.section()
         sec = Section(sec.index, sec.value, sec.shift * returns)
         self.shooting = HybridShooting(c, sec, self.integrator.options())
+        self.declared_section = sec.value
         names = self.hybrid.state_names
         self.variables = [names[i] for i in self.shooting.free_idx] + [name]
         self._compiled_for = name
@@ -1103,7 +1249,7 @@ class HybridCaseProblem(HybridShootingProblem):
         section per period (the ``multiple``-times iterated return map)."""
         new = type(self)(self.params)
         new.set_parameter(self.parameter, multiple)
-        return new
+        return new.in_chart(self.chart())
 
     def with_parameters(self, values: dict[str, float]) -> HybridCaseProblem:
         """The same system with ``values`` changed, continued in the same parameter (or in the
@@ -1120,7 +1266,7 @@ class HybridCaseProblem(HybridShootingProblem):
             new._set_period(self.free_parameter, self.returns)
         else:
             new.set_parameter(self.parameter, self.returns)
-        return new
+        return new.in_chart(self.chart())
 
     def curve_parameters(self) -> list[str]:
         """Every parameter of the system (not the ``setting_fields``): a grazing curve

@@ -109,6 +109,9 @@ class HybridSystem:
     #: the parameter that is the rate of the clock of a forced system (``x_3' = omega``), so
     #: that its orbits are presented as frequency responses; None for autonomous systems
     forcing_frequency: str | None = None
+    #: the index of the clock (the forcing's phase) in the state of a forced system: a
+    #: section on it may be moved along the orbit (``HybridShootingProblem.rechart``)
+    clock_index: int | None = None
 
     def __post_init__(self) -> None:
         n = self.x.numel()
@@ -167,7 +170,8 @@ class HybridSystem:
         forcing = None if clock_rate is None else next(
             (k for k, sym in params.items() if ca.is_equal(ca.SX(clock_rate), sym)), None)
         sys = cls(name, x, params, ca.vertcat(*parts_F), H, ca.vertcat(*parts_W), names,
-                  dict(periodic or {}), n_config=nq, forcing_frequency=forcing)
+                  dict(periodic or {}), n_config=nq, forcing_frequency=forcing,
+                  clock_index=2 * nq if clock is not None else None)
         sys._mass = ca.Function("M", [q, *params.values()], [M])  # type: ignore[attr-defined]
         sys._nq = nq  # type: ignore[attr-defined]
         return sys

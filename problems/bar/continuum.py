@@ -534,7 +534,7 @@ class BarContinuumProblem(BarFrequencyEnergy, Problem):
     def signature_of(y: np.ndarray) -> Signature:
         return Signature(int(round(float(y[2]))), int(round(float(y[3]))))
 
-    def orbit(self, y: np.ndarray) -> ContinuumOrbit:
+    def continuum_orbit(self, y: np.ndarray) -> ContinuumOrbit:
         """The normalised orbit at ``y`` (period ``4/omega_ratio`` in units L/c)."""
         return continuum_orbit(self.signature_of(y), 4.0 / float(y[0]))
 
@@ -549,7 +549,7 @@ class BarContinuumProblem(BarFrequencyEnergy, Problem):
 
     # ------------------------------------------------------------------ hooks
     def derived(self, y: np.ndarray) -> dict[str, float]:
-        orb = self.orbit(y)
+        orb = self.continuum_orbit(y)
         unit = self.L / self.c
         mu = orb.mu
         energy = self.energy_of_mu(mu)
@@ -582,7 +582,7 @@ class BarContinuumProblem(BarFrequencyEnergy, Problem):
         * ``cond3_strain = kappa (1 - max|sigma|/E) = mu^2/4 - |g0| |mu| / (2L)``;
         * ``free_phase = t_f/T`` and ``contact_phase = (T - t_f)/T``: the ends of the branch.
         """
-        orb = self.orbit(y)
+        orb = self.continuum_orbit(y)
         mu = orb.mu
         scale = float(np.sign(self.g0)) * mu / 2  # kappa * (natural unit) * sign(A)
         _, P = orb.free_partial_sums

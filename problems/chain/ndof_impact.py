@@ -86,6 +86,7 @@ from nsm_continuation.preflight import (
     start_key,
 )
 from nsm_continuation.protocol import FloquetData, Problem, StartPoint
+from nsm_continuation.records import OrbitTrace
 from nsm_continuation.vocabulary import CanonicalNames, as_parameters
 
 from .trig_sum import TrigSum
@@ -614,6 +615,48 @@ class NDofImpactProblem(Problem):
         p = self.Pinv @ du0
         Pc = self.P[self.c, :]
         return TrigSum(Pc * q, Pc * p / self.omega, self.omega.copy())
+
+    #: samples per period of :meth:`orbit`: at least this many, and at least
+    #: ``ORBIT_SAMPLES_PER_OSCILLATION`` per period of the fastest mode
+    ORBIT_SAMPLES: ClassVar[int] = 600
+    ORBIT_SAMPLES_PER_OSCILLATION: ClassVar[int] = 40
+
+    def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace:
+        """The orbit at ``y`` in closed form: from the post-impact state ``(u(0), u'(0+))``
+        the free flight of the linear chain (eqs. 2.9-2.10, (5.4) for ``u_c``),
+        ``u(t) = P (cos(Omega t) q + Omega^-1 sin(Omega t) p)`` with ``q = P^-1 u(0)``,
+        ``p = P^-1 u'(0+)``, on ``[0, T]`` (the last sample is the state ``u'(T-)`` before
+        the impact), repeated ``periods`` times (the impact law ``u_c'+ = -u_c'-`` maps the
+        state at ``T-`` to the one at ``0``: a fixed point of the return map). Signals
+        ``u1..uN``, ``du1..duN``; views: ``u_c`` against ``t / T`` (Figs. 5.2, 5.7), the phase
+        portrait ``(u_c, u_c')`` (Fig. 5.10) and the manifold ``(u_{c-1}, u_c, u_c')``
+        (Figs. 5.4-5.9, 7.2, 7.4); an impact mark at every ``t = k T``."""
+        u0, du0, T = self.state(y)
+        w = self.omega
+        q, p = self.Pinv @ u0, self.Pinv @ du0
+        n = max(self.ORBIT_SAMPLES,
+                int(np.ceil(self.ORBIT_SAMPLES_PER_OSCILLATION * w.max() * T / (2 * np.pi))))
+        s = np.linspace(0.0, T, n)
+        wt = np.multiply.outer(s, w)
+        cw, sw = np.cos(wt), np.sin(wt)
+        U = (cw * q + sw * (p / w)) @ self.P.T
+        dU = (-sw * (w * q) + cw * p) @ self.P.T
+        k = int(periods)
+        t = np.concatenate([s + j * T for j in range(k)])
+        signals: dict[str, np.ndarray] = {}
+        labels: dict[str, str] = {}
+        for i in range(self.N):
+            signals[f"u{i + 1}"] = np.tile(U[:, i], k)
+            signals[f"du{i + 1}"] = np.tile(dU[:, i], k)
+            labels[f"u{i + 1}"] = rf"displacement $u_{{{i + 1}}}$"
+            labels[f"du{i + 1}"] = rf"velocity $\dot u_{{{i + 1}}}$"
+        c = f"{self.c + 1}"
+        views: dict[str, tuple[str, ...]] = {"time": (f"u{c}",), "phase": (f"u{c}", f"du{c}")}
+        if self.N > 1:
+            other = self.c if self.c > 0 else 2  # the neighbour of the impacting dof (1-based)
+            views["manifold"] = (f"u{other}", f"u{c}", f"du{c}")
+        return OrbitTrace(t=t, period=T, signals=signals, labels=labels,
+                          marks=[(j * T, "impact") for j in range(k + 1)], views=views)
 
     # ------------------------------------------------------------------ hooks
     def admissibility(self, y: np.ndarray) -> dict[str, float]:

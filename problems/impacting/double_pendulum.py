@@ -109,10 +109,36 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
             raise ValueError(f"parameters.d: the wall at X = -{values['d']} is out of reach "
                              f"(L1 + L2 = {values['L1'] + values['L2']})")
 
-    def lower_mass(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Horizontal and vertical position of the lower mass along states ``X`` (rows)."""
+    # ------------------------------------------------------------------ orbit figures
+    #: Figs. 8(a), 9(a), 10(a): X(t); Fig. 12: |dY/dt| (log); Fig. 11: the projected phase
+    #: portrait (Y, dY/dt); the manifold view: the lower mass's path with its velocity
+    orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
+        "time": ("X", "dY"), "phase": ("Y", "dY"), "manifold": ("X", "Y", "dY")}
+    orbit_labels: ClassVar[dict[str, str]] = {
+        "X": r"lower mass $X = L_1 \sin q_1 + L_2 \sin q_2$",
+        "Y": r"lower mass $Y = -(L_1 \cos q_1 + L_2 \cos q_2)$",
+        "dX": r"lower mass velocity $\dot X$", "dY": r"lower mass velocity $\dot Y$",
+        "q1": r"$q_1$ [rad]", "q2": r"$q_2$ [rad]",
+        "q1dot": r"$\dot q_1$ [rad/s]", "q2dot": r"$\dot q_2$ [rad/s]"}
+
+    def orbit_outputs(self, states: np.ndarray, parameters: dict[str, float]
+                      ) -> dict[str, np.ndarray]:
+        """The lower mass's position ``X, Y`` (sec. 6: ``X = L1 sin q1 + L2 sin q2``, the
+        wall is ``X = -d``) and velocity ``dX, dY`` along the states (rows ``q1, q2, q1dot,
+        q2dot``) at the lengths in ``parameters``: the quantities of Figs. 8-12."""
+        L1, L2 = parameters["L1"], parameters["L2"]
+        q1, q2, w1, w2 = (states[:, k] for k in range(4))
+        X, Y = self.lower_mass(states, (L1, L2))
+        return {"X": X, "Y": Y,
+                "dX": L1 * np.cos(q1) * w1 + L2 * np.cos(q2) * w2,
+                "dY": L1 * np.sin(q1) * w1 + L2 * np.sin(q2) * w2}
+
+    def lower_mass(self, X: np.ndarray, lengths: tuple[float, float] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Horizontal and vertical position of the lower mass along states ``X`` (rows), with
+        the bars' ``lengths`` (default the parameters' ``L1, L2``)."""
         X = np.atleast_2d(X)
-        L1, L2 = self.values["L1"], self.values["L2"]
+        L1, L2 = lengths if lengths is not None else (self.values["L1"], self.values["L2"])
         return (L1 * np.sin(X[:, 0]) + L2 * np.sin(X[:, 1]),
                 -(L1 * np.cos(X[:, 0]) + L2 * np.cos(X[:, 1])))
 

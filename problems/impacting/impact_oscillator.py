@@ -53,6 +53,11 @@ class ImpactOscillatorProblem(CanonicalParameter, HybridCaseProblem):
     Parameters: ClassVar[type[BaseModel]] = ImpactOscillatorParameters
     default_parameter: ClassVar[str] = "omega"
     setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "section_phase")
+    #: orbit figures in the state ``x = (q, qdot, phase)`` of Fig. 2 (``x_3 = omega t``, eq. 4)
+    orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
+        "time": ("q",), "phase": ("q", "qdot"), "manifold": ("q", "qdot", "phase")}
+    orbit_labels: ClassVar[dict[str, str]] = {
+        "q": r"$x_1 = q$", "qdot": r"$x_2 = \dot q$", "phase": r"$x_3 = \omega t$"}
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase")

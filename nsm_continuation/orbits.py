@@ -1,0 +1,363 @@
+"""Orbit figures of a run (``output.orbits``): the periodic orbits at chosen points of the
+branches, drawn from :meth:`Problem.orbit <nsm_continuation.protocol.Problem.orbit>` (an
+:class:`~nsm_continuation.records.OrbitTrace`) in the views the problem family declares.
+
+* ``orbits_time.png``: each signal of the ``time`` view against the normalised time ``t / T``
+  (one panel per signal, one line per chosen point; marked instants such as impacts as dots,
+  intervals such as sticking shaded in the line's colour; signals listed in ``log`` as
+  ``|value|`` on a log scale);
+* ``orbits_phase.png``: the ``phase`` view, one signal against the other (a phase portrait);
+* ``manifold.png``: the ``manifold`` view, a 3-D projection of about :data:`MANIFOLD_ORBITS`
+  orbits spread along the admissible points of the first branch, coloured by the continued
+  parameter: the invariant manifold the family of periodic orbits sweeps (a nonsmooth mode).
+
+Points (``output.orbits.points``): ``first`` / ``last`` (of each branch), ``events`` (every
+located event but the branch ends), an event kind (every event of that kind) or a number (the
+point nearest that value of the continued parameter over all branches). A view whose signals
+an orbit lacks is skipped for that orbit (a figure with no orbit is not written); a point whose
+orbit cannot be computed (:class:`~nsm_continuation.protocol.EvaluationError`) is left out and
+named in the figure. Nothing here knows a problem family: what is drawn is what the trace
+declares.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.cm import ScalarMappable  # noqa: E402
+from matplotlib.colors import Normalize  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+
+from .cases import OrbitsSpec  # noqa: E402
+from .protocol import EvaluationError, Problem  # noqa: E402
+from .records import Branch, OrbitTrace, Point  # noqa: E402
+
+#: resolution of the figures written to files [dots per inch] (as :mod:`plots`)
+DPI = 130
+#: orbits drawn along the first branch in ``manifold.png``
+MANIFOLD_ORBITS = 20
+#: markers of the marked instants, by order of first appearance of their kind
+MARK_STYLES = ("o", "^", "s", "D", "v", "P")
+
+
+@dataclass
+class Chosen:
+    """A point chosen for the orbit figures: its branch, the point, what chose it (``first``,
+    an event kind, ``omega = 3``, ...) and the continued parameter's value there."""
+
+    branch: Branch
+    point: Point
+    tag: str
+    value: float
+
+
+def parameter_name(res: Any) -> str:
+    """The quantity the case continued (``continuation.parameter``; the problem's parameter
+    when the case names none)."""
+    name = res.case.continuation.parameter
+    return name if name else res.problem.parameter
+
+
+def parameter_value(problem: Problem, p: Point, name: str) -> float:
+    """``name`` at ``p``: a derived quantity, else an unknown, else NaN."""
+    if name in p.derived:
+        return float(p.derived[name])
+    if name in problem.variables:
+        return float(p.y[problem.variables.index(name)])
+    return float("nan")
+
+
+def branches_of(res: Any, ids: Sequence[int] | None = None) -> list[Branch]:
+    """The branches with points: every one in the run's order, or those of ``ids`` in that
+    order."""
+    if ids is None:
+        return [br for br in res.branches if br.points]
+    by_id = {br.id: br for br in res.branches if br.points}
+    return [by_id[i] for i in ids if i in by_id]
+
+
+def choose(res: Any, points: Sequence[str | float], ids: Sequence[int] | None = None
+           ) -> list[Chosen]:
+    """The points named by ``points`` (see the module docstring) on the branches ``ids``
+    (default all), each once, in the order named; branches without points are skipped."""
+    pr, name = res.problem, parameter_name(res)
+    branches = branches_of(res, ids)
+    out: list[Chosen] = []
+    seen: set[tuple[int, int]] = set()
+
+    def add(br: Branch, p: Point, tag: str) -> None:
+        key = (br.id, id(p))
+        if key not in seen:
+            seen.add(key)
+            out.append(Chosen(br, p, tag, parameter_value(pr, p, name)))
+
+    for entry in points:
+        if isinstance(entry, int | float) and not isinstance(entry, bool):
+            pts = [(br, p) for br in branches for p in br.points]
+            if pts:
+                dist = [abs(parameter_value(pr, p, name) - float(entry)) for _, p in pts]
+                br, p = pts[int(np.nanargmin(dist))]
+                add(br, p, f"nearest {name} = {float(entry):g}")
+            continue
+        for br in branches:
+            if entry == "first":
+                add(br, br.points[0], "first")
+            elif entry == "last":
+                add(br, br.points[-1], "last")
+            else:
+                for ev in br.events:
+                    if ev.kind != "endpoint" and entry in ("events", ev.kind):
+                        add(br, ev.point, ev.kind)
+    return out
+
+
+def problem_of(res: Any, br: Branch, p: Point) -> Problem:
+    """The problem whose unknowns ``p.y`` are: the one branch ``br`` was computed with (a
+    switched branch of a bifurcation diagram has its own, e.g. orbits of twice the period),
+    in the point's chart (:meth:`Problem.in_chart
+    <nsm_continuation.protocol.Problem.in_chart>`)."""
+    return res.branch_problems.get(br.id, res.problem).in_chart(p.chart)
+
+
+def traces(res: Any, chosen: list[Chosen], periods: int
+           ) -> tuple[list[tuple[Chosen, OrbitTrace]], list[str]]:
+    """``(chosen point, its orbit)`` for every point whose orbit could be computed, and a
+    one-line note for each that could not."""
+    out, failed = [], []
+    for ch in chosen:
+        try:
+            tr = problem_of(res, ch.branch, ch.point).orbit(ch.point.y, periods)
+        except EvaluationError as exc:
+            failed.append(f"{ch.branch.label} {ch.tag}: {str(exc).splitlines()[0][:80]}")
+            continue
+        if tr is not None:
+            out.append((ch, tr))
+    return out, failed
+
+
+def legend_text(ch: Chosen, name: str) -> str:
+    """``<branch label> [<id>], <tag>: <parameter> = <value>``."""
+    return f"{ch.branch.label} [{ch.branch.id}], {ch.tag}: {name} = {ch.value:.6g}"
+
+
+def _title(res: Any, what: str, spec: OrbitsSpec | None, view: str) -> str:
+    caption = spec.figures.get(view) if spec is not None else None
+    head = f"{caption}: " if caption else ""
+    return f"{head}{what} ({res.case.name})"
+
+
+def _mark_styles(items: list[tuple[Chosen, OrbitTrace]]) -> dict[str, str]:
+    kinds = list(dict.fromkeys(kind for _, tr in items for _, kind in tr.marks))
+    return {k: MARK_STYLES[i % len(MARK_STYLES)] for i, k in enumerate(kinds)}
+
+
+def _finish_legend(ax: plt.Axes, styles: dict[str, str], intervals: list[str],
+                   notes: list[str]) -> None:
+    handles, labels = ax.get_legend_handles_labels()
+    for kind, m in styles.items():
+        handles.append(Line2D([], [], marker=m, color="0.3", ls="", ms=5))
+        labels.append(kind)
+    for kind in intervals:
+        handles.append(plt.Rectangle((0, 0), 1, 1, color="0.5", alpha=0.2))
+        labels.append(f"{kind} (shaded)")
+    if handles:
+        ax.legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    if notes:
+        ax.text(0.0, -0.16, "not drawn: " + "; ".join(notes), transform=ax.transAxes,
+                fontsize=6, color="0.4", va="top")
+
+
+def draw_time(res: Any, items: list[tuple[Chosen, OrbitTrace]], log: Sequence[str] = (),
+              axes: Sequence[plt.Axes] | None = None, spec: OrbitsSpec | None = None,
+              notes: Sequence[str] = ()) -> plt.Figure | None:
+    """The ``time`` view: each of its signals against ``t / T`` (one panel each, on ``axes``
+    or a new figure), one line per orbit; marks as dots, intervals shaded. None if no orbit
+    has the view's signals."""
+    name = parameter_name(res)
+    signals = list(dict.fromkeys(s for _, tr in items for s in tr.views.get("time", ())
+                                 if s in tr.signals))
+    if not signals:
+        return None
+    if axes is None:
+        fig, ax_arr = plt.subplots(len(signals), 1, figsize=(10, 1.2 + 2.6 * len(signals)),
+                                   sharex=True, squeeze=False, dpi=DPI)
+        axes = list(ax_arr[:, 0])
+    fig = axes[0].figure
+    styles = _mark_styles(items)
+    interval_kinds = list(dict.fromkeys(k for _, tr in items for *_, k in tr.intervals))
+    colors = plt.get_cmap("tab10")
+    for ax, sig in zip(axes, signals, strict=False):
+        is_log = sig in log
+        for i, (ch, tr) in enumerate(items):
+            if sig not in tr.signals:
+                continue
+            col = colors(i % 10)
+            x = tr.t / tr.period
+            val = np.abs(tr.signals[sig]) if is_log else tr.signals[sig]
+            ax.plot(x, val, color=col, lw=1.2, label=legend_text(ch, name))
+            for t0, t1, _kind in tr.intervals:
+                ax.axvspan(t0 / tr.period, t1 / tr.period, color=col, alpha=0.15, lw=0)
+            for tm, kind in tr.marks:
+                vm = tr.at(sig, tm)
+                ax.plot(tm / tr.period, abs(vm) if is_log else vm, styles[kind], color=col,
+                        ms=4, mec="k", mew=0.4, zorder=5)
+        if is_log:
+            ax.set_yscale("log")
+        label = tr_label(items, sig)
+        ax.set_ylabel(f"$|${label}$|$ (log)" if is_log else label)
+        ax.grid(alpha=0.25, which="both")
+    axes[min(len(signals), len(axes)) - 1].set_xlabel("normalised time $t / T$")
+    missing = [s for s in log if not any(s in tr.signals for _, tr in items)]
+    extra = [f"log: {s!r} is not a signal of these orbits" for s in missing]
+    _finish_legend(axes[0], styles, interval_kinds, [*notes, *extra])
+    axes[0].set_title(_title(res, "periodic orbits against normalised time", spec, "time"),
+                      fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def tr_label(items: list[tuple[Chosen, OrbitTrace]], sig: str) -> str:
+    """The label of signal ``sig`` declared by the first orbit that has it."""
+    return next((tr.label(sig) for _, tr in items if sig in tr.signals), sig)
+
+
+def draw_phase(res: Any, items: list[tuple[Chosen, OrbitTrace]], ax: plt.Axes | None = None,
+               spec: OrbitsSpec | None = None, notes: Sequence[str] = ()
+               ) -> plt.Figure | None:
+    """The ``phase`` view: ``(x, y)`` of each orbit (a projected phase portrait), marks as
+    dots. None if no orbit has a phase view with its signals."""
+    name = parameter_name(res)
+    drawn = [(ch, tr) for ch, tr in items
+             if len(tr.views.get("phase", ())) == 2
+             and all(s in tr.signals for s in tr.views["phase"])]
+    if not drawn:
+        return None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(9.5, 5.6), dpi=DPI)
+    fig = ax.figure
+    styles = _mark_styles(drawn)
+    colors = plt.get_cmap("tab10")
+    for i, (ch, tr) in enumerate(drawn):
+        xs, ys = tr.views["phase"]
+        col = colors(i % 10)
+        ax.plot(tr.signals[xs], tr.signals[ys], color=col, lw=1.2, label=legend_text(ch, name))
+        for tm, kind in tr.marks:
+            ax.plot(tr.at(xs, tm), tr.at(ys, tm), styles[kind], color=col, ms=4, mec="k",
+                    mew=0.4, zorder=5)
+    xs, ys = drawn[0][1].views["phase"]
+    ax.set_xlabel(drawn[0][1].label(xs))
+    ax.set_ylabel(drawn[0][1].label(ys))
+    ax.grid(alpha=0.25)
+    _finish_legend(ax, styles, [], list(notes))
+    ax.set_title(_title(res, "phase portrait", spec, "phase"), fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def spread(branch: Branch, count: int = MANIFOLD_ORBITS) -> list[Point]:
+    """About ``count`` points spread evenly (by index) along the admissible points of
+    ``branch`` (every point if none is admissible), ends included: the physical part of the
+    invariant manifold, not its phantom continuation."""
+    pts = [p for p in branch.points if p.admissible] or branch.points
+    n = len(pts)
+    idx = sorted(set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist()))
+    return [pts[i] for i in idx]
+
+
+def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec | None = None
+                  ) -> plt.Figure | None:
+    """The ``manifold`` view: the 3-D projection ``(a, b, c)`` of about
+    :data:`MANIFOLD_ORBITS` orbits spread along the first branch with points (of
+    ``spec.branches`` if given), coloured by the continued parameter. None if the family
+    declares no manifold view."""
+    branch = next(iter(branches_of(res, spec.branches if spec is not None else None)), None)
+    if branch is None:
+        return None
+    name = parameter_name(res)
+    chosen = [Chosen(branch, p, "", parameter_value(res.problem, p, name))
+              for p in spread(branch)]
+    items, notes = traces(res, chosen, periods)
+    items = [(ch, tr) for ch, tr in items if len(tr.views.get("manifold", ())) == 3
+             and all(s in tr.signals for s in tr.views["manifold"])]
+    if not items:
+        return None
+    if ax is None:
+        fig = plt.figure(figsize=(8.5, 6.8), dpi=DPI)
+        ax = fig.add_subplot(projection="3d")
+    fig = ax.figure
+    values = np.array([ch.value for ch, _ in items], dtype=float)
+    finite = values[np.isfinite(values)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    norm = Normalize(lo, hi if hi > lo else lo + 1.0)
+    cmap = plt.get_cmap("viridis")
+    for ch, tr in items:
+        a, b, c = (tr.signals[s] for s in tr.views["manifold"])
+        ax.plot(a, b, c, color=cmap(norm(ch.value)), lw=0.9)
+    a, b, c = items[0][1].views["manifold"]
+    ax.set_xlabel(items[0][1].label(a))
+    ax.set_ylabel(items[0][1].label(b))
+    ax.set_zlabel(items[0][1].label(c))
+    sm = ScalarMappable(norm=norm, cmap=cmap)
+    fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.12, label=name)
+    what = (f"invariant manifold: {len(items)} admissible periodic orbits\nalong branch "
+            f"{branch.label} [{branch.id}]")
+    ax.set_title(_title(res, what, spec, "manifold"), fontsize=10)
+    if notes:
+        ax.text2D(0.0, 0.0, "not drawn: " + "; ".join(notes), transform=ax.transAxes,
+                  fontsize=6, color="0.4")
+    return fig
+
+
+def make_figures(res: Any, out: Path) -> list[str]:
+    """Every orbit figure of ``res.case.output.orbits`` written into ``out``: their file
+    names (none when the case asks for none)."""
+    spec: OrbitsSpec | None = res.case.output.orbits
+    if spec is None:
+        return []
+    names: list[str] = []
+    items, notes = ([], [])
+    if {"time", "phase"} & set(spec.views):
+        items, notes = traces(res, choose(res, spec.points, spec.branches), spec.periods)
+    for view, file, draw in (
+            ("time", "orbits_time.png",
+             lambda: draw_time(res, items, spec.log, spec=spec, notes=notes)),
+            ("phase", "orbits_phase.png",
+             lambda: draw_phase(res, items, spec=spec, notes=notes)),
+            ("manifold", "manifold.png", lambda: draw_manifold(res, spec.periods, spec=spec))):
+        if view not in spec.views:
+            continue
+        fig = draw()
+        if fig is not None:
+            fig.savefig(out / file, dpi=DPI)
+            plt.close(fig)
+            names.append(file)
+    return names
+
+
+def plot(res: Any, points: Sequence[str | float], view: str = "time", ax: Any = None,
+         periods: int = 1, log: Sequence[str] = ()) -> plt.Figure:
+    """One orbit figure of a run in memory (``Result.plot_orbits``): the ``view`` of the orbits
+    at ``points`` (``manifold``: along the first branch, ``points`` unused) on ``ax`` (a new
+    figure if None; the time view then draws only its first signal). Raises ``ValueError`` if
+    there is nothing to draw."""
+    if view == "manifold":
+        fig = draw_manifold(res, periods, ax=ax)
+    else:
+        items, notes = traces(res, choose(res, points), periods)
+        if view == "time":
+            fig = draw_time(res, items, log, axes=None if ax is None else [ax], notes=notes)
+        elif view == "phase":
+            fig = draw_phase(res, items, ax=ax, notes=notes)
+        else:
+            raise ValueError(f"view: {view!r} is not one of time, phase, manifold")
+    if fig is None:
+        raise ValueError(f"view {view!r}: no orbit at the chosen points has its signals")
+    return fig
