@@ -10,6 +10,10 @@ branches, drawn from :meth:`Problem.orbit <nsm_continuation.protocol.Problem.orb
 * ``manifold.png``: the ``manifold`` view, a 3-D projection of about :data:`MANIFOLD_ORBITS`
   orbits spread along the admissible points of the first branch, coloured by the continued
   parameter: the invariant manifold the family of periodic orbits sweeps (a nonsmooth mode).
+  The orbits of the branch's ``grazing`` events at admissible points (where admissibility ends:
+  the manifold's boundary, Figs. 7.2 of the chain) are drawn dashed black. A branch along which
+  the continued parameter does not vary (a family at one frequency, Fig. 7.4) is coloured by
+  the problem's energy quantity instead, and the title gives the parameter's value.
 
 Points (``output.orbits.points``): ``first`` / ``last`` (of each branch), ``events`` (every
 located event but the branch ends), an event kind (every event of that kind) or a number (the
@@ -272,12 +276,74 @@ def spread(branch: Branch, count: int = MANIFOLD_ORBITS) -> list[Point]:
     return [pts[i] for i in idx]
 
 
+#: relative spread of the continued parameter below which a branch is taken as one family at
+#: a single parameter value (a vertical branch: rounding noise only, ~1e-15)
+CONSTANT_PARAMETER_RTOL = 1e-9
+
+
+def colour_quantity(res: Any, items: list[tuple[Chosen, OrbitTrace]], name: str
+                    ) -> tuple[str, float | None]:
+    """What colours the manifold's orbits: the continued parameter ``name``, or, where it does
+    not vary along them (spread below :data:`CONSTANT_PARAMETER_RTOL`), the problem's energy
+    quantity, with the parameter's common value (None when it varies)."""
+    values = np.array([ch.value for ch, _ in items], dtype=float)
+    energy = getattr(res.problem, "energy_quantity", None)
+    if values.size < 2 or not np.all(np.isfinite(values)) or energy is None:
+        return name, None
+    mid = float(np.median(values))
+    if np.ptp(values) > CONSTANT_PARAMETER_RTOL * max(abs(mid), 1.0):
+        return name, None
+    if not all(energy in ch.point.derived for ch, _ in items):
+        return name, None
+    return energy, mid
+
+
+def bounds_admissible_part(ev: Any) -> bool:
+    """Whether the event ``ev`` is a boundary of its branch's admissible part: a ``grazing``
+    of admissibility tests (``data['test']`` / ``data['tests']``, zero there up to the location
+    accuracy, so their sign at the located point is rounding) at which every other test is
+    satisfied. A test's zero where another test fails (the chain's outgoing velocity at a pole
+    for g < 0, Prop. 7.1.2) bounds no admissible part."""
+    if ev.kind != "grazing":
+        return False
+    vanishing = set(ev.data.get("tests") or []) | ({ev.data["test"]} if "test" in ev.data
+                                                    else set())
+    if not vanishing:
+        return False
+    return all(v >= 0.0 for k, v in ev.point.tests.items() if k not in vanishing)
+
+
+def draw_boundaries(res: Any, branch: Branch, periods: int, ax: Any, name: str,
+                    extent: float) -> int:
+    """The orbits of ``branch``'s events that bound its admissible part
+    (:func:`bounds_admissible_part`: e.g. the nonlinear grazing orbit of Fig. 7.2) drawn dashed
+    black on the 3-D axes ``ax``, unless one is a point (smaller than ``1e-9 extent``, the
+    extent of the manifold's orbits: a family that ends at an equilibrium, Fig. 7.4); how many
+    were drawn."""
+    chosen = [Chosen(branch, ev.point, ev.kind, parameter_value(res.problem, ev.point, name))
+              for ev in branch.events if bounds_admissible_part(ev)]
+    items, _ = traces(res, chosen, periods)
+    drawn = 0
+    for ch, tr in items:
+        view = tr.views.get("manifold", ())
+        if len(view) != 3 or not all(s in tr.signals for s in view):
+            continue
+        a, b, c = (tr.signals[s] for s in view)
+        if max(np.ptp(a), np.ptp(b), np.ptp(c)) <= 1e-9 * extent:
+            continue
+        ax.plot(a, b, c, color="k", lw=1.4, ls="--",
+                label=f"{ch.tag} (boundary): {name} = {ch.value:.6g}")
+        drawn += 1
+    return drawn
+
+
 def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec | None = None
                   ) -> plt.Figure | None:
     """The ``manifold`` view: the 3-D projection ``(a, b, c)`` of about
     :data:`MANIFOLD_ORBITS` orbits spread along the first branch with points (of
-    ``spec.branches`` if given), coloured by the continued parameter. None if the family
-    declares no manifold view."""
+    ``spec.branches`` if given), coloured by the continued parameter (by the energy where the
+    parameter is constant: :func:`colour_quantity`), the boundary orbits dashed
+    (:func:`draw_boundaries`). None if the family declares no manifold view."""
     branch = next(iter(branches_of(res, spec.branches if spec is not None else None)), None)
     if branch is None:
         return None
@@ -294,21 +360,30 @@ def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec |
         ax = fig.add_subplot(projection="3d")
     fig = ax.figure
     values = np.array([ch.value for ch, _ in items], dtype=float)
+    colour_by, constant = colour_quantity(res, items, name)
+    if colour_by != name:
+        values = np.array([ch.point.derived.get(colour_by, np.nan) for ch, _ in items],
+                          dtype=float)
     finite = values[np.isfinite(values)]
     lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     norm = Normalize(lo, hi if hi > lo else lo + 1.0)
     cmap = plt.get_cmap("viridis")
-    for ch, tr in items:
+    for (_, tr), value in zip(items, values, strict=True):
         a, b, c = (tr.signals[s] for s in tr.views["manifold"])
-        ax.plot(a, b, c, color=cmap(norm(ch.value)), lw=0.9)
+        ax.plot(a, b, c, color=cmap(norm(value)), lw=0.9)
+    extent = max(float(np.ptp(tr.signals[s])) for _, tr in items for s in tr.views["manifold"])
+    bounds = draw_boundaries(res, branch, periods, ax, name, extent)
     a, b, c = items[0][1].views["manifold"]
     ax.set_xlabel(items[0][1].label(a))
     ax.set_ylabel(items[0][1].label(b))
     ax.set_zlabel(items[0][1].label(c))
     sm = ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.12, label=name)
-    what = (f"invariant manifold: {len(items)} admissible periodic orbits\nalong branch "
+    fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.12, label=colour_by)
+    at = f", all at {name} = {constant:.6g}" if constant is not None else ""
+    what = (f"invariant manifold: {len(items)} admissible periodic orbits{at}\nalong branch "
             f"{branch.label} [{branch.id}]")
+    if bounds:
+        ax.legend(fontsize=7, loc="upper left")
     ax.set_title(_title(res, what, spec, "manifold"), fontsize=10)
     if notes:
         ax.text2D(0.0, 0.0, "not drawn: " + "; ".join(notes), transform=ax.transAxes,

@@ -82,6 +82,15 @@ def describe_error(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
+#: a tangent's parameter component below this at both ends of a step is noise: its sign
+#: change is no fold. Along a branch on which the parameter is constant (the g = 0 chain's
+#: modes, Prop. 7.2, a vertical line in the FEP) the component is ~1e-17 and flips at random,
+#: and up to ~1e-12 next to the branch point it is born at (an ill-conditioned bordered
+#: solve); a genuine fold moves the parameter by less than this times the step between two
+#: points whose tangents are both this close to it
+TANGENT_NOISE = 1e-9
+
+
 class _RetryStep(Exception):
     """Raised while analysing a step whose result cannot be trusted (an event that cannot be
     located on the arc, a bound not reached): the step is retried with half its length."""
@@ -1047,7 +1056,8 @@ class ContinuationEngine:
         crossing the unit circle."""
         ip = self.ip
         found: list[Event] = []
-        if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]):
+        if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]) \
+                and max(abs(a.tangent[ip]), abs(b.tangent[ip])) > TANGENT_NOISE:
             p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip])
             found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
                                "along the branch", data={"test": "tangent"}, bracket=w))

@@ -666,16 +666,29 @@ class NDofImpactProblem(Problem):
         * ``clearance = (g - max u_c(t_k)) / |g|`` over the critical points ``t_k`` of ``u_c`` in
           ``(0, T)``, located exactly (:class:`~problems.chain.trig_sum.TrigSum`); it vanishes at a
           nonlinear grazing orbit (an extra tangential contact, Fig. 5.2).
+
+        For ``g = 0`` (sec. 7.2) the gap gives no scale: the orbit's own amplitude
+        ``A = max(|u(0)|_inf, |u_c'(0+)| / w_1)`` does (:meth:`_static_grazing_scale`), so both
+        tests are homogeneous of degree 0 in ``(u(0), v)``: constant along each half ``v < 0``,
+        ``v > 0`` of a vertical family (7.5)-(7.6), admissible on the half ``v < 0`` of an
+        admissible root only (Prop. 7.2, sign corrected: module docstring). The static
+        equilibrium ``u = 0`` (``A = 0``, the trivial branch) has no test: it is admissible
+        (proof of Prop. 7.2).
         """
-        if self.g == 0.0:
-            return {}
         u0, du0, T = self.state(y)
-        scale = abs(self.g)
+        scale = abs(self.g) if self.g != 0.0 else self._static_grazing_scale(u0, du0)
+        if scale == 0.0:
+            return {}
         f = self.displacement_sum(y)
         umax, _ = f.max_on(0.0, T)
         clearance = (self.g - umax) / scale if np.isfinite(umax) else 1.0
         return {"outgoing_velocity": -du0[self.c] / (scale * self.omega[0]),
                 "clearance": float(clearance)}
+
+    def _static_grazing_scale(self, u0: np.ndarray, du0: np.ndarray) -> float:
+        """Amplitude ``A = max(|u(0)|_inf, |u_c'(0+)| / w_1)`` of a ``g = 0`` orbit, the scale
+        of its admissibility tests (0 at the static equilibrium)."""
+        return float(max(np.max(np.abs(u0)), abs(du0[self.c]) / self.omega[0]))
 
     def return_map_jacobian(self, y: np.ndarray) -> np.ndarray:
         """``DF`` of (A.8) in physical coordinates (2N x 2N): ``Gamma + (Gamma' x) grad T`` with
@@ -1146,8 +1159,9 @@ class NDofImpactProblem(Problem):
     # ------------------------------------------------------------------ report and figure hooks
     def plot_decorations(self, ax: Any, x_range: tuple[float, float],
                          branches: list[Any]) -> None:
-        """Fig. 3.2 references: linear frequencies (thick) and subharmonics w_j / k (thin); the flat
-        (linear, contact-free) part of each mode up to its linear grazing energy; for g = 0 the
+        """Fig. 3.2 references: linear frequencies (thick) and subharmonics w_j / k (thin); for
+        g > 0 the flat (linear, contact-free) part of each mode up to its linear grazing energy
+        (for g < 0 there is none, Prop. 7.1); for g = 0 the
         discrete spectrum (roots of w_N, Prop. 7.2) found on ``branches``."""
         import matplotlib.pyplot as plt
 
@@ -1160,7 +1174,9 @@ class NDofImpactProblem(Problem):
                 if lo <= w / k <= hi:
                     ax.axvline(w / k, color=colors(j % 10), lw=1.6 if k == 1 else 0.5,
                                alpha=0.8 if k == 1 else 0.5, zorder=1)
-            if lo <= w <= hi and self.g != 0.0:
+            # g < 0: no contact-free (linear) orbit exists, u_c = 0 is beyond the wall
+            # (sec. 7.1: the spectrum is not connected to the linear one)
+            if lo <= w <= hi and self.g > 0.0:
                 ax.plot([w, w], [1e-300, self.grazing_energy(j)], color=colors(j % 10), lw=3.2,
                         solid_capstyle="butt", zorder=4)
         if self.g == 0.0:
@@ -1175,9 +1191,9 @@ class NDofImpactProblem(Problem):
 
         h = [Line2D([], [], color="tab:blue", lw=1.6, label=r"linear $\omega_j$ (colour = mode)"),
              Line2D([], [], color="tab:blue", lw=0.5, label=r"subharmonics $\omega_j/k$")]
-        if self.g != 0.0:
+        if self.g > 0.0:
             h.append(Line2D([], [], color="tab:blue", lw=3.2, label="linear (flat) part of a mode"))
-        else:
+        elif self.g == 0.0:
             h.append(Line2D([], [], color="tab:green", lw=1.8, ls="--",
                             label=r"roots of $w_N$ (g = 0 spectrum)"))
         return h
