@@ -30,14 +30,14 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
 
 from .lattice import LatticeContinuation, LatticeProblem, LatticeSeed
 from .palc import NUMERICAL_ERRORS, ContinuationEngine, describe_error
-from .protocol import Problem, StartPoint
+from .protocol import Problem, StartPoint, SweepSeed
 from .records import Branch, Event, Point
 from .settings import ContinuationSettings
 
@@ -491,24 +491,14 @@ def _pycont_terminations(result: Any) -> dict[str, str]:
     return out
 
 
-@dataclass
-class SweepSeed:
-    """One sweep: its label, the state the first grid value starts from (the problem's own
-    object, e.g. a state of a time stepper), and its direction (+1: increasing parameter, -1:
-    decreasing, 0: as ``continuation.direction``, both giving two sweeps)."""
-
-    label: str
-    state: Any = None
-    direction: int = 0
-    info: dict[str, Any] = field(default_factory=dict)
-
-
 class SweepProblem(Problem):
     """A problem solved at each value of a grid of its parameter (:class:`Sweep`): e.g. the
     steady state of a forced response at each forcing frequency, found by time stepping from
     the steady state at the previous frequency. No residual, no continuation. Implement
     :meth:`sweep_seeds` and :meth:`sweep_point`; a declared ``signature_kind`` raises an event
-    where the points' ``signature`` changes between two consecutive grid values."""
+    where the points' ``signature`` changes between two consecutive grid values. (A problem
+    with a residual is swept too when it lists ``"sweep"`` in ``algorithms`` and implements
+    the two hooks of :class:`~nsm_continuation.protocol.Problem`.)"""
 
     algorithms: ClassVar[tuple[str, ...]] = ("sweep",)
 
@@ -544,12 +534,16 @@ class Sweep(Algorithm):
     """The solution at each value of a parameter grid, in order (module docstring).
 
     The grid is ``numpy.linspace(continuation.min, continuation.max, continuation.max_points)``
-    of the problem's parameter, reversed for a decreasing sweep; each value starts from the
-    state the previous one ended in (:meth:`SweepProblem.sweep_point`). A sweep ends at the
-    end of the grid, at the first value outside a bound on a derived quantity
-    (``continuation.max_energy``, ``continuation.bounds``; that value is not kept) or where a
-    value cannot be solved (the reason is the branch's termination). Events: ``endpoint`` at
-    both ends, the problem's ``signature_kind`` at the first value of a new signature.
+    of the problem's parameter, reversed for a decreasing sweep (a seed with an ``origin``
+    sweeps the grid values on its side of it, from it: :meth:`grid`); each value starts from
+    the state the previous one ended in (:meth:`Problem.sweep_point`), which gives one point
+    or a list of points (a brute-force diagram's recorded returns: the branch's
+    ``info['draw']`` is then ``markers``, and the figures draw its points as dots, not a
+    line). Each value is one tick of progress. A sweep ends at the end of the grid, at the
+    first value with a point outside a bound on a derived quantity (``continuation.
+    max_energy``, ``continuation.bounds``; that value is not kept) or where a value cannot be
+    solved (the reason is the branch's termination). Events: ``endpoint`` at both ends, the
+    problem's ``signature_kind`` at the first point of a new signature.
     """
 
     name: ClassVar[str] = "sweep"
@@ -557,21 +551,29 @@ class Sweep(Algorithm):
     setup_key: ClassVar[str] = "seeds_s"
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
-        if not isinstance(problem, SweepProblem):
-            raise ValueError(f"the sweep algorithm needs a sweep problem (a SweepProblem); "
+        if "sweep" not in problem.algorithms or not problem.can_sweep():
+            raise ValueError(f"the sweep algorithm needs a problem that can be swept ('sweep' "
+                             f"in its algorithms, sweep_seeds() and sweep_point()); "
                              f"{problem.name!r} is not one")
         super().__init__(problem, settings)
         self.sweep_problem = problem
         self.n_evaluations = 0
 
-    def grid(self, direction: int) -> np.ndarray:
-        """The parameter values of a sweep in ``direction`` (+1 increasing, -1 decreasing)."""
+    def grid(self, direction: int, origin: float | None = None) -> np.ndarray:
+        """The parameter values of a sweep in ``direction`` (+1 increasing, -1 decreasing);
+        with an ``origin`` (:attr:`SweepSeed.origin`), the values on its side of it, preceded
+        by ``origin`` itself unless it is one of them (to 1e-9 of the grid step)."""
         lo, hi = self.settings.param_min, self.settings.param_max
         if lo is None or hi is None or not lo < hi:
             raise ValueError("continuation.min: a sweep needs a window min < max of the "
                              "parameter (continuation.min and continuation.max)")
         values = np.linspace(lo, hi, self.settings.max_points)
-        return values if direction > 0 else values[::-1]
+        values = values if direction > 0 else values[::-1]
+        if origin is None:
+            return values
+        tol = 1e-9 * (hi - lo) / max(self.settings.max_points - 1, 1)
+        side = values[(values - origin) * direction > tol]
+        return np.concatenate([[origin], side])
 
     def starts(self, case_start: Any, window: Window) -> list[Any]:
         self.grid(1)  # a window is required: refused here as a failed start
@@ -581,7 +583,7 @@ class Sweep(Algorithm):
             for d in ([seed.direction] if seed.direction else both):
                 label = seed.label if seed.direction or len(both) == 1 else \
                     f"{seed.label}, {'increasing' if d > 0 else 'decreasing'}"
-                seeds.append(SweepSeed(label, seed.state, d, dict(seed.info)))
+                seeds.append(replace(seed, label=label, direction=d, info=dict(seed.info)))
         return seeds
 
     def seeds_from_points(self, points: list[StartPoint]) -> list[Any]:
@@ -592,11 +594,13 @@ class Sweep(Algorithm):
 
     def run_branch(self, seed: SweepSeed, branch_id: int) -> Branch:
         """The sweep ``seed`` over the grid; never raises (a failure ends it with a reason)."""
+        seed = replace(seed, info=dict(seed.info))  # what the problem notes is this run's
         points: list[Point] = []
         events: list[Event] = []
+        listed: list[bool] = []
         key = "increase" if seed.direction > 0 else "decrease"
         try:
-            reason = self._sweep(seed, points, events)
+            reason = self._sweep(seed, points, events, listed)
         except NUMERICAL_ERRORS as exc:
             reason = describe_error(exc)
         except Exception as exc:  # noqa: BLE001 - recorded, never raised
@@ -606,27 +610,36 @@ class Sweep(Algorithm):
                                    data={"reason": "first grid value"}))
             events.append(Event("endpoint", points[-1], f"sweep end: {reason}",
                                 data={"reason": reason}))
-        return Branch(branch_id, seed.label, points, events, {key: reason},
-                      {**seed.info, "algorithm": "sweep", "direction": seed.direction})
+        info = {**seed.info, "algorithm": "sweep", "direction": seed.direction}
+        if any(listed):
+            info["draw"] = "markers"
+        return Branch(branch_id, seed.label, points, events, {key: reason}, info)
 
-    def _sweep(self, seed: SweepSeed, points: list[Point], events: list[Event]) -> str:
-        """Fill ``points`` and ``events`` along the grid; returns the termination reason."""
+    def _sweep(self, seed: SweepSeed, points: list[Point], events: list[Event],
+               listed: list[bool]) -> str:
+        """Fill ``points`` and ``events`` along the grid (``listed``: whether each value gave
+        a list of points); returns the termination reason."""
         pr = self.sweep_problem
-        grid = self.grid(seed.direction)
+        grid = self.grid(seed.direction, seed.origin)
         state = seed.state
         kind = pr.signature_kind
         for value in grid:
-            point, state = pr.sweep_point(seed, float(value), state)
+            solved, state = pr.sweep_point(seed, float(value), state)
             self.n_evaluations += 1
-            point.s = abs(float(value) - float(grid[0]))
-            bound = outside_bound(point, self.settings)
-            if bound is not None:
-                return f"bound: {bound} at {pr.parameter} = {value:.6g} (value not kept)"
-            if kind is not None and points and point.signature != points[-1].signature:
-                before, after = points[-1].signature, point.signature
-                events.append(Event(kind, point, f"{before} -> {after}",
-                                    data={"signature_before": before, "signature_after": after}))
-            points.append(point)
+            listed.append(isinstance(solved, list))
+            new = solved if isinstance(solved, list) else [solved]
+            for point in new:
+                point.s = abs(float(value) - float(grid[0]))
+                bound = outside_bound(point, self.settings)
+                if bound is not None:
+                    return f"bound: {bound} at {pr.parameter} = {value:.6g} (value not kept)"
+            for point in new:
+                if kind is not None and points and point.signature != points[-1].signature:
+                    before, after = points[-1].signature, point.signature
+                    events.append(Event(kind, point, f"{before} -> {after}",
+                                        data={"signature_before": before,
+                                              "signature_after": after}))
+                points.append(point)
             self._tick(1)
         return f"end of the grid ({len(grid)} values of {pr.parameter})"
 

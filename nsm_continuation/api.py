@@ -142,10 +142,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
     except ValueError as exc:
         raise CaseError(cases._keyed("continuation.parameter", str(exc))) from None
     if block is start:
-        try:
-            problem.preflight(start, window, case.continuation.max_points)
-        except (ValueError, ArithmeticError) as exc:
-            raise CaseError(cases._keyed("start", str(exc))) from None
+        cases.preflight(problem, case, start, window)
         return Result(run_case(case, problem, progress=False))
     if not isinstance(start, StartPoint):
         y = np.asarray(start, dtype=float).reshape(-1)

@@ -550,11 +550,22 @@ def validate(raw: dict[str, Any], *, restart_record: Any = None,
         _check_diagram(case, problem)
         return case, problem
     _check_diagram(case, problem)
+    preflight(problem, case, case.start, window)
+    return case, problem
+
+
+def preflight(problem: Problem, case: Case, start: Any,
+              window: tuple[float | None, float | None]) -> None:
+    """The problem's checks of ``start`` before computing: :meth:`Problem.sweep_preflight`
+    for a run of the sweep algorithm, else :meth:`Problem.preflight`; a failure is a
+    :class:`CaseError` naming the key."""
+    c = case.continuation
+    check = (problem.sweep_preflight if (c.algorithm or problem.algorithms[0]) == "sweep"
+             else problem.preflight)
     try:
-        problem.preflight(case.start, window, c.max_points)
+        check(start, window, c.max_points)
     except (ValueError, ArithmeticError) as exc:
         raise CaseError(_keyed("start", str(exc))) from None
-    return case, problem
 
 
 def diagram_quantities(problem: Problem) -> list[str]:

@@ -424,7 +424,7 @@ def figure(res: RunResult, path: Path) -> bool:
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
-    from .plots import MARKERS, quantity
+    from .plots import MARKERS, branch_line, draws_markers, markers_legend, quantity
 
     if not any(br.points for br in res.branches):
         return False
@@ -438,18 +438,19 @@ def figure(res: RunResult, path: Path) -> bool:
         x = np.array([quantity(pr, p, xk) for p in pts], dtype=float)
         y = np.array([quantity(pr, p, yk) for p in pts], dtype=float)
         state = [(p.admissible, p.stable) for p in pts]
+        dots = draws_markers(br)
         start = 0
         for i in range(1, len(pts) + 1):
             if i == len(pts) or state[i] != state[start]:
                 adm, stable = state[start]
                 sl = slice(start, min(i + 1, len(pts)))
                 if not adm:
-                    ax.plot(x[sl], y[sl], color="0.6", lw=0.8, zorder=2)
+                    branch_line(ax, x[sl], y[sl], dots, color="0.6", lw=0.8, zorder=2)
                 elif stable is False:
-                    ax.plot(x[sl], y[sl], color="tab:red", lw=1.8, zorder=3)
+                    branch_line(ax, x[sl], y[sl], dots, color="tab:red", lw=1.8, zorder=3)
                 else:
-                    ax.plot(x[sl], y[sl], color="k", lw=1.8, zorder=3,
-                            ls="-" if stable else (0, (4, 1.5)))
+                    branch_line(ax, x[sl], y[sl], dots, color="k", lw=1.8, zorder=3,
+                                ls="-" if stable else (0, (4, 1.5)))
                 start = i
         for ev in br.events:
             if ev.kind in MARKERS:
@@ -482,7 +483,10 @@ def figure(res: RunResult, path: Path) -> bool:
                 lw=0.8, ls=":", zorder=4)
     ax.set_xlabel(xk)
     ax.set_ylabel(yk)
-    title = "Bifurcation diagram" if res.tree else "Branch diagram"
+    drawn = [br for br in res.branches if br.points]
+    title = ("Brute-force bifurcation diagram (recorded section returns)"
+             if drawn and all(draws_markers(br) for br in drawn)
+             else "Bifurcation diagram" if res.tree else "Branch diagram")
     depth = max((int(b.info.get("depth", 0)) for b in res.branches), default=0)
     ax.set_title(f"{title}: {res.case.name}" + (f" ({len(res.branches)} branches, "
                                                  f"{depth} generations)" if res.tree else ""))
@@ -493,6 +497,7 @@ def figure(res: RunResult, path: Path) -> bool:
                Line2D([], [], color="k", lw=1.8, ls=(0, (4, 1.5)),
                       label="stability not computed"),
                Line2D([], [], color="0.6", lw=0.8, label="phantom (not admissible)")]
+    handles = markers_legend(res.branches, handles)
     for kind, (m, c) in MARKERS.items():
         if any(ev.kind == kind for br in res.branches for ev in br.events):
             handles.append(Line2D([], [], marker=m, color=c, ls="", mec="k", label=kind))

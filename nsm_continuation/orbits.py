@@ -287,7 +287,7 @@ def colour_quantity(res: Any, items: list[tuple[Chosen, OrbitTrace]], name: str
     not vary along them (spread below :data:`CONSTANT_PARAMETER_RTOL`), the problem's energy
     quantity, with the parameter's common value (None when it varies)."""
     values = np.array([ch.value for ch, _ in items], dtype=float)
-    energy = getattr(res.problem, "energy_quantity", None)
+    energy = res.problem.energy_quantity
     if values.size < 2 or not np.all(np.isfinite(values)) or energy is None:
         return name, None
     mid = float(np.median(values))

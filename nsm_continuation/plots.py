@@ -61,6 +61,36 @@ def quantity(problem: Problem, p: Point, name: str) -> float:
     return float("nan")
 
 
+def draws_markers(br: Branch) -> bool:
+    """Whether the branch's points are drawn as dots rather than joined by lines: a cloud of
+    points, not a curve (the recorded section returns of a brute-force bifurcation diagram,
+    Figs. 8(b), 9(b)-(c) of Nordmark & Piiroinen 2009), which the algorithm declares in
+    ``Branch.info['draw'] == 'markers'`` (:class:`~nsm_continuation.algorithms.Sweep`)."""
+    return br.info.get("draw") == "markers"
+
+
+def branch_line(ax: plt.Axes, x: np.ndarray, y: np.ndarray, markers: bool, **kw: Any) -> None:
+    """``ax.plot(x, y, **kw)``, or with ``markers`` small dots of ``kw``'s colour at the
+    points (no line: :func:`draws_markers`)."""
+    if markers:
+        kw = {k: v for k, v in kw.items() if k not in ("ls", "lw", "linestyle", "linewidth")}
+        kw.update(ls="", marker=".", ms=3.0, mew=0)
+    ax.plot(x, y, **kw)
+
+
+def markers_legend(branches: list[Branch], handles: list[Any]) -> list[Any]:
+    """The legend entries of a branch diagram: ``handles`` (the line styles), with an entry
+    for the dots of :func:`draws_markers` branches when there are some (alone when every
+    branch with points is drawn so)."""
+    drawn = [br for br in branches if br.points]
+    dotted = [br for br in drawn if draws_markers(br)]
+    if not dotted:
+        return handles
+    dot = Line2D([], [], color="k", ls="", marker=".", ms=5,
+                 label="recorded section returns (brute force; stability not computed)")
+    return [dot] if len(dotted) == len(drawn) else [*handles, dot]
+
+
 def _segments(problem: Problem, br: Branch, xk: str, yk: str):
     """Consecutive runs of points with the same (admissible, stable) state."""
     pts = br.points
@@ -148,6 +178,7 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     xs: list[float] = []
     ys: list[float] = []
     for br in res.branches:
+        dots = draws_markers(br)
         for (adm, stable), x, y in _segments(pr, br, xk, yk):
             ok = np.isfinite(x) & np.isfinite(y) & ((y > 0) if log else True)
             if not ok.any():
@@ -155,12 +186,12 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
             xs += list(x[ok])
             ys += list(y[ok])
             if not adm:
-                ax.plot(x, y, color="0.6", lw=0.8, zorder=2)
+                branch_line(ax, x, y, dots, color="0.6", lw=0.8, zorder=2)
             elif stable is False:
-                ax.plot(x, y, color="tab:red", lw=2.2, zorder=3)
+                branch_line(ax, x, y, dots, color="tab:red", lw=2.2, zorder=3)
             else:
-                ax.plot(x, y, color="k", lw=2.2, zorder=3,
-                        ls="-" if stable else (0, (4, 1.5)))
+                branch_line(ax, x, y, dots, color="k", lw=2.2, zorder=3,
+                            ls="-" if stable else (0, (4, 1.5)))
     y_top = 1.05 * max(ys) if ys else np.inf
     for br in res.branches:
         for ev in br.events:
@@ -190,6 +221,7 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
                Line2D([], [], color="k", lw=2.2, ls=(0, (4, 1.5)),
                       label="admissible, stability not computed"),
                Line2D([], [], color="0.6", lw=0.8, label="phantom (not admissible)")]
+    handles = markers_legend(res.branches, handles)
     for k, (m, c) in MARKERS.items():
         if any(ev.kind == k for br in res.branches for ev in br.events):
             handles.append(Line2D([], [], marker=m, color=c, ls="", mec="k", label=k))
@@ -216,10 +248,10 @@ def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
             for br in branches:
                 for (adm, stable), x, y in _segments(problem, br, xk, yk):
                     if not adm:
-                        ax.plot(x, y, color="0.6", lw=0.8, ls=ls)
+                        branch_line(ax, x, y, draws_markers(br), color="0.6", lw=0.8, ls=ls)
                     else:
-                        ax.plot(x, y, color="tab:red" if stable is False else "k", lw=1.8,
-                                ls=ls)
+                        branch_line(ax, x, y, draws_markers(br),
+                                    color="tab:red" if stable is False else "k", lw=1.8, ls=ls)
         ax.set_ylabel(ylabel if len(keys) == 1 else f"{ylabel}\n(" + ", ".join(
             f"{k} {'solid' if j == 0 else 'dashed'}" for j, k in enumerate(keys)) + ")",
                       fontsize=8)

@@ -18,7 +18,7 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
    Jacobian once per instance (:attr:`Problem.compiled`). A problem without a symbolic residual may
    instead override :meth:`Problem.evaluate` and :meth:`Problem.jacobian` with an exact Jacobian.
 4. Everything else is optional: every member the core reads is declared on :class:`Problem`,
-   typed, with a default and a docstring, in seven groups (the core never probes for an
+   typed, with a default and a docstring, in eight groups (the core never probes for an
    undeclared attribute):
 
    - *unknowns & parameter*: ``variables``, ``parameter``, ``algorithms`` (the continuation
@@ -53,6 +53,17 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      point sampled in time (:meth:`orbit`, an :class:`~nsm_continuation.records.OrbitTrace`
      with the family's default views; default None: no orbit figures), which the generic
      orbit figures of ``output.orbits`` draw (:mod:`nsm_continuation.orbits`);
+   - *sweeps* (an optional capability, :class:`~nsm_continuation.algorithms.Sweep`, YAML
+     ``continuation.algorithm: sweep``): a problem that lists ``"sweep"`` in ``algorithms``
+     implements :meth:`sweep_seeds` (the sweeps of its ``start:`` block, :class:`SweepSeed`)
+     and :meth:`sweep_point` (the solution at one grid value of the parameter from the state
+     the previous value ended in: one :class:`~nsm_continuation.records.Point`, or a list of
+     them, e.g. the section returns recorded by a brute-force bifurcation diagram,
+     :mod:`nsm_continuation.hybrid.brute_force`); :meth:`sweep_preflight` checks a sweep's
+     start block before computing (default: :meth:`preflight`). A problem with a residual may
+     be both continued and swept; one without (:class:`~nsm_continuation.algorithms.
+     SweepProblem`) is only swept. The defaults raise: the class check refuses ``"sweep"`` in
+     ``algorithms`` without :meth:`sweep_seeds` and :meth:`sweep_point`;
    - *restart & two-parameter curves*: :meth:`period_multiple`, :meth:`iterated`,
      :meth:`with_parameters`, :meth:`restart_start`, :meth:`parameters_block` (the
      parameters written to the restart record; default the ``params`` model, dumped) and
@@ -75,7 +86,7 @@ import numpy as np
 from pydantic import BaseModel, TypeAdapter
 
 from .bordered import BorderedFactor, DenseBorderedFactor
-from .records import CORE_EVENT_KINDS, OrbitTrace, register_event_kinds
+from .records import CORE_EVENT_KINDS, OrbitTrace, Point, register_event_kinds
 
 
 class EvaluationError(RuntimeError):
@@ -127,6 +138,22 @@ class Rechart:
     y: np.ndarray
     tangent: np.ndarray
     note: str
+
+
+@dataclass
+class SweepSeed:
+    """One sweep (:meth:`Problem.sweep_seeds`): its label, the state the first grid value
+    starts from (the problem's own object, e.g. a state of a time stepper), and its direction
+    (+1: increasing parameter, -1: decreasing, 0: as ``continuation.direction``, both giving
+    two sweeps). ``origin``: the parameter value the sweep starts at, like a continuation from
+    its start (the grid values on the sweep's side of it, preceded by ``origin`` itself when it
+    is not a grid value); None: the whole grid (e.g. a frequency sweep)."""
+
+    label: str
+    state: Any = None
+    direction: int = 0
+    info: dict[str, Any] = field(default_factory=dict)
+    origin: float | None = None
 
 
 @dataclass
@@ -246,6 +273,9 @@ class Problem(ABC):
         if cls.signature is not Problem.signature and cls.signature_kind is None:
             raise TypeError(f"{cls.__qualname__}: signature() is overridden but no "
                             "signature_kind is declared (the event kind of a change)")
+        if "sweep" in cls.algorithms and not cls.can_sweep():
+            raise TypeError(f"{cls.__qualname__}: 'sweep' is among its algorithms but "
+                            "sweep_seeds() and sweep_point() are not both implemented")
 
     # == residual & Jacobian ===================================================================
     @abstractmethod
@@ -347,6 +377,46 @@ class Problem(ABC):
         ``omega`` has the period ``T = 2 pi / omega`` inside): the runner turns a
         ``direction`` meant along ``name`` into one along the internal parameter."""
         return 1
+
+    # == sweeps (optional capability; :class:`nsm_continuation.algorithms.Sweep`) ==============
+    @classmethod
+    def can_sweep(cls) -> bool:
+        """Whether the class implements the sweep hooks (:meth:`sweep_seeds` and
+        :meth:`sweep_point` overridden): the capability that ``"sweep"`` in ``algorithms``
+        declares (checked when the class is defined)."""
+        return (cls.sweep_seeds is not Problem.sweep_seeds
+                and cls.sweep_point is not Problem.sweep_point)
+
+    def sweep_seeds(self, start: Any, window: tuple[float | None, float | None]
+                    ) -> list[SweepSeed]:
+        """The sweeps of the YAML ``start:`` block (``window``: the parameter's bounds), for
+        the sweep algorithm. Raises :class:`ValueError` when they cannot be built (the run
+        records a failed start). Default: the problem cannot be swept."""
+        raise ValueError(f"problem {self.name!r} cannot be swept: it does not implement "
+                         "sweep_seeds() and sweep_point() (continuation.algorithm: one of "
+                         f"{', '.join(self.algorithms)})")
+
+    def sweep_point(self, seed: SweepSeed, value: float, state: Any
+                    ) -> tuple[Point | list[Point], Any]:
+        """The solution at the parameter ``value`` of the sweep ``seed``, from ``state`` (the
+        seed's at the first value, then what the previous call returned): one point (its
+        ``y[parameter_index]`` is ``value``) or a list of points (e.g. the section returns a
+        brute-force bifurcation diagram records at one value; the branch is then drawn with
+        markers, not lines), and the state the next value starts from. Raises
+        :class:`EvaluationError` (or a numerical error) if the solution cannot be computed:
+        the sweep then ends there with that reason. A problem may note what happened at a
+        value in ``seed.info`` (copied into the branch's ``info``, e.g. failures it recovered
+        from). Default: the problem cannot be swept."""
+        raise ValueError(f"problem {self.name!r} cannot be swept: it does not implement "
+                         "sweep_point()")
+
+    def sweep_preflight(self, start: Any, window: tuple[float | None, float | None],
+                        max_points: int) -> None:
+        """:meth:`preflight` for a run of the sweep algorithm (``max_points`` grid values per
+        sweep): the same promise (one line naming the key, no computation). Default:
+        :meth:`preflight`; a problem that is both continued and swept overrides it where its
+        start block means something else for a sweep."""
+        self.preflight(start, window, max_points)
 
     # == monitors ==============================================================================
     #: event kinds this problem family raises besides the core ones

@@ -574,6 +574,12 @@ class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
         if res is None:
             return {self.parameter: p, "period": np.nan, "sticking_time": np.nan,
                     "n_impacts_before_chatter": np.nan}
+        return self.result_quantities(res, p)
+
+    def result_quantities(self, res: SimResult, p: float) -> dict[str, float]:
+        """The derived quantities of the simulation ``res`` at the parameter value ``p`` (of
+        the orbit at a point, :meth:`derived`; of one recorded return of a brute-force
+        diagram, :mod:`nsm_continuation.hybrid.brute_force`)."""
         out = {
             self.parameter: p,
             "period": float(res.t),
@@ -719,6 +725,10 @@ class HybridStartSpec(BaseModel):
     #: period is prescribed along the branch), e.g. ``torque``; default the problem's
     #: ``period_partner``. Not allowed when continuing in a parameter.
     free_parameter: str | None = None
+    #: with ``continuation.algorithm: sweep`` (a brute-force bifurcation diagram,
+    #: :mod:`~nsm_continuation.hybrid.brute_force`): the returns to the section recorded at
+    #: each value after ``transient`` ones (default ``BRUTE_FORCE_RECORD``). Refused otherwise.
+    record: int | None = Field(None, ge=1)
 
 
 #: one start mapping or a list of them
@@ -736,6 +746,11 @@ class HybridCaseProblem(HybridShootingProblem):
 
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
     symbolic = "SX"
+    #: continued (``palc``), or swept into a brute-force bifurcation diagram (``sweep``:
+    #: :mod:`~nsm_continuation.hybrid.brute_force`, Figs. 8(b), 9(b)-(c) of the paper)
+    algorithms: ClassVar[tuple[str, ...]] = ("palc", "sweep")
+    #: recorded returns per value of a brute-force sweep when ``start.record`` is not given
+    BRUTE_FORCE_RECORD: ClassVar[int] = 10
 
     def __init__(self, params: BaseModel | dict[str, Any]) -> None:
         from ..vocabulary import as_parameters
@@ -894,6 +909,11 @@ class HybridCaseProblem(HybridShootingProblem):
         """
         from ..preflight import as_list, check_budget
 
+        for i, s in as_list(START_ADAPTER.validate_python(start if start is not None else {})):
+            if s.record is not None:
+                raise ValueError(f"start{'' if i is None else f'[{i}]'}.record: the returns "
+                                 "recorded at each value of a brute-force diagram, only with "
+                                 "continuation.algorithm: sweep")
         if self.parameter == PERIOD:
             self._period_preflight(start, window, max_points)
             return
@@ -955,6 +975,67 @@ class HybridCaseProblem(HybridShootingProblem):
         check_budget("start" if len(items) == 1 else "start[0]",
                      f"{len(items)} start{'s' if len(items) != 1 else ''} with their transient "
                      f"and continuation.max_points = {max_points}", seconds=seconds)
+
+    def sweep_preflight(self, start: Any, window: tuple[float | None, float | None],
+                        max_points: int) -> None:
+        """:meth:`preflight` of a brute-force sweep (:mod:`~nsm_continuation.hybrid.
+        brute_force`): a parameter of the system (not the period) over a closed window
+        holding ``parameters.<name>``, one return per period (``returns: 1``, no
+        ``free_parameter``), the start states checked as :meth:`preflight` does (``transient``
+        is the per-value transient, allowed with ``guess``), and the time of
+        ``(transient + record)`` returns per grid value within the limit."""
+        from ..preflight import as_list, check_budget
+
+        if self.parameter == PERIOD:
+            raise ValueError(f"continuation.parameter: {PERIOD}: a brute-force sweep varies a "
+                             "parameter of the system (the period is what it records)")
+        for side, bound in (("min", window[0]), ("max", window[1])):
+            if bound is None:
+                raise ValueError(f"continuation.{side}: a sweep needs both ends of the window")
+        items = as_list(START_ADAPTER.validate_python(start if start is not None else {}))
+        checked = []
+        for i, s in items:
+            at = "start" + ("" if i is None else f"[{i}]")
+            for key, bad in (("returns", s.returns != 1), ("free_parameter",
+                                                          s.free_parameter is not None)):
+                if bad:
+                    raise ValueError(f"{at}.{key}: not used by a brute-force sweep (every "
+                                     "return to the section is recorded)")
+            drop = {"record"} | ({"transient"} if s.guess is not None else set())
+            checked.append(HybridStartSpec.model_validate(
+                s.model_dump(exclude=drop, exclude_unset=True)))
+        # the states and the window, as for a continuation (no continuation points)
+        self.preflight(checked if len(checked) > 1 else checked[0], window, 0)
+        seconds = 0.0
+        p0 = self.values[self.parameter]
+        for _, s in items:
+            X = (self.shooting.x0(np.append([s.guess[n] for n in self.variables[:-1]], [p0]))
+                 if s.guess is not None else np.append(self.default_initial(), [p0]))
+            per_return = max(self.TRANSIENT_SECONDS_PER_RETURN, self._return_seconds(X))
+            record = s.record if s.record is not None else self.BRUTE_FORCE_RECORD
+            sweeps = 2 if s.direction == "both" else 1
+            seconds += sweeps * max_points * (s.transient + record) * per_return
+        check_budget("continuation.max_points",
+                     f"{len(items)} brute-force start{'s' if len(items) != 1 else ''} of "
+                     f"{max_points} values, transient and recorded returns", seconds=seconds)
+
+    def sweep_seeds(self, start: Any, window: tuple[float | None, float | None]
+                    ) -> list[Any]:
+        """The brute-force sweeps of the start block
+        (:func:`~nsm_continuation.hybrid.brute_force.sweep_seeds`)."""
+        from ..preflight import as_list
+        from . import brute_force
+
+        items = as_list(START_ADAPTER.validate_python(start if start is not None else {}))
+        return brute_force.sweep_seeds(self, [s.model_copy(update={
+            "record": s.record or self.BRUTE_FORCE_RECORD}) for _, s in items])
+
+    def sweep_point(self, seed: Any, value: float, state: Any) -> tuple[Any, Any]:
+        """The recorded section returns at ``value``
+        (:func:`~nsm_continuation.hybrid.brute_force.sweep_point`)."""
+        from . import brute_force
+
+        return brute_force.sweep_point(self, seed, value, state)
 
     def _return_seconds(self, X: np.ndarray) -> float:
         """Estimated cost of one return to the section from the full state ``X`` for an explicit
