@@ -135,11 +135,7 @@ class HybridShooting:
             except SimulationError as exc:
                 hit = exc.reason
                 if hit.startswith("initial state on the inadmissible side"):
-                    # the orbit is at the surface at the section itself: an impact or a
-                    # grazing at the section's time (the state there is on the surface)
-                    hit += ("; the orbit meets the impact surface at the Poincare section (an "
-                            "impact or a grazing at the section's time): place the section "
-                            "elsewhere (a forced system: another section phase)")
+                    hit += self._inadmissible_start(y)
             except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
                 hit = str(exc)
             self.n_simulations += 1
@@ -149,6 +145,23 @@ class HybridShooting:
         if isinstance(hit, str):
             raise ShootingFailure(hit)
         return hit
+
+    #: an initial state this far inside the obstacle (relative to its size) is a guess off
+    #: any orbit; closer, an orbit on the surface at the section's time
+    ON_SURFACE = 1e-6
+
+    def _inadmissible_start(self, y: np.ndarray) -> str:
+        """Why the state at the section lies inside the obstacle: on the surface (an impact
+        or a grazing at the section's time; a forced system's section moves off it, see
+        ``HybridShootingProblem.rechart``) or deep inside (a guess or a predicted point far
+        from any orbit)."""
+        X = self.x0(y)
+        H = float(np.asarray(self.c.probe(X), dtype=float).ravel()[0])
+        if abs(H) <= self.ON_SURFACE * (1.0 + float(np.max(np.abs(X[: self.c.n])))):
+            return ("; the orbit meets the impact surface at the Poincare section (an impact "
+                    "or a grazing at the section's time)")
+        return ("; the state at the section lies inside the obstacle: the guess (or the "
+                "predicted point) is far from any orbit")
 
     def residual_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c = self.c
