@@ -153,6 +153,17 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
     return Result(run_case(case, problem, progress=False, starts=[start]))
 
 
+def _orbit_periods(periods: Any, key: str) -> int:
+    """``periods`` as a whole number from 1 to
+    :data:`~nsm_continuation.cases.MAX_ORBIT_PERIODS`, else a
+    :class:`CaseError` (a ``ValueError``) naming ``key``."""
+    if isinstance(periods, bool) or not isinstance(periods, int | np.integer) \
+            or not 1 <= periods <= cases.MAX_ORBIT_PERIODS:
+        raise CaseError(f"{key}: {periods!r} is not a whole number of periods from 1 to "
+                        f"{cases.MAX_ORBIT_PERIODS}")
+    return int(periods)
+
+
 @dataclass(frozen=True)
 class EventRecord:
     """One located event: its kind, branch, the value of the problem's parameter unknown
@@ -319,36 +330,60 @@ class Result:
         return Result(run_case(case, problem, progress=False))
 
     def orbit(self, branch: int = 0, point: int = -1, periods: int = 1) -> OrbitTrace:
-        """The periodic orbit at row ``point`` of branch ``branch`` (a negative row counts from
-        the end) over ``periods`` periods (:meth:`Problem.orbit
+        """The periodic orbit at row ``point`` of branch ``branch`` (its id, as in
+        ``branch_<id>.csv``; a negative row counts from the end) over ``periods`` periods
+        (1 to :data:`~nsm_continuation.cases.MAX_ORBIT_PERIODS`; :meth:`Problem.orbit
         <nsm_continuation.protocol.Problem.orbit>`): time ``t``, named ``signals``, their
         ``labels``, impact ``marks``, sticking ``intervals`` and the family's ``views``.
-        ``ValueError`` if the problem does not draw its orbits."""
+        ``ValueError`` naming the argument for a branch, row or number of periods the run
+        does not have, or if the problem does not draw its orbits."""
         from .orbits import problem_of
 
-        br = self.run_result.branches[branch]
-        p = br.points[point]
-        trace = problem_of(self.run_result, br, p).orbit(p.y, int(periods))
+        n = _orbit_periods(periods, "periods")
+        br = self._branch(branch)
+        rows = len(br.points)
+        if isinstance(point, bool) or not isinstance(point, int | np.integer) \
+                or not -rows <= point < rows:
+            raise ValueError(f"point: {point!r} is not a row of branch {br.id} ({rows} points: "
+                             f"rows 0 to {rows - 1}, or -{rows} to -1 from the end)")
+        p = br.points[int(point)]
+        trace = problem_of(self.run_result, br, p).orbit(p.y, n)
         if trace is None:
             raise ValueError(f"problem {self.problem.name!r} does not draw its orbits "
                              "(Problem.orbit is not implemented)")
         return trace
 
+    def _branch(self, branch: int) -> Branch:
+        """The branch of id ``branch`` with points, else a ``ValueError`` naming the ids."""
+        by_id = {br.id: br for br in self.run_result.branches}
+        br = by_id.get(branch) if isinstance(branch, int | np.integer) \
+            and not isinstance(branch, bool) else None
+        if br is None:
+            raise ValueError(f"branch: {branch!r} is not a branch of this run (ids: "
+                             f"{', '.join(map(str, by_id))})")
+        if not br.points:
+            raise ValueError(f"branch: branch {br.id} has no points "
+                             f"({termination_text(br)})")
+        return br
+
     def plot_orbits(self, points: Sequence[str | float] = ("first", "last"),
                     view: str = "time", ax: Any = None, periods: int = 1,
                     log: Sequence[str] = ()) -> Any:
         """An orbit figure as the case key ``output.orbits`` draws it
-        (:mod:`nsm_continuation.orbits`): the ``view`` (``time``, ``phase`` or ``manifold``)
-        of the orbits at ``points`` (``first``, ``last``, ``events``, an event kind or a value
-        of the continued parameter), on ``ax`` (a new figure if None; the time view then
-        draws its first signal only). Returns the matplotlib Figure; :class:`CaseError`
-        naming the argument for a point or view it does not know."""
+        (:mod:`nsm_continuation.orbits`): the ``view`` (``time``, ``phase`` or ``manifold``,
+        as the problem draws them: :meth:`Problem.orbit_view_names
+        <nsm_continuation.protocol.Problem.orbit_view_names>`) of the orbits at ``points``
+        (``first``, ``last``, ``events``, an event kind or a value of the continued
+        parameter), on ``ax`` (a new figure if None; the time view then draws its first signal
+        only). Returns the matplotlib Figure; :class:`CaseError` (a ``ValueError``) naming the
+        argument for a view the problem does not draw, a point that selects nothing, a
+        ``log`` signal the time view does not draw or a number of periods out of range."""
         from . import orbits
 
-        if view not in cases.ORBIT_VIEWS:
-            raise CaseError(f"view: {view!r} is not one of {', '.join(cases.ORBIT_VIEWS)}")
+        cases.check_orbit_view(view, self.problem, "plot_orbits.view")
+        n = _orbit_periods(periods, "plot_orbits.periods")
         cases.check_orbits(list(points), self.problem, "plot_orbits")
-        return orbits.plot(self.run_result, list(points), view, ax, int(periods), log)
+        return orbits.plot(self.run_result, list(points), view, ax, n, list(log))
 
     def plot(self, ax: Any = None) -> Any:
         """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);

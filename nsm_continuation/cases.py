@@ -11,6 +11,7 @@ import copy
 import math
 import re
 import stat
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -158,6 +159,8 @@ ORBIT_VIEWS = ("time", "phase", "manifold")
 ORBIT_POINT_WORDS = ("first", "last", "events")
 #: most points ``output.orbits.points`` may select (one line per point in a figure)
 MAX_ORBIT_POINTS = 12
+#: most periods drawn per orbit (``output.orbits.periods``, ``Result.orbit``)
+MAX_ORBIT_PERIODS = 50
 OrbitView = Literal["time", "phase", "manifold"]
 Name = Annotated[str, Field(min_length=1, max_length=100, strict=True)]
 
@@ -179,7 +182,7 @@ class OrbitsSpec(BaseModel):
                       ] = ["first", "last"]
     views: Annotated[list[OrbitView], Field(min_length=1), AfterValidator(_unique)] = [
         "time", "phase"]
-    periods: Annotated[int, Field(ge=1, le=50, strict=True)] = 1
+    periods: Annotated[int, Field(ge=1, le=MAX_ORBIT_PERIODS, strict=True)] = 1
     log: list[Name] = []
     #: the branches (ids, as in ``branch_<id>.csv``) the points and the manifold are taken
     #: from; default every branch (the manifold: the first with points)
@@ -588,7 +591,8 @@ def _check_diagram(case: Case, problem: Problem) -> None:
                 raise CaseError(f"output.axes[{i}]: {name!r} is not a quantity of problem "
                                 f"{case.problem!r} (one of: {', '.join(known)})")
     if case.output.orbits is not None:
-        check_orbits(case.output.orbits.points, problem, "output.orbits")
+        check_orbits(case.output.orbits.points, problem, "output.orbits",
+                     case.output.orbits.views)
     spec = case.analysis.branch_switching
     if spec is None:
         return
@@ -614,10 +618,12 @@ def _check_diagram(case: Case, problem: Problem) -> None:
                         "branches start at the detected points)")
 
 
-def check_orbits(points: list[str | float], problem: Problem, key: str) -> None:
+def check_orbits(points: list[str | float], problem: Problem, key: str,
+                 views: Sequence[str] = ()) -> None:
     """Orbit figures (``output.orbits``, ``Result.plot_orbits``) need a problem that draws its
-    orbits (:meth:`Problem.orbit` overridden), and each named point is ``first``, ``last``,
-    ``events`` or an event kind of the problem: else a :class:`CaseError` naming ``key``."""
+    orbits (:meth:`Problem.orbit` overridden), each named point is ``first``, ``last``,
+    ``events`` or an event kind of the problem, and each of ``views`` is one the problem
+    draws (:func:`check_orbit_view`): else a :class:`CaseError` naming ``key``."""
     if type(problem).orbit is Problem.orbit:
         raise CaseError(f"{key}: problem {problem.name!r} does not draw its orbits "
                         "(Problem.orbit is not implemented)")
@@ -627,6 +633,20 @@ def check_orbits(points: list[str | float], problem: Problem, key: str) -> None:
             raise CaseError(f"{key}.points[{i}]: {entry!r} is not first, last, events, a "
                             f"number or an event kind of problem {problem.name!r} (one of: "
                             f"{', '.join(kinds)})")
+    for i, view in enumerate(views):
+        check_orbit_view(view, problem, f"{key}.views[{i}]")
+
+
+def check_orbit_view(view: str, problem: Problem, key: str) -> None:
+    """``view`` is one of :data:`ORBIT_VIEWS` that ``problem``'s orbits have
+    (:meth:`Problem.orbit_view_names`): else a :class:`CaseError` naming ``key`` and the views
+    it draws."""
+    drawn = problem.orbit_view_names()
+    if view not in ORBIT_VIEWS:
+        raise CaseError(f"{key}: {view!r} is not one of {', '.join(ORBIT_VIEWS)}")
+    if view not in drawn:
+        raise CaseError(f"{key}: problem {problem.name!r} does not draw the {view!r} view of "
+                        f"its orbits (it draws: {', '.join(drawn) or 'none'})")
 
 
 def _validate_restart(case: Case, problem: Problem, resolved: tuple[Any, ...],

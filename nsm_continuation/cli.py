@@ -181,6 +181,11 @@ def _run(args: argparse.Namespace, path: str) -> int:
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
     failed = [b for b in res.branches if not b.points]
+    if case.output.orbits is not None:
+        from .orbits import spec_warnings
+
+        for w in spec_warnings(res):  # also in report.md; stderr even with --quiet
+            print(f"warning: {w}", file=sys.stderr)
     if not args.quiet:
         print(_summary(build_report(res), out))
         for w in problem.warnings():

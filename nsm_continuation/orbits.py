@@ -26,6 +26,7 @@ declares.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +41,7 @@ from matplotlib.cm import ScalarMappable  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from .cases import OrbitsSpec  # noqa: E402
+from .cases import CaseError, OrbitsSpec  # noqa: E402
 from .protocol import EvaluationError, Problem  # noqa: E402
 from .records import Branch, OrbitTrace, Point  # noqa: E402
 
@@ -92,10 +93,18 @@ def choose(res: Any, points: Sequence[str | float], ids: Sequence[int] | None = 
            ) -> list[Chosen]:
     """The points named by ``points`` (see the module docstring) on the branches ``ids``
     (default all), each once, in the order named; branches without points are skipped."""
+    return select(res, points, ids)[0]
+
+
+def select(res: Any, points: Sequence[str | float], ids: Sequence[int] | None = None
+           ) -> tuple[list[Chosen], list[int]]:
+    """:func:`choose`, and the indices of the entries of ``points`` that select no point of
+    the branches (an event kind the run did not locate there, or no branch with points)."""
     pr, name = res.problem, parameter_name(res)
     branches = branches_of(res, ids)
     out: list[Chosen] = []
     seen: set[tuple[int, int]] = set()
+    empty: list[int] = []
 
     def add(br: Branch, p: Point, tag: str) -> None:
         key = (br.id, id(p))
@@ -103,23 +112,96 @@ def choose(res: Any, points: Sequence[str | float], ids: Sequence[int] | None = 
             seen.add(key)
             out.append(Chosen(br, p, tag, parameter_value(pr, p, name)))
 
-    for entry in points:
+    for i, entry in enumerate(points):
+        found = False
         if isinstance(entry, int | float) and not isinstance(entry, bool):
             pts = [(br, p) for br in branches for p in br.points]
             if pts:
                 dist = [abs(parameter_value(pr, p, name) - float(entry)) for _, p in pts]
                 br, p = pts[int(np.nanargmin(dist))]
                 add(br, p, f"nearest {name} = {float(entry):g}")
-            continue
-        for br in branches:
-            if entry == "first":
-                add(br, br.points[0], "first")
-            elif entry == "last":
-                add(br, br.points[-1], "last")
-            else:
-                for ev in br.events:
-                    if ev.kind != "endpoint" and entry in ("events", ev.kind):
-                        add(br, ev.point, ev.kind)
+                found = True
+        else:
+            for br in branches:
+                if entry == "first":
+                    add(br, br.points[0], "first")
+                    found = True
+                elif entry == "last":
+                    add(br, br.points[-1], "last")
+                    found = True
+                else:
+                    for ev in br.events:
+                        if ev.kind != "endpoint" and entry in ("events", ev.kind):
+                            add(br, ev.point, ev.kind)
+                            found = True
+        if not found:
+            empty.append(i)
+    return out, empty
+
+
+def event_kinds_of(res: Any, ids: Sequence[int] | None = None) -> list[str]:
+    """The kinds of the events located on the branches ``ids`` (default all), branch ends
+    excepted, each once."""
+    return list(dict.fromkeys(ev.kind for br in branches_of(res, ids) for ev in br.events
+                              if ev.kind != "endpoint"))
+
+
+def nothing_selected(entry: str | float, res: Any, ids: Sequence[int] | None) -> str:
+    """Why the point entry ``entry`` selects nothing: no event of that kind on the branches
+    ``ids`` (with the kinds there are), or no branch with points."""
+    if not branches_of(res, ids):
+        return f"{entry!r} selects no point: no branch drawn has points"
+    kinds = event_kinds_of(res, ids)
+    what = "event" if entry == "events" else f"{entry!r} event"
+    return (f"{entry!r} selects no point: the branches drawn have no {what} (events located: "
+            f"{', '.join(kinds) or 'none'})")
+
+
+def time_signals(res: Any, chosen: list[Chosen], periods: int) -> list[str] | None:
+    """The signals of the ``time`` view of the first of ``chosen`` whose orbit can be
+    computed; None if none can."""
+    for ch in chosen:
+        items, _ = traces(res, [ch], periods)
+        if items:
+            tr = items[0][1]
+            return [s for s in tr.views.get("time", ()) if s in tr.signals]
+    return None
+
+
+def spec_warnings(res: Any) -> list[str]:
+    """What ``output.orbits`` asks for that the run cannot draw, one line each (known only
+    after computing; the views and point kinds were checked before,
+    :func:`~nsm_continuation.cases.check_orbits`): a branch of ``branches`` the run does not
+    have (or without points), a point entry that selects nothing, a signal of ``log`` that
+    the time view does not draw (read from the first chosen orbit), ``log`` without the time
+    view. Computed once per run (kept in ``res.orbit_warnings``); none without
+    ``output.orbits``."""
+    if res.orbit_warnings is not None:
+        return list(res.orbit_warnings)
+    spec: OrbitsSpec | None = res.case.output.orbits
+    out: list[str] = []
+    if spec is not None:
+        have = [br.id for br in res.branches if br.points]
+        for i, b in enumerate(spec.branches or []):
+            if b not in have:
+                out.append(f"output.orbits.branches[{i}]: the run has no branch {b} with "
+                           f"points (branches with points: "
+                           f"{', '.join(map(str, have)) or 'none'}): nothing of it is drawn")
+        chosen: list[Chosen] = []
+        if {"time", "phase"} & set(spec.views):
+            chosen, empty = select(res, spec.points, spec.branches)
+            out += [f"output.orbits.points[{i}]: "
+                    f"{nothing_selected(spec.points[i], res, spec.branches)}" for i in empty]
+        if spec.log and "time" not in spec.views:
+            out.append("output.orbits.log: the time view is not among output.orbits.views: "
+                       "nothing is drawn on a log scale")
+        elif spec.log and chosen:
+            signals = time_signals(res, chosen, spec.periods)
+            if signals is not None:
+                out += [f"output.orbits.log[{i}]: {s!r} is not a signal of the time view "
+                        f"(its signals: {', '.join(signals)}): ignored"
+                        for i, s in enumerate(spec.log) if s not in signals]
+    res.orbit_warnings = list(out)
     return out
 
 
@@ -152,10 +234,20 @@ def legend_text(ch: Chosen, name: str) -> str:
     return f"{ch.branch.label} [{ch.branch.id}], {ch.tag}: {name} = {ch.value:.6g}"
 
 
-def _title(res: Any, what: str, spec: OrbitsSpec | None, view: str) -> str:
+#: longest line of a figure title [characters] (longer ones are wrapped: a title centred over
+#: narrower axes would be clipped at both ends of the figure)
+TITLE_WIDTH = 80
+
+
+def _title(res: Any, what: str, spec: OrbitsSpec | None, view: str,
+           width: int = TITLE_WIDTH) -> str:
+    """``<caption>: <what> (<case>)``, each line of ``what`` wrapped at ``width``
+    characters."""
     caption = spec.figures.get(view) if spec is not None else None
     head = f"{caption}: " if caption else ""
-    return f"{head}{what} ({res.case.name})"
+    text = f"{head}{what} ({res.case.name})"
+    return "\n".join(textwrap.fill(line, width, break_on_hyphens=False)
+                     for line in text.splitlines())
 
 
 def _mark_styles(items: list[tuple[Chosen, OrbitTrace]]) -> dict[str, str]:
@@ -219,8 +311,7 @@ def draw_time(res: Any, items: list[tuple[Chosen, OrbitTrace]], log: Sequence[st
         ax.set_ylabel(f"$|${label}$|$ (log)" if is_log else label)
         ax.grid(alpha=0.25, which="both")
     axes[min(len(signals), len(axes)) - 1].set_xlabel("normalised time $t / T$")
-    missing = [s for s in log if not any(s in tr.signals for _, tr in items)]
-    extra = [f"log: {s!r} is not a signal of these orbits" for s in missing]
+    extra = [f"log: {s!r} is not a signal of the time view" for s in log if s not in signals]
     _finish_legend(axes[0], styles, interval_kinds, [*notes, *extra])
     axes[0].set_title(_title(res, "periodic orbits against normalised time", spec, "time"),
                       fontsize=10)
@@ -381,10 +472,10 @@ def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec |
     fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.12, label=colour_by)
     at = f", all at {name} = {constant:.6g}" if constant is not None else ""
     what = (f"invariant manifold: {len(items)} admissible periodic orbits{at}\nalong branch "
-            f"{branch.label} [{branch.id}]")
+            f"{branch.id} ({branch.label})")
     if bounds:
         ax.legend(fontsize=7, loc="upper left")
-    ax.set_title(_title(res, what, spec, "manifold"), fontsize=10)
+    ax.set_title(_title(res, what, spec, "manifold", width=70), fontsize=10)
     if notes:
         ax.text2D(0.0, 0.0, "not drawn: " + "; ".join(notes), transform=ax.transAxes,
                   fontsize=6, color="0.4")
@@ -419,20 +510,44 @@ def make_figures(res: Any, out: Path) -> list[str]:
 
 def plot(res: Any, points: Sequence[str | float], view: str = "time", ax: Any = None,
          periods: int = 1, log: Sequence[str] = ()) -> plt.Figure:
-    """One orbit figure of a run in memory (``Result.plot_orbits``): the ``view`` of the orbits
-    at ``points`` (``manifold``: along the first branch, ``points`` unused) on ``ax`` (a new
-    figure if None; the time view then draws only its first signal). Raises ``ValueError`` if
-    there is nothing to draw."""
+    """One orbit figure of a run in memory (``Result.plot_orbits``, whose checks before
+    computing have passed: a view the problem draws, known point kinds): the ``view`` of the
+    orbits at ``points`` (``manifold``: along the first branch, ``points`` unused) on ``ax``
+    (a new figure if None; the time view then draws only its first signal). Raises a
+    :class:`~nsm_continuation.cases.CaseError` (a ``ValueError``) naming the argument for a
+    point entry that selects nothing, a ``log`` signal the time view does not draw, and if
+    there is nothing to draw (no orbit could be computed)."""
+    if log and view != "time":
+        raise CaseError(f"plot_orbits.log: only the time view draws signals on a log scale "
+                        f"(view is {view!r})")
     if view == "manifold":
         fig = draw_manifold(res, periods, ax=ax)
+        if fig is None:
+            raise CaseError("plot_orbits.view: 'manifold': no admissible orbit of the first "
+                            "branch with points could be computed")
+        return fig
+    if not points:
+        raise CaseError("plot_orbits.points: empty; give first, last, events, an event kind "
+                        "or a value of the continued parameter")
+    chosen, empty = select(res, points)
+    if empty:
+        i = empty[0]
+        raise CaseError(f"plot_orbits.points[{i}]: {nothing_selected(points[i], res, None)}")
+    items, notes = traces(res, chosen, periods)
+    if view == "time":
+        signals = list(dict.fromkeys(s for _, tr in items for s in tr.views.get("time", ())
+                                     if s in tr.signals))
+        for i, sig in enumerate(log):
+            if items and sig not in signals:
+                raise CaseError(f"plot_orbits.log[{i}]: {sig!r} is not a signal of the time "
+                                f"view (its signals: {', '.join(signals)})")
+        fig = draw_time(res, items, log, axes=None if ax is None else [ax], notes=notes)
+    elif view == "phase":
+        fig = draw_phase(res, items, ax=ax, notes=notes)
     else:
-        items, notes = traces(res, choose(res, points), periods)
-        if view == "time":
-            fig = draw_time(res, items, log, axes=None if ax is None else [ax], notes=notes)
-        elif view == "phase":
-            fig = draw_phase(res, items, ax=ax, notes=notes)
-        else:
-            raise ValueError(f"view: {view!r} is not one of time, phase, manifold")
+        raise CaseError(f"plot_orbits.view: {view!r} is not one of time, phase, manifold")
     if fig is None:
-        raise ValueError(f"view {view!r}: no orbit at the chosen points has its signals")
+        why = "; ".join(notes) or "their traces have no such view"
+        raise CaseError(f"plot_orbits.view: {view!r}: no orbit at the chosen points could be "
+                        f"drawn ({why})")
     return fig

@@ -125,6 +125,7 @@ class ContinuationEngine:
         self.recharts = True
         #: sign changes of an event function that are not zeros (poles, jumps: no event)
         self.sign_changes_without_zero = 0
+        self.last_was_pole = False
 
     # ------------------------------------------------------------------ linear algebra
     # every solve is with the bordered matrix [G_y(y); r^T], factorised by the problem
@@ -425,9 +426,15 @@ class ContinuationEngine:
             if crossed is not None:
                 new_pts, kink_events = crossed
                 s_zero = kink_events[0].point.s
+                # the step's end lies beyond the kink, where the Jacobian jumps: a sign change
+                # of det[G_y; t^T] or of the tangent's parameter component located at the kink
+                # itself is that jump, no branch point or fold
+                at_kink = 1e-6 * h_step
                 events.extend(ev for ev in new_events if ev.point.s < s_zero - 1e-12
                               and ev.kind != self.problem.signature_kind
-                              and "function" not in ev.data)
+                              and "function" not in ev.data
+                              and not (ev.kind in ("branch_point", "fold")
+                                       and s_zero - ev.point.s <= at_kink))
                 events.extend(kink_events)
                 pts.extend(new_pts)
                 continue
@@ -839,11 +846,20 @@ class ContinuationEngine:
         flo = fun(a) if flo is None else flo
         fhi = fun(b) if fhi is None else fhi
 
+        seen = [abs(flo), abs(fhi)]
+
         def f(sig: float) -> tuple[float, Point | None]:
             p = self._point_at(a, b, sig, tests=True, floquet=floquet)
-            return (float("nan"), None) if p is None else (fun(p), p)
+            value = float("nan") if p is None else fun(p)
+            if np.isfinite(value):
+                seen.append(abs(value))
+            return value, p
 
         sig, p, width = illinois(f, lo, flo, hi, fhi, self.settings.event_tol)
+        #: whether the sign change just located was through a pole, not a zero: the last
+        #: values met, next to the sign change, exceed both ends in modulus (they shrink like
+        #: the bracket at a zero, they grow like its inverse at a pole)
+        self.last_was_pole = len(seen) > 2 and min(seen[-2:]) > max(seen[:2])
         if p is None:
             p = b if abs(sig - h) < abs(sig) else a
         return self.full(p), width
@@ -1063,7 +1079,11 @@ class ContinuationEngine:
                                "along the branch", data={"test": "tangent"}, bracket=w))
         elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
             p, w = self._locate_continuous(a, b, lambda q: q.bordered_det)
-            if self._on_arc(a, b, p):
+            if self.last_was_pole:
+                # through a pole, not a zero: the Jacobian blows up (e.g. like 1/|v| as an
+                # impact's velocity vanishes at a grazing), no second branch crosses here
+                self.sign_changes_without_zero += 1
+            elif self._on_arc(a, b, p):
                 found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
                                    "changes sign", data={"test": "bordered_determinant"},
                                    bracket=w))

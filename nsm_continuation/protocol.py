@@ -51,8 +51,10 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      (:meth:`plot_decorations`, :meth:`legend_handles`, :meth:`extra_plots`,
      :meth:`report_extras`, :meth:`summary`, :meth:`warnings`), and the periodic orbit at a
      point sampled in time (:meth:`orbit`, an :class:`~nsm_continuation.records.OrbitTrace`
-     with the family's default views; default None: no orbit figures), which the generic
-     orbit figures of ``output.orbits`` draw (:mod:`nsm_continuation.orbits`);
+     with the family's default views, declared by :meth:`orbit_view_names` so that a view
+     the problem does not draw is refused before computing; default None: no orbit
+     figures), which the generic orbit figures of ``output.orbits`` draw
+     (:mod:`nsm_continuation.orbits`);
    - *sweeps* (an optional capability, :class:`~nsm_continuation.algorithms.Sweep`, YAML
      ``continuation.algorithm: sweep``): a problem that lists ``"sweep"`` in ``algorithms``
      implements :meth:`sweep_seeds` (the sweeps of its ``start:`` block, :class:`SweepSeed`)
@@ -609,8 +611,14 @@ _locate_collision`)."""
         ``output.orbits`` (:mod:`nsm_continuation.orbits`) and ``Result.orbit``. May raise
         :class:`EvaluationError` where the orbit cannot be computed (the figure skips that
         point). Default None: the problem has no orbit figures (``output.orbits`` is refused
-        before computing)."""
+        before computing). Its ``views`` are those :meth:`orbit_view_names` declares."""
         return None
+
+    def orbit_view_names(self) -> tuple[str, ...]:
+        """The views (``time``, ``phase``, ``manifold``) that the traces of :meth:`orbit` have:
+        what ``output.orbits.views`` and ``Result.plot_orbits(view=...)`` may ask of this
+        problem, checked before computing. Default none (no orbit figures)."""
+        return ()
 
     def summary(self) -> dict[str, Any]:
         """Problem facts for the report (linear frequencies, coefficients, ...)."""

@@ -74,12 +74,16 @@ def parameter_direction(point: Any, parameter_index: int, branch: Any = None) ->
 
 
 def annotate_parameter_directions(rep: dict[str, Any], branches: list[Any],
-                                  parameter_index: int) -> None:
+                                  parameter_index: int, orientation: int = 1) -> None:
     """Write ``parameter_direction`` into every event record of ``rep`` (``report.json``'s
-    ``branches[i].events[j]``, built from ``branches[i].events[j]`` in the same order)."""
+    ``branches[i].events[j]``, built from ``branches[i].events[j]`` in the same order): the
+    direction along the case's continued parameter, the internal one's times
+    ``orientation`` (``Problem.parameter_orientation``: -1 for the chain's omega, whose ``T =
+    2 pi / omega`` is continued inside)."""
     for b, br in zip(rep["branches"], branches, strict=True):
         for e, ev in zip(b["events"], br.events, strict=True):
-            e["parameter_direction"] = parameter_direction(ev.point, parameter_index, br)
+            e["parameter_direction"] = orientation * parameter_direction(
+                ev.point, parameter_index, br)
 
 
 _SWAPPED_PHRASES = [("becomes negative: admissibility lost",
@@ -91,7 +95,9 @@ def reversed_detail(detail: str) -> str:
     """An event's detail text read the other way: ``A -> B`` becomes ``B -> A`` and the paired
     phrases of the engine (admissibility lost / regained, ceases to be / becomes defined) are
     exchanged; anything else is kept."""
-    out = re.sub(r"(\S+) -> (\S+)", lambda m: f"{m.group(2)} -> {m.group(1)}", detail, count=1)
+    # the two sides of the arrow, without the brackets around the pair: "(+1 -> -2)"
+    out = re.sub(r"([^\s()\[\]]+) -> ([^\s()\[\]]+)",
+                 lambda m: f"{m.group(2)} -> {m.group(1)}", detail, count=1)
     for a, b in _SWAPPED_PHRASES:
         if a in out:
             return out.replace(a, b)
@@ -261,9 +267,17 @@ def markdown(rep: dict[str, Any]) -> str:
     lines = [f"# Bifurcation report: {rep['case']['name']}", ""]
     if rep["case"].get("description"):
         lines += [rep["case"]["description"].strip(), ""]
-    lines += [f"Problem: `{rep['problem']}`; continuation parameter "
-              f"`{rep['continuation']['parameter']}` in window "
-              f"{[_fmt(w) for w in rep['continuation']['window']]}.", ""]
+    internal = rep["continuation"]["parameter"]
+    window = [_fmt(w) for w in rep["continuation"]["window"]]
+    given = (rep["case"].get("input") or {}).get("continuation") or {}
+    name = given.get("parameter") or internal
+    if name != internal:  # continued in the case's quantity, the problem's own one inside
+        text = (f"continuation parameter `{name}` in window "
+                f"{[_fmt(given.get('min')), _fmt(given.get('max'))]} (the problem's own "
+                f"`{internal}` in {window})")
+    else:
+        text = f"continuation parameter `{name}` in window {window}"
+    lines += [f"Problem: `{rep['problem']}`; {text}.", ""]
     summ = rep.get("problem_summary") or {}
     if summ:
         lines += ["## System", ""]
@@ -301,7 +315,7 @@ def markdown(rep: dict[str, Any]) -> str:
         lines += [f"- branch {i}: {m}" for i, m in moves]
     lines += ["", *_tree_lines(rep)]
     cols = list(rep.get("event_columns") or [])
-    par = rep["continuation"]["parameter"]
+    par = rep["continuation"].get("case_parameter") or rep["continuation"]["parameter"]
     shown = [(b["id"], e) for b in rep["branches"] for e in b["events"]
              if e["kind"] != "endpoint"]
     kinds = {e["kind"] for _, e in shown}

@@ -160,6 +160,10 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
         })
     s = res.settings
     warnings = list(pr.warnings())
+    if res.case.output.orbits is not None:
+        from .orbits import spec_warnings
+
+        warnings += spec_warnings(res)
     for b in branches:
         err = b["max_trivial_multiplier_error"]
         if err is not None and err > 1e-6:
@@ -191,10 +195,20 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
         rep["diagram"] = diagram
     from .report import annotate_parameter_directions, continue_hints
 
-    annotate_parameter_directions(rep, res.branches, pr.parameter_index)
+    # the changes read along the case's continued parameter (omega for the chain, whose
+    # internal T falls as omega grows)
+    name = res.case.continuation.parameter or pr.parameter
+    rep["continuation"]["case_parameter"] = name
+    annotate_parameter_directions(rep, res.branches, pr.parameter_index,
+                                  pr.parameter_orientation(name))
+    from .algorithms import ALGORITHMS
+
+    # a run whose algorithm cannot start from a saved point (a sweep: its recorded returns
+    # are not orbits to continue) gets no "continue from here" lines
+    algorithm = ALGORITHMS.get(res.case.continuation.algorithm or pr.algorithms[0])
     rep["continue_from_here"] = continue_hints(
         rep["restart"], folder if folder is not None else f"runs/{res.case.name}",
-        **hint_context(res))
+        **hint_context(res)) if algorithm is None or algorithm.takes_start_points else []
     return rep
 
 

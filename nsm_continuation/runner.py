@@ -38,6 +38,9 @@ class RunResult:
     #: the problem each branch was computed with, where it is not ``problem`` (a switched
     #: branch of a diagram: the period-2k problem at a period doubling)
     branch_problems: dict[int, Problem] = field(default_factory=dict)
+    #: what ``output.orbits`` asks for that the run cannot draw, one line each, once checked
+    #: (:func:`nsm_continuation.orbits.spec_warnings`; None: not yet)
+    orbit_warnings: list[str] | None = None
 
 
 def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettings,

@@ -347,3 +347,31 @@ def test_turning_lower_bar_periodic_modulo_two_pi():
     turned = (res.X[1] - y[0]) / (2 * np.pi)
     assert abs(turned) > 0.5 and abs(turned - round(turned)) < 1e-6
     assert np.abs(pb.evaluate(y)).max() < 1e-6
+
+
+def test_start_at_rest_where_the_force_balances_still_sees_the_impact() -> None:
+    """The forced oscillator from its default start (q, q') = (gap + 1, 0) at phase 0, where
+    v = a = jerk = 0 (the force -q + cos(0) balances): the flight falls onto the stop, and the
+    first impact is where an independent ``solve_ivp`` meets ``q = gap`` (it used to be
+    missed, the flight taken for one moving away, and q passed through the stop to -0.9)."""
+    import dataclasses
+
+    import nsm_continuation as nsm
+
+    omega, zeta = 2.5, 0.1
+    pb = nsm.problem("impact_oscillator", {"zeta": zeta, "omega": omega, "gap": 0.0,
+                                           "restitution": 0.6})
+    pb.set_parameter("omega")
+    sim = Simulator(pb.shooting.c, dataclasses.replace(pb.shooting.sim.o, sensitivities=False))
+    res = sim.run(np.array([1.0, 0.0, 0.0, omega]), section=(2, 2 * np.pi, 1))
+    first = next(e for e in res.events if e.kind == "impact")
+
+    def stop(t: float, x: np.ndarray) -> float:
+        return x[0]
+
+    stop.terminal, stop.direction = True, -1.0  # type: ignore[attr-defined]
+    sol = solve_ivp(lambda t, x: [x[1], -x[0] - 2 * zeta * x[1] + np.cos(omega * t)],
+                    (0.0, 10.0), [1.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-13,
+                    events=stop)
+    assert first.t == pytest.approx(float(sol.t_events[0][0]), abs=1e-8)
+    assert res.extremes is None or res.extremes[0, 0] >= -1e-9

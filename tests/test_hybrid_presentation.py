@@ -314,6 +314,10 @@ def test_reversed_detail() -> None:
                                               "admissibility regained")
     assert report.reversed_detail("test function 'sticking_time' becomes defined") == \
         "test function 'sticking_time' ceases to be defined"
+    # a pair in brackets keeps its brackets (it read "+1.59e-08) -> (-1.25e-12")
+    assert report.reversed_detail("event function 'grazing_margin' vanishes (+1.59e-08 -> "
+                                  "-1.25e-12)") == ("event function 'grazing_margin' vanishes "
+                                                    "(-1.25e-12 -> +1.59e-08)")
     e = {"signature_before": "I", "signature_after": "IC3S", "parameter_direction": -1,
          "detail": "event sequence I -> IC3S"}
     o = report.in_parameter_order(e)

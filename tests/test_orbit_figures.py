@@ -10,13 +10,21 @@ against an oracle independent of what it checks:
   ``sticking_time``, the oscillator's flight up to its first impact is the closed-form solution
   of ``q'' + 2 zeta q' + q = cos(omega t)`` (``tests/oracles/linear_flight.py``) and the
   pendulum's ``dY`` is the time derivative of its ``Y``;
-* the schema: an unknown view or point kind, or a problem that draws no orbits, is refused by
-  the CLI with exit status 2 and one line naming the key, nothing written; the figures are
-  written by a small case, and only when asked for.
+* every impact of a hybrid orbit is marked, those of a chattering sequence that breaks off
+  too (the two-mass chain past its grazing): as many as the derived ``n_impacts``, at the
+  velocity reversals on the wall of the sampled orbit;
+* the schema: an unknown view or point kind, a view the problem does not draw, or a problem
+  that draws no orbits, is refused by the CLI with exit status 2 and one line naming the key,
+  nothing written; what can only be known after computing (a branch the run does not have, a
+  point kind it did not locate, a ``log`` signal the time view does not draw) is a warning in
+  report.md and on stderr; the figures are written by a small case, and only when asked for;
+* the API (``Result.orbit``, ``Result.plot_orbits``) refuses a bad argument with one line
+  naming it and what it may be; a long title is wrapped inside the figure.
 """
 
 from __future__ import annotations
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from oracles.linear_flight import free_flight
@@ -183,3 +191,91 @@ def test_the_figures_are_written_when_asked(tmp_path):
     assert fig.axes[0].get_xlabel() == "displacement $u_{5}$"
     with pytest.raises(nsm.CaseError, match=r"plot_orbits.points\[0\]"):
         res.plot_orbits(points=["nowhere"])
+
+
+@pytest.fixture(scope="module")
+def two_mass():
+    """The two-mass chain just past its grazing at omega = 0.7720 (two impacts per period,
+    the first with the wall's acceleration pushing the mass back: a chattering sequence that
+    the second impact breaks off)."""
+    return nsm.run("yaml_cases/chain_two_mass_wall.yaml",
+                   {"parameters.omega": 0.7735, "continuation.max_points": 2,
+                    "analysis.stability": False, "analysis.bifurcations": False,
+                    "output.plots": False})
+
+
+def test_every_impact_is_marked(two_mass):
+    p = two_mass.run_result.branches[0].points[0]
+    assert p.derived["n_impacts"] == 2
+    tr = two_mass.orbit(0, 0, periods=2)
+    impacts = [t for t, kind in tr.marks if kind == "impact"]
+    # independent of the simulator's events: the sampled orbit's velocity reversals on the
+    # wall q2 = gap (moving in, then out, at one instant)
+    q2, v2 = tr.signals["q2"], tr.signals["q2dot"]
+    on = np.abs(q2 - 0.5) < 1e-9
+    rev = np.nonzero(on[:-1] & on[1:] & (v2[:-1] > 0) & (v2[1:] < 0))[0]
+    assert len(impacts) == len(rev) == 2 * p.derived["n_impacts"]
+    assert impacts == pytest.approx(tr.t[rev].tolist(), abs=1e-12)
+
+
+def test_a_view_the_problem_does_not_draw_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    code = cli.main(["run", "yaml_cases/chain_two_mass_wall.yaml", "--out", str(out), "--quiet",
+                     "--set", "output.orbits={views: [time, manifold]}"])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "output.orbits.views[1]" in err
+    assert "'manifold'" in err and "time, phase" in err
+    assert not out.exists()
+
+
+def test_what_cannot_be_drawn_is_a_warning(tmp_path, capsys):
+    out = tmp_path / "out"
+    code = cli.main(["run", CHAIN, "--out", str(out), "--quiet",
+                     "--set", "continuation.max_points=4", "--set", "analysis.stability=false",
+                     "--set", "output.plots=false", "--set",
+                     "output.orbits={branches: [0, 5], points: [first, period_doubling], "
+                     "log: [u1, u5]}"])
+    assert code == 0
+    err = capsys.readouterr().err
+    report = (out / "report.md").read_text()
+    for key, what in (("output.orbits.branches[1]", "no branch 5"),
+                      ("output.orbits.points[1]", "'period_doubling'"),
+                      ("output.orbits.log[0]", "'u1' is not a signal of the time view")):
+        line = next(ln for ln in err.splitlines() if key in ln)
+        assert line.startswith("warning: ") and what in line
+        assert f"- {line.removeprefix('warning: ')}" in report
+    assert "log[1]" not in err  # u5 is drawn
+
+
+def test_bad_api_arguments_name_themselves(chain_result, two_mass):
+    n = len(chain_result.run_result.branches[0].points)
+    for call, match in (
+            (lambda: chain_result.orbit(branch=0, point=0, periods=0), r"^periods: 0 .* 1 to 50"),
+            (lambda: chain_result.orbit(0, point=99), rf"^point: 99 .*{n} points"),
+            (lambda: chain_result.orbit(3, 0), r"^branch: 3 .*ids: 0"),
+            (lambda: two_mass.plot_orbits(view="manifold"),
+             r"^plot_orbits.view: .*'manifold'.*time, phase"),
+            (lambda: two_mass.plot_orbits(points=["first", "sticking_lost"]),
+             r"^plot_orbits.points\[1\]: 'sticking_lost' selects no point"),
+            (lambda: two_mass.plot_orbits(points=[]), r"^plot_orbits.points: empty"),
+            (lambda: two_mass.plot_orbits(log=["q1"]), r"^plot_orbits.log\[0\]: 'q1'.*q2"),
+            (lambda: chain_result.plot_orbits(periods=0), r"^plot_orbits.periods: 0")):
+        with pytest.raises(ValueError, match=match) as info:
+            call()
+        assert len(str(info.value).splitlines()) == 1
+    plt.close("all")
+
+
+def test_a_long_manifold_title_stays_in_the_figure(chain_result):
+    br = chain_result.run_result.branches[0]
+    label = br.label
+    try:
+        br.label = "other branch at the branch_point #1 of branch 0 of this run " * 2
+        fig = chain_result.plot_orbits(view="manifold")
+        fig.canvas.draw()
+        box = fig.axes[0].title.get_window_extent()
+        assert 0 <= box.x0 and box.x1 <= fig.bbox.width
+    finally:
+        br.label = label
+        plt.close("all")

@@ -6,11 +6,15 @@ sensitivities) with its trajectory recorded (``SimOptions.record``): every accep
 and the states before and after each event. The step is capped (``h_max = period /``
 :data:`SAMPLES_PER_PERIOD`) so that the recorded points draw a smooth curve; the events are
 located as in the continuation (the chatter map, sticking and release, sec. 5 of Nordmark &
-Piiroinen 2009). Impacts resolved one by one (``impact``), completed chattering sequences (the
-accumulation instant of the chatter map, ``chattering completed``) and releases from sticking
-(``release``) are marked; sticking phases are the intervals. Over ``periods`` periods the
-simulation goes on from each return (the section coordinate keeps running, e.g. the upper bar
-of the pendulum turns ``-2 pi`` per period), so it also shows whether the orbit is periodic.
+Piiroinen 2009). Every impact is marked (``impact``, :func:`impact_times`): those resolved one
+by one, those of a chattering sequence that breaks off (which the simulator reports together in
+one ``chatter_broken`` event) and the one a completed sequence's chatter map replaces, so that
+the ``impact`` marks of a period are as many as the derived ``n_impacts``; completed chattering
+sequences (the accumulation instant of the chatter map, ``chattering completed``) and releases
+from sticking (``release``) are marked too; sticking phases are the intervals. Over
+``periods`` periods the simulation goes on from each return (the section coordinate keeps
+running, e.g. the upper bar of the pendulum turns ``-2 pi`` per period), so it also shows
+whether the orbit is periodic.
 
 What a family presents is declared in its problem module (:class:`OrbitDeclarations`):
 ``orbit_outputs`` (quantities computed from the state, e.g. the pendulum's lower-mass position
@@ -28,7 +32,7 @@ import numpy as np
 
 from ..protocol import EvaluationError
 from ..records import OrbitTrace
-from .simulate import SimulationError, Simulator
+from .simulate import SimResult, SimulationError, Simulator
 from .system import HybridDeclarationError
 
 if TYPE_CHECKING:
@@ -36,8 +40,9 @@ if TYPE_CHECKING:
 
 #: largest integration step of the recorded orbit: its period over this
 SAMPLES_PER_PERIOD = 1500
-#: the mark of each kind of simulator event (kinds not listed are not marked)
-MARKED_EVENTS = {"impact": "impact", "chatter": "chattering completed", "release": "release"}
+#: the mark of each kind of simulator event (kinds not listed are not marked); the impacts are
+#: marked from the recorded trajectory (:func:`impact_times`), not from these events
+MARKED_EVENTS = {"chatter": "chattering completed", "release": "release"}
 
 
 class OrbitDeclarations:
@@ -66,6 +71,30 @@ def default_views(problem: HybridShootingProblem) -> dict[str, tuple[str, ...]]:
     i = names.index(first)
     j = i + h.n_config if h.n_config is not None and i + h.n_config < h.n else (i + 1) % h.n
     return {"time": (first,), "phase": (first, names[j])}
+
+
+def views_of(problem: HybridShootingProblem) -> dict[str, tuple[str, ...]]:
+    """The views of ``problem``'s orbits: its declared ``orbit_views``, else
+    :func:`default_views`."""
+    return dict(problem.orbit_views if problem.orbit_views is not None
+                else default_views(problem))
+
+
+def impact_times(run: SimResult) -> list[float]:
+    """The instants of every impact of the simulation ``run`` (recorded with
+    ``SimOptions.record``), in time order, as many as ``run.n_impacts``: where the recorded
+    trajectory jumps (the simulator records the state before and after each event: the state
+    changes at one time only through the impact law or a projection onto the sticking
+    surface; flight transitions such as a release record it twice unchanged), and the instant
+    of each impact that a completed chattering sequence's chatter map replaces (its ``chatter``
+    event's ``t``: the state after it is recorded at the accumulation instant
+    ``t_complete``)."""
+    traj = run.trajectory or []
+    out = [float(t1) for (t0, x0), (t1, x1) in zip(traj[:-1], traj[1:], strict=True)
+           if t1 == t0 and not np.array_equal(x0, x1)]
+    out += [float(ev.t) for ev in run.events
+            if ev.kind == "chatter" and "t_complete" in ev.info]
+    return sorted(out)
 
 
 def orbit_trace(problem: HybridShootingProblem, y: np.ndarray, periods: int = 1) -> OrbitTrace:
@@ -100,21 +129,23 @@ def orbit_trace(problem: HybridShootingProblem, y: np.ndarray, periods: int = 1)
         for t, x in run.trajectory or []:
             times.append(t0 + t)
             states.append(x)
+        marks += [(t0 + t, "impact") for t in impact_times(run)]
         for ev in run.events:
             if ev.kind in MARKED_EVENTS:
                 te = ev.info.get("t_complete", ev.t)
                 marks.append((t0 + float(te), MARKED_EVENTS[ev.kind]))
         intervals += [(t0 + a, t0 + b, "sticking") for a, b in run.sticking_intervals]
-        t0 += run.t
+        t0 += float(run.t)
         X = run.X
+    marks.sort(key=lambda m: m[0])
     S = np.array(states, dtype=float).reshape(len(states), c.n)
     names = problem.hybrid.state_names
     signals = {name: S[:, k] for k, name in enumerate(names)}
     signals.update(problem.orbit_outputs(S, parameters))
-    views = problem.orbit_views if problem.orbit_views is not None else default_views(problem)
+    views = views_of(problem)
     labels = {name: problem.orbit_labels.get(name, name) for name in signals}
     return OrbitTrace(t=np.array(times), period=t0 / int(periods), signals=signals,
-                      labels=labels, marks=marks, intervals=intervals, views=dict(views))
+                      labels=labels, marks=marks, intervals=intervals, views=views)
 
 
-__all__ = ["OrbitDeclarations", "default_views", "orbit_trace"]
+__all__ = ["OrbitDeclarations", "default_views", "impact_times", "orbit_trace", "views_of"]

@@ -67,7 +67,7 @@ from ..preflight import one_or_many
 from ..protocol import EvaluationError, FloquetData, KinkCrossing, Problem, Rechart
 from ..records import OrbitTrace
 from .grazing import locate_grazing, step_beyond, tangent_beyond
-from .orbit_trace import OrbitDeclarations, orbit_trace
+from .orbit_trace import OrbitDeclarations, orbit_trace, views_of
 from .presentation import HybridPresentation
 from .simulate import SimOptions, SimResult, SimulationError, Simulator
 from .system import CompiledHybrid
@@ -574,6 +574,11 @@ class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
         periods, impacts marked and sticking phases as intervals
         (:func:`~nsm_continuation.hybrid.orbit_trace.orbit_trace`)."""
         return orbit_trace(self, y, periods)
+
+    def orbit_view_names(self) -> tuple[str, ...]:
+        """The family's declared ``orbit_views`` (:class:`~.orbit_trace.OrbitDeclarations`),
+        else the default time and phase views (:func:`~.orbit_trace.views_of`)."""
+        return tuple(views_of(self))
 
     def sim(self, y: np.ndarray) -> SimResult | None:
         try:

@@ -421,8 +421,13 @@ class Simulator:
         if mode in (S1, S2) and abs(w.pr[1]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
             # a start at a turning point of H (v = 0 to round-off, e.g. a maximum on a
             # stroboscopic section): v is "just fired", so its sign cannot hide the turn
-            # (the floor of the v watch would not see v falling from +1e-14); a decides
-            w.mode = mode = S2 if w.pr[2] < 0 else S1
+            # (the floor of the v watch would not see v falling from +1e-14); a decides, the
+            # jerk where a vanishes too (a start at rest where the force balances, e.g. the
+            # forced oscillator's (gap + 1, 0) at phase 0), and otherwise the approach: its
+            # watches (the impact, the turn of v) see a flight moving away too, not conversely
+            tiny = 1e-12 * (1.0 + np.linalg.norm(X0))
+            a, jerk = float(w.pr[2]), float(w.pr[3])
+            w.mode = mode = S1 if (a > tiny or (abs(a) <= tiny and jerk > tiny)) else S2
             w.just = "v"
         if mode == S2 and abs(w.pr[0]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
             # a start on the surface moving inwards: the impact happens at t = 0

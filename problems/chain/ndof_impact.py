@@ -650,13 +650,24 @@ class NDofImpactProblem(Problem):
             signals[f"du{i + 1}"] = np.tile(dU[:, i], k)
             labels[f"u{i + 1}"] = rf"displacement $u_{{{i + 1}}}$"
             labels[f"du{i + 1}"] = rf"velocity $\dot u_{{{i + 1}}}$"
+        return OrbitTrace(t=t, period=T, signals=signals, labels=labels,
+                          marks=[(j * T, "impact") for j in range(k + 1)],
+                          views=self.orbit_signal_views())
+
+    def orbit_signal_views(self) -> dict[str, tuple[str, ...]]:
+        """The views of :meth:`orbit` with their signals: ``u_c`` against ``t / T``, the phase
+        portrait ``(u_c, u_c')`` and, for ``N > 1``, the manifold ``(u_{c-1}, u_c, u_c')``
+        (the neighbour ``u_2`` for ``c = 1``)."""
         c = f"{self.c + 1}"
         views: dict[str, tuple[str, ...]] = {"time": (f"u{c}",), "phase": (f"u{c}", f"du{c}")}
         if self.N > 1:
             other = self.c if self.c > 0 else 2  # the neighbour of the impacting dof (1-based)
             views["manifold"] = (f"u{other}", f"u{c}", f"du{c}")
-        return OrbitTrace(t=t, period=T, signals=signals, labels=labels,
-                          marks=[(j * T, "impact") for j in range(k + 1)], views=views)
+        return views
+
+    def orbit_view_names(self) -> tuple[str, ...]:
+        """The views of :meth:`orbit_signal_views` (no manifold for one degree of freedom)."""
+        return tuple(self.orbit_signal_views())
 
     # ------------------------------------------------------------------ hooks
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
