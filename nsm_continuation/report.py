@@ -81,8 +81,16 @@ def annotate_parameter_directions(rep: dict[str, Any], branches: list[Any],
     ``orientation`` (``Problem.parameter_orientation``: -1 for the chain's omega, whose ``T =
     2 pi / omega`` is continued inside)."""
     for b, br in zip(rep["branches"], branches, strict=True):
+        # the parameter turns at a limit point (a fold of the tangent's parameter component,
+        # not a multiplier pair at +1 of a conservative family): every event located there
+        # (the stability change that comes with it) is in the continuation order, as the
+        # fold itself
+        folds = [ev.point.s for ev in br.events
+                 if ev.kind == "fold" and ev.data.get("test") == "tangent"]
         for e, ev in zip(b["events"], br.events, strict=True):
-            e["parameter_direction"] = orientation * parameter_direction(
+            s = float(ev.point.s)
+            at_fold = any(abs(s - f) <= 1e-9 * (1.0 + abs(f)) for f in folds)
+            e["parameter_direction"] = 0 if at_fold else orientation * parameter_direction(
                 ev.point, parameter_index, br)
 
 
