@@ -543,7 +543,7 @@ class ContinuationEngine:
         if prev.multipliers is not None and p1.multipliers is not None \
                 and prev.n_unstable != p1.n_unstable:
             found += _crossing_events("stability_change", pg, 0.0, prev.n_unstable,
-                                      p1.n_unstable, np.array([]), None, "kink")[1:]
+                                      p1.n_unstable, np.array([]), None, "kink")
         if self.progress is not None:
             self.progress(len(path) + 2)
         return [*path, pg, p1], found
@@ -1569,11 +1569,13 @@ def _crossing_events(kind: str, p: Point, width: float, n_before: int, n_after: 
             "critical_multiplier": (None if lam_c is None
                                     else [float(lam_c.real), float(lam_c.imag)]),
             "modulus_minus_one": float("nan") if lam_c is None else float(abs(lam_c) - 1.0)}
+    change = "stable -> unstable" if stable_before else "unstable -> stable"
+    if kind == "stability_change":  # one event, not the crossing and its companion
+        detail = change if stable_before != stable_after else _CROSSING_DETAIL[kind]
+        return [Event(kind, p, detail, data=dict(data), bracket=width)]
     events = [Event(kind, p, _CROSSING_DETAIL[kind], data=dict(data), bracket=width)]
     if stable_before != stable_after:
-        events.append(Event("stability_change", p,
-                            "stable -> unstable" if stable_before else "unstable -> stable",
-                            data=dict(data), bracket=width))
+        events.append(Event("stability_change", p, change, data=dict(data), bracket=width))
     return events
 
 

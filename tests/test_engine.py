@@ -263,3 +263,20 @@ def test_krein_control_falls_back_to_the_generic_check_without_signatures() -> N
     a = _run(KreinPair(opposite=False, krein=False), [0.0, 0.0], **kw)
     b = _run(KreinPair(opposite=False), [0.0, 0.0], krein_step_control=False, **kw)
     assert len(a.points) == len(b.points)
+
+
+def test_a_crossing_without_a_kind_is_one_stability_change() -> None:
+    """A crossing the multipliers do not classify (kind ``stability_change``) is one event with
+    the change in its detail; a classified one (a flip) is the crossing plus its stability
+    change (the report listed such a change twice at one point)."""
+    from nsm_continuation.palc import _crossing_events
+    from nsm_continuation.records import Point
+
+    p = Point(y=np.zeros(2), s=0.0, tangent=np.array([0.0, 1.0]), tests={}, multipliers=None,
+              trivial_error=0.0, n_unstable=0, derived={}, bordered_det=1.0)
+    (only,) = _crossing_events("stability_change", p, 0.0, 1, 0, np.array([]), None, "count")
+    assert (only.kind, only.detail) == ("stability_change", "unstable -> stable")
+    flip = _crossing_events("period_doubling", p, 0.0, 0, 1, np.array([-1.0 + 0j]), -1.0 + 0j,
+                            "multiplier_modulus")
+    assert [e.kind for e in flip] == ["period_doubling", "stability_change"]
+    assert flip[1].detail == "stable -> unstable"
