@@ -59,7 +59,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import BaseModel
 
-from .palc import ContinuationEngine
+from .palc import NUMERICAL_ERRORS, ContinuationEngine
 from .protocol import Problem
 from .records import Branch, Event, Point
 from .settings import ContinuationSettings
@@ -187,6 +187,12 @@ class LocatedCurve(CodimOneCurve):
         self._can_swap: bool | None = None
 
     # ------------------------------------------------------------------ the base problem
+    def adopt_chart(self, chart: dict[str, float] | None) -> None:
+        """Continue the curve with the base problem's unknowns in ``chart`` (a
+        ``Point.chart`` of a located event: the base continuation moved there)."""
+        self.base = self.base.in_chart(chart)
+        self._at = self._swapped = None
+
     def base_at(self, q: float) -> Problem:
         """The base problem with ``parameter = q`` (the last one kept)."""
         if self._at is None or self._at[0] != q:
@@ -379,7 +385,6 @@ class CurveTracer:
             y0[ip] = centre - sign * width
             engine: ContinuationEngine = StartTangentEngine(
                 base, self._inner_settings(centre, width, sign, rate))
-            engine.recharts = False  # the event's unknowns are those of the curve's chart
             # Newton at fixed parameter first; along the base branch's tangent (well posed
             # at a fold) where that fails
             for t in (None, tangent) if tangent is not None else (None,):
@@ -401,8 +406,14 @@ class CurveTracer:
             return None, (f"no {curve.curve_kind} within {name} = {centre:.10g} +- "
                           f"{width:.3g} at {fixed[0]} = {fixed[1]:.10g}; the base "
                           f"continuations ended: {' / '.join(ends)}")
-        # the event nearest the prediction (orbit and parameter), of the same test function
-        best = min(found, key=lambda e: float(np.linalg.norm(e.point.y - yb)))
+        # the event nearest the prediction (parameters; the orbit where it is in the same
+        # chart), of the same test function
+        best = min(found, key=lambda e: float(np.linalg.norm(
+            (e.point.y - yb) if e.point.chart == base.chart() else (e.point.y - yb)[-1:])))
+        if best.point.chart != base.chart():
+            # the base continuation moved its unknowns to another chart (Problem.rechart: a
+            # section moved off an impact): the curve goes on in that chart
+            self.curve.adopt_chart(best.point.chart)
         if self.which is None:
             self.which = _which(best)
         yl = np.asarray(best.point.y, dtype=float)
@@ -422,6 +433,8 @@ class CurveTracer:
             d[-1] = sign
         else:
             d = last.y - pts[-2].y
+            if last.point.chart != pts[-2].point.chart:
+                d[:-2] = 0.0  # unknowns in two charts: the secant of the parameters only
             d = d / float(np.linalg.norm(d[-2:]))
         y = last.y + h * d
         along = "p" if abs(d[-1]) >= abs(d[-2]) or not self.curve.can_swap else "q"
@@ -433,6 +446,27 @@ class CurveTracer:
                 y[-1] = bound
                 along, edge = "p", True
         return y, along, edge
+
+    def _rechart(self, got: _Located) -> _Located:
+        """``got``, or ``got`` in the base problem's new chart where the base problem asks
+        for one there (:meth:`Problem.rechart`, e.g. an impact about to reach a forced
+        system's section): the curve goes on in that chart (the next secant is of the
+        parameters only, the next base continuation starts without a tangent)."""
+        q = float(got.y[-1])
+        yb = np.asarray(got.y[:-1], dtype=float)
+        direction = np.zeros(len(yb))
+        direction[-1] = 1.0
+        try:
+            moved = self.curve.base_at(q).rechart(yb, direction)
+        except NUMERICAL_ERRORS:
+            moved = None
+        if moved is None:
+            return got
+        chart = moved.problem.chart()
+        self.curve.adopt_chart(chart)
+        y = np.append(np.asarray(moved.y, dtype=float), q)
+        return _Located(y, dataclasses.replace(got.point, y=np.asarray(moved.y, dtype=float),
+                                               chart=chart), "")
 
     @staticmethod
     def _continues(last: _Located, y_pred: np.ndarray, got: _Located) -> bool:
@@ -486,7 +520,7 @@ class CurveTracer:
                     pts.append(got)
                 return pts, f"bound reached: {self.curve.parameter}" + (
                     "" if got is not None else f" (the point on it not located: {why})")
-            pts.append(got)
+            pts.append(self._rechart(got))
             if self.progress is not None:
                 self.progress(1)
             if edge:

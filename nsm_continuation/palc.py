@@ -120,9 +120,6 @@ class ContinuationEngine:
         self._monitor_min: dict[str, float] = {}
         #: every move to another chart in the run (:meth:`_rechart`), for the report
         self.rechart_notes: list[str] = []
-        #: whether the problem may move its branches to another chart (off: the inner
-        #: continuations of a two-parameter curve, whose unknowns are in the curve's chart)
-        self.recharts = True
         #: sign changes of an event function that are not zeros (poles, jumps: no event)
         self.sign_changes_without_zero = 0
         self.last_was_pole = False
@@ -330,8 +327,6 @@ class ContinuationEngine:
         the last point is replaced by the same orbit analysed in the new unknowns, at the same
         arclength, and the rest of the half-branch is continued with the new problem."""
         a = pts[-1]
-        if not self.recharts:
-            return
         try:
             moved = self.problem.rechart(a.y, a.tangent)
         except (*NUMERICAL_ERRORS, EvaluationError):

@@ -365,3 +365,33 @@ def test_a_kink_is_crossed_only_at_a_zero_and_forwards(zero: float, beyond: floa
     assert ev.point.y[1] == pytest.approx(0.5, abs=1e-10)
     assert bool(ev.data.get("kink")) == crossed
     assert br.termination["forward"] == "bound: p = max"
+
+
+def test_a_two_parameter_curve_moves_with_its_base(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The period-doubling curve of the undamped oscillator in (omega, gap), with moves forced
+    often (``SECTION_CLEARANCE`` 0.45: the section moves once the impact drifts 5 % of a
+    period off the middle of its free stretch), so that the curve's points lie in ever new
+    charts (the base run's event included). Every point is on the closed-form condition (O2)
+    to 1e-9, and its unknowns are the closed-form section state at its own chart's phase to
+    1e-9: each chart is recorded with the unknowns that belong to it."""
+    from oracles.impact_oscillator import period_doubling_function
+
+    monkeypatch.setattr(HybridShootingProblem, "SECTION_CLEARANCE", 0.45)
+    case = oscillator_case(0.0, float(np.pi), 1.085, 1.11, 1.11, "decrease")
+    case["start"] = {"guess": dict(zip(("q", "qdot"), section_state(1.11, -0.5, R).tolist(),
+                                       strict=True))}
+    case["continuation"].update(step={"initial": 0.005, "min": 1e-9, "max": 0.01},
+                                max_points=40)
+    base = nsm.run(case)
+    cur = base.restart(event="period_doubling", curve="period_doubling", parameter="gap",
+                       min=-0.5, max=-0.3, direction="increase",
+                       step={"initial": 0.02, "min": 1e-6, "max": 0.06}, max_points=5)
+    (br,) = cur.run_result.branches
+    assert len(br.points) == 5
+    charts = {p.chart["phase"] for p in br.points if p.chart}
+    assert len(charts) >= 3
+    for p in br.points:
+        omega, gap = float(p.y[-2]), float(p.y[-1])
+        assert abs(period_doubling_function(omega, gap, R)) < 1e-9
+        phase = (p.chart or {}).get("phase", np.pi)
+        assert np.max(np.abs(section_state(omega, gap, R, phase) - p.y[:2])) < 1e-9

@@ -1106,10 +1106,15 @@ class HybridCaseProblem(HybridShootingProblem):
             c = self.hybrid.compile(self.values, free=[name], method=self.integrator.method)
         except HybridDeclarationError as exc:
             raise ValueError(f"parameters: {exc}") from None
+        # a problem moved to another chart (rechart) keeps it when continued in another
+        # parameter (a two-parameter curve's base problem, swapped round a turn)
+        moved = self.chart() if self._compiled_for is not None else None
         sec = self.section()
         sec = Section(sec.index, sec.value, sec.shift * returns)
         self.shooting = HybridShooting(c, sec, self.integrator.options())
         self.declared_section = sec.value
+        if moved is not None:
+            self.shooting = self.in_chart(moved).shooting
         names = self.hybrid.state_names
         self.variables = [names[i] for i in self.shooting.free_idx] + [name]
         self._compiled_for = name
