@@ -267,7 +267,8 @@ class PseudoArclength(_CurveAlgorithm):
         return {"residual_evaluations": self.engine.n_evaluations,
                 "steps_taken_despite_multiplier_motion": self.engine.motion_limited_steps,
                 "events_not_located_on_their_arc": self.engine.unlocated_events,
-                "krein_passings": self.engine.krein_passings}
+                "krein_passings": self.engine.krein_passings,
+                "sign_changes_through_a_pole": self.engine.sign_changes_without_zero}
 
 
 class LocatedEvents(_CurveAlgorithm):
