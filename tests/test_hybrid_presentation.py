@@ -366,3 +366,26 @@ def test_before_after_on_a_real_run_agree_with_the_branch_points() -> None:
         assert f"stable: {word[low.stable]} -> {word[high.stable]}" in row
         checked += 1
     assert checked >= 5
+
+
+def test_events_at_a_limit_point_read_in_the_continuation_order() -> None:
+    """The parameter turns at a limit point (a fold of the tangent's parameter component):
+    a stability change located there with it reads in the continuation order too, whatever
+    the parameter component of its own point's tangent (that read the other way round: "no ->
+    yes" next to the fold's "yes -> no"). A fold of the multipliers (a pair at +1, the tangent
+    not involved) leaves the others alone."""
+    from nsm_continuation.records import Branch, Event, Point
+
+    def point(s: float, tp: float) -> Point:
+        return Point(y=np.array([0.0, 1.0]), s=s, tangent=np.array([np.sqrt(1 - tp * tp), tp]),
+                     tests={}, multipliers=None, trivial_error=0.0, n_unstable=0, derived={},
+                     bordered_det=1.0)
+
+    for test, expected in (("tangent", 0), (None, -1)):
+        fold = Event("fold", point(1.0, 0.0), "", data={"test": test} if test else {})
+        change = Event("stability_change", point(1.0, -0.3), "stable -> unstable")
+        br = Branch(0, "b", [point(0.0, -0.5), point(2.0, 0.5)], [fold, change], {}, {})
+        rep = {"branches": [{"events": [{}, {}]}]}
+        report.annotate_parameter_directions(rep, [br], 1)
+        assert rep["branches"][0]["events"][0]["parameter_direction"] == 0
+        assert rep["branches"][0]["events"][1]["parameter_direction"] == expected
