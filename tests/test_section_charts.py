@@ -395,3 +395,35 @@ def test_a_two_parameter_curve_moves_with_its_base(monkeypatch: pytest.MonkeyPat
         assert abs(period_doubling_function(omega, gap, R)) < 1e-9
         phase = (p.chart or {}).get("phase", np.pi)
         assert np.max(np.abs(section_state(omega, gap, R, phase) - p.y[:2])) < 1e-9
+
+
+def test_a_state_deep_inside_the_obstacle_is_named_a_bad_guess() -> None:
+    """A section state deep inside the stop is a guess far from any orbit, not an impact at the
+    section's time (the message used to say the latter whatever the depth); on the surface
+    it is the section's."""
+    from nsm_continuation.hybrid.shooting import ShootingFailure
+
+    pb = nsm.problem("impact_oscillator", {"zeta": 0.1, "omega": 1.5, "gap": -0.5,
+                                           "restitution": 0.8})
+    pb.set_parameter("omega")
+    with pytest.raises(ShootingFailure, match="far from any orbit"):
+        pb.shooting.simulate(np.array([-3.0, 0.0, 1.5]))
+    with pytest.raises(ShootingFailure, match="meets the impact surface at the Poincare"):
+        pb.shooting.simulate(np.array([-0.5 - 1e-9, -1.0, 1.5]))
+
+
+def test_a_sign_change_located_through_a_pole_is_told_from_a_zero() -> None:
+    """``_locate_continuous`` flags a sign change through a pole (the last values next to it
+    exceed both ends), not one through a zero, even a zero next to an end (the branch point
+    of a pitchfork at its start): what keeps a determinant blowing up at a grazing from being
+    a branch point."""
+    engine = ContinuationEngine(PoleAndZero(), toy_settings(direction=1))
+    br = engine.run(StartPoint(np.array([0.01, 0.01]), "toy", direction=1))
+    a = max((q for q in br.points if q.y[1] < 0.25), key=lambda q: q.y[1])
+    b = min((q for q in br.points if q.y[1] > 0.35), key=lambda q: q.y[1])
+    engine._locate_continuous(a, b, lambda q: 1.0 / (float(q.y[1]) - 0.3))
+    assert engine.last_was_pole
+    engine._locate_continuous(a, b, lambda q: float(q.y[1]) - 0.3)
+    assert not engine.last_was_pole
+    engine._locate_continuous(a, b, lambda q: float(q.y[1]) - float(a.y[1]) - 1e-16)
+    assert not engine.last_was_pole

@@ -1019,7 +1019,8 @@ class HybridCaseProblem(HybridShootingProblem):
                 if bad:
                     raise ValueError(f"{at}.{key}: not used by a brute-force sweep (every "
                                      "return to the section is recorded)")
-            drop = {"record"} | ({"transient"} if s.guess is not None else set())
+            # the transient is per grid value: the sweep's own budget below counts it
+            drop = {"record", "transient"}
             checked.append(HybridStartSpec.model_validate(
                 s.model_dump(exclude=drop, exclude_unset=True)))
         # the states and the window, as for a continuation (no continuation points)
