@@ -230,12 +230,17 @@ def test_wfem_preflight_seeds_are_reused_by_the_run() -> None:
     assert p.lattice_seeds({"branch": "main", "mode": 1}, (1.0, 4.0))[0] is seed
 
 
-def test_wfem_sizes_beyond_the_limits() -> None:
+def test_wfem_sizes_beyond_the_limits(monkeypatch: pytest.MonkeyPatch) -> None:
     t0 = time.perf_counter()
     msg = refused(bar(cells=200_000).preflight, {"branch": "main"}, (1.0, 4.0), 5000)
     assert msg.startswith("parameters.cells: 200000 cells") and MEMORY_ENV in msg, msg
+    # the scan keeps every node it tried (300 B each: 1.3 GB at N = 1000): 5.7 GB at N = 2000
     msg = refused(bar(cells=2000).preflight, {"scan": True}, (1.0, 4.0), 5000)
-    assert msg.startswith("parameters.cells: 2000 cells") and TIME_ENV in msg, msg
+    assert msg.startswith("parameters.cells: 2000 cells") and MEMORY_ENV in msg, msg
+    with monkeypatch.context() as mp:  # with the memory: the scan's O(N^3) time at N = 8000
+        mp.setenv(MEMORY_ENV, "1000")
+        msg = refused(bar(cells=8000).preflight, {"scan": True}, (1.0, 4.0), 5000)
+        assert msg.startswith("parameters.cells: 8000 cells") and TIME_ENV in msg, msg
     msg = refused(bar().preflight, {"node": [10**9, 10**9]}, (None, None), 500)
     assert msg.startswith("start.node: ") and "TB" in msg, msg
     assert time.perf_counter() - t0 < 1.0

@@ -50,6 +50,7 @@ from .wfem_lattice import (
     grazing_representative,
     node_solutions,
     profile_jumps,
+    scan_screen,
 )
 from .wfem_operators import kernel_dimensions_at_period
 
@@ -103,7 +104,8 @@ class ScanStart(BaseModel):
 
     model_config = STRICT
     scan: Annotated[Literal[True], exactly(True)]
-    max_seeds: Annotated[int, Field(ge=1)] = 200
+    #: at most this many seeds (fewest profile jumps, then lowest energy); default every one
+    max_seeds: Annotated[int, Field(ge=1)] | None = None
 
 
 class NodeStart(BaseModel):
@@ -179,6 +181,8 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
         self.energy_cap = None
         self._seed_cache: dict[tuple[str, Any], list[LatticeSeed]] = {}
+        #: what the report should say about the seeds (a scan cut at start.max_seeds)
+        self._seed_notes: list[str] = []
         self._check_model()
 
     # -- preflight (issue 9): everything checkable before the lattice is explored -----------------
@@ -186,9 +190,9 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     #: h <= 12 cycles (2^11 of them, :func:`problems.bar.wfem_lattice.node_solutions`) times the
     #: end series (M values each) and their partial sums
     NODE_BYTES_PER_STEP: ClassVar[float] = 8.0 * (2.5 * 2**11 + 30)
-    #: bytes per (period step x cell) of the scan's kernel-dimension sweep (int64 arrays of
-    #: shape (M, 2N): counts, signs, cycle products)
-    SCAN_BYTES_PER_STEP_CELL: ClassVar[float] = 80.0
+    #: bytes per scanned node kept by the master (the node cache, solved or screened out: the
+    #: N = 1000 scan of Fig. 12, 4.7e6 nodes, ran in 1.3 GB)
+    SCAN_BYTES_PER_NODE: ClassVar[float] = 300.0
     #: seconds per lattice node tried by the corrector (filter included): 0.7 ms + 3 us per
     #: cell (measured: 23 ms per point at N = 1000, 80 ms at 4000, 320 ms at 16000; 7 nodes
     #: per point with corrector_window = 3)
@@ -196,8 +200,12 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     #: seconds of the seed search of one backbone, per cells^2 (16 s at N = 16000; for g0 = 0
     #: a linear programme per node tried: 1.4 s at N = 1000, 19 s at N = 4000)
     SEED_SECONDS_PER_N2: ClassVar[tuple[float, float]] = (6e-8, 1.5e-6)
-    #: seconds per (period step x cell) of the scan's sweep, and per scanned node
-    SCAN_SECONDS: ClassVar[tuple[float, float]] = (1.5e-7, 3e-4)
+    #: seconds per scanned node and cell of the batch screen
+    #: (:func:`problems.bar.wfem_lattice.scan_screen`), per node it keeps (solved: 0.3 ms +
+    #: 0.1 us per cell, for the 5 % it keeps at most), and per scanned node for the branches
+    #: of its seeds (at most one point, ~5 ms, per physical orbit, 2.5e-3 of the nodes at
+    #: N = 200): the N = 1000 scan of Fig. 12 measured 3.5e-5 s per node in all
+    SCAN_SECONDS: ClassVar[tuple[float, float, float]] = (5e-8, 0.05 * 3e-4, 2.5e-3 * 5e-3)
     #: the seed search itself runs in the preflight up to this many cells (~0.1 s per start at
     #: N = 1000, 0.3 s at N = 4000; for g0 = 0, 1.4 s at N = 1000); beyond it only its
     #: necessary conditions are checked. Its seeds are kept for the run.
@@ -343,12 +351,11 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         seconds += len([s for s in explicit if not isinstance(s, NodeStart)]) * \
             self.SEED_SECONDS_PER_N2[md.g0 == 0] * N**2
         if scans:
-            memory += self.SCAN_BYTES_PER_STEP_CELL * M_hi * N
-            sweep = 0.5 * (float(M_hi) ** 2 - float(M_lo) ** 2)  # sum of M over the periods
-            seconds += self.SCAN_SECONDS[0] * N * sweep + 0.6 * sweep * (
-                self.SCAN_SECONDS[1] + 1e-7 * N)
-            seconds += sum(min(s.max_seeds, periods) for s in scans) * per_branch * \
-                nodes_per_point(scans[0]) * t_node
+            # the nodes of the periods (sum of M), ~60 % of them with 1 <= h <= 8, scanned
+            nodes = 0.6 * 0.5 * (float(M_hi) ** 2 - float(M_lo) ** 2)
+            memory += self.SCAN_BYTES_PER_NODE * nodes
+            screen, solve, branches = self.SCAN_SECONDS
+            seconds += nodes * (screen * N + solve * (1.0 + 3e-4 * N) + branches)
         big_nodes = [i for i, s in items if isinstance(s, NodeStart) and sum(s.node) > 8 * N]
         check_budget(start_key(big_nodes[0], "node") if big_nodes and not lo else
                      "parameters.cells",
@@ -405,7 +412,12 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         return (lo is None or r >= lo - 1e-12) and (hi is None or r <= hi + 1e-12)
 
     # -- solutions at a node (cached), with the filter ---------------------------------------
-    def physical(self, counts: tuple[int, ...]) -> list[LatticeSolution]:
+    def physical(self, counts: tuple[int, ...], screened_out: bool = False
+                 ) -> list[LatticeSolution]:
+        """The physical orbits at a node (cached, counted once). ``screened_out``: the node is
+        known to carry no admissible candidate (:func:`problems.bar.wfem_lattice.scan_screen`),
+        so it is counted and cached as solved with nothing, as :func:`node_solutions` would
+        leave it, without solving it."""
         counts = tuple(int(c) for c in counts)
         if self._record is not None:
             self._record[0][counts] = None
@@ -414,7 +426,7 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         counted = counts in self._solved_elsewhere
         if not counted:
             self.node_evaluations += 1
-        status, sols = node_solutions(self.model, counts)
+        sols = [] if screened_out else node_solutions(self.model, counts)[1]
         keep = []
         removed = []
         max_jumps = self.params.max_jumps_fraction * self.model.N
@@ -449,9 +461,13 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         if ms is None:
             h = kernel_dimensions_at_period(self.model.N, M)
             ms = self._scan_nodes[M] = (np.nonzero((h >= 1) & (h <= 8))[0] + 1).astype(np.int32)
+        # at g0 != 0 most nodes fail COND2 on every candidate: screened in one batch (at g0 = 0
+        # a candidate's coefficients may vanish and the screen does not apply)
+        may = (scan_screen(self.model.N, M, ms) if self.model.g0 != 0
+               else np.ones(ms.size, dtype=bool))
         out = []
-        for m in ms.tolist():
-            out += self.physical((m, M - m))
+        for m, keep in zip(ms.tolist(), may.tolist(), strict=True):
+            out += self.physical((m, M - m), screened_out=not keep)
         return out
 
     def scan_window(self, window: tuple[float | None, float | None]) -> list[LatticeSolution]:
@@ -580,6 +596,14 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
             cap = self.energy_cap
             if cap is not None:  # seeds above the energy bound would give one-point branches
                 sols = [s for s in sols if s.energy / md.energy_ref <= cap]
+            if spec.max_seeds is not None and len(sols) > spec.max_seeds:
+                note = (f"start.scan: {len(sols)} physical orbits in the window, only the first "
+                        f"max_seeds = {spec.max_seeds} (fewest profile jumps, then lowest "
+                        "energy) seed branches; a branch none of them lies on is not computed "
+                        "(raise start.max_seeds: a seed on a branch already computed costs "
+                        "one lookup)")
+                if note not in self._seed_notes:
+                    self._seed_notes.append(note)
             return [LatticeSeed(s, f"scan seed (m, p) = {s.counts}", 0)
                     for s in sols[:spec.max_seeds]]
         k = spec.mode
@@ -733,6 +757,9 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         md = self.model
         return {"c": md.c, "dt": md.dt, "omega_1": md.omega1, "E_ref": md.energy_ref,
                 "cells": md.N, "gap": md.g0}
+
+    def warnings(self) -> list[str]:
+        return list(self._seed_notes)
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
         formulas = {f"main mode {k} (sec. 6.1)": main_asymptote(k) for k in range(1, 6)}

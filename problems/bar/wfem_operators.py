@@ -307,18 +307,38 @@ def dense_operator(N: int, Z: float, end: str = "free", corners: str = "derived"
 
 
 def kernel_dimensions_at_period(N: int, M: int) -> np.ndarray:
-    """``h(m)`` for every one-contact-phase node ``(m, M - m)``, m = 1..M-1, in one sweep.
+    """``h(m)`` for every one-contact-phase node ``(m, M - m)``, m = 1..M-1, in closed form.
 
-    All nodes of a period share the rotation (shift M mod 2N), hence the cycles; only the signs
-    differ: slot k picks up one -1 for each free step n < m with n = N-1-k (mod 2N). Vectorised
-    over m: O(M N) for the whole period instead of M separate calls (used by the lattice scan).
+    All nodes of a period share the rotation ``s = M mod 2N``, hence the cycles: slots
+    ``k = j (mod g)``, ``g = gcd(s, 2N)`` (``g = 2N`` when ``s = 0``). Only the signs differ:
+    slot k picks up one -1 for each free step ``n < m`` with ``n = r_k = N-1-k (mod 2N)``
+    (:func:`phase_operator`). On the cycle of class j the residues ``r_k`` run over the class
+    ``N-1-j (mod g)`` exactly once each, and ``g`` divides ``2N``, so the number of -1 on the
+    cycle is the number of ``n`` in ``[0, m)`` in one residue class ``c`` modulo ``g``:
+    ``q + [c < rho]`` with ``m = q g + rho``. As j runs over the g cycles, c runs over
+    ``0..g-1``; a cycle is in the kernel iff its count is even, so
+
+        ``h(m) = g - rho`` if ``q`` is even, ``rho`` if ``q`` is odd.
+
+    O(M) for the whole period (was an O(M N) sweep over the signs; that sweep,
+    :func:`kernel_dimensions_by_sweep`, is the oracle of ``tests/test_wfem_scan_speed.py``,
+    with :meth:`SignedRotation.kernel_dimension` per node).
     """
     n = 2 * N
-    k = np.arange(n)
-    r = (N - 1 - k) % n
+    s = M % n
+    g = gcd(s, n) if s else n
+    q, rho = np.divmod(np.arange(1, M), g)
+    return np.where(q % 2 == 0, g - rho, rho)
+
+
+def kernel_dimensions_by_sweep(N: int, M: int) -> np.ndarray:
+    """:func:`kernel_dimensions_at_period` by the O(M N) sweep it replaced (tests and
+    ``benchmarks/bench_wfem_scan.py`` only): every slot's sign counted, every cycle's product
+    formed."""
+    n = 2 * N
+    r = (N - 1 - np.arange(n)) % n
     m = np.arange(1, M)[:, None]
     count = np.where(r[None, :] < m, (m - 1 - r[None, :]) // n + 1, 0)
-    sign = 1 - 2 * (count % 2)  # (M-1, 2N) of +-1
+    sign = 1 - 2 * (count % 2)
     cyc = SignedRotation(N, M % n, np.ones(n)).cycles()
-    prod = np.prod(sign[:, cyc], axis=2)
-    return np.sum(prod > 0, axis=1)
+    return np.sum(np.prod(sign[:, cyc], axis=2) > 0, axis=1)
