@@ -230,3 +230,37 @@ def test_max_on_without_interior_critical_point() -> None:
     assert m == -np.inf and np.isnan(t)
     m, t = f.max_on(0.0, 4.0)
     assert abs(t - np.pi / 2) < 1e-14 and abs(m - 1.0) < 1e-15
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_root_on_a_grid_edge_costs_no_bisection(seed: int) -> None:
+    """A symmetric orbit ``f(t) = sum a_l cos(w_l (t - T/2))`` on ``(0, T)`` has a critical point
+    at ``T / 2``, an edge of the first pass's grid when its cell count is even. ``f'`` vanishes
+    there to rounding, so its sign (hence which cell brackets the root) is noise, and Newton
+    from inside that cell overshoots the end every time: the safeguard used to bisect towards
+    it, one bit per evaluation (14-19 evaluations). The root is at ``T / 2`` exactly (closed
+    form) and costs no iteration; every other root is located as before (grid oracle)."""
+    rng = np.random.default_rng(300 + seed)
+    n = int(rng.integers(2, 6))
+    w = np.sort(rng.uniform(0.5, 6.0, n))
+    T = float(rng.uniform(3.0, 9.0))
+    c = rng.normal(size=n)
+    a, b = c * np.cos(w * T / 2), c * np.sin(w * T / 2)  # c cos(w (t - T/2))
+    f = TrigSum(a, b, w)
+    cells = int(max(16, np.ceil(T * np.max(w) * 2.0)))
+    if cells % 2:  # an even grid: T/2 is an edge (the cell count grows with T)
+        T *= (cells + 1) / cells
+        a, b = c * np.cos(w * T / 2), c * np.sin(w * T / 2)
+        f = TrigSum(a, b, w)
+    calls: list[int] = []
+    d12 = f.d12
+
+    def counted(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        calls.append(np.size(t))
+        return d12(t)
+
+    f.d12 = counted  # type: ignore[method-assign]
+    found = f.critical_points(0.0, T)
+    assert np.min(np.abs(found - T / 2)) <= 4 * EPS * T
+    assert_roots_match(found, grid_roots(a, b, w, 0.0, T), 1e-9)
+    assert len(calls) <= 8, calls  # the end point (1) plus a few Newton steps, no bisection
