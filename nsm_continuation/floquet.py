@@ -145,6 +145,14 @@ def krein_of(fl: FloquetData | None) -> np.ndarray | None:
     return krein
 
 
+def definite_sign(m: np.ndarray, krein: np.ndarray, circle_tol: float) -> np.ndarray:
+    """``sign(kappa)`` of the multipliers on the circle (to ``circle_tol``) whose Krein
+    definiteness is at least ``KREIN_DEFINITE`` in modulus, else 0."""
+    on = np.abs(np.abs(np.asarray(m)) - 1.0) <= circle_tol
+    k = np.asarray(krein, dtype=float)
+    return np.where(on & (np.abs(k) >= KREIN_DEFINITE), np.sign(k), 0.0)
+
+
 def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: float
                         ) -> np.ndarray:
     """For each multiplier, the distance to the nearest multiplier it can *collide* with so
@@ -167,8 +175,7 @@ def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: 
     if krein is None or m.size == 0:
         return np.zeros(m.size)
     on = np.abs(np.abs(m) - 1.0) <= circle_tol
-    kappa = np.where(on, np.asarray(krein, dtype=float), 0.0)
-    sign = np.where(np.abs(kappa) >= KREIN_DEFINITE, np.sign(kappa), 0.0)
+    sign = definite_sign(m, krein, circle_tol)
     out = np.full(m.size, np.inf)
     # definite multipliers on the circle: the nearest one of the other signature, found on
     # the circle sorted by angle (the chord grows with the angle): O(K log K)
@@ -186,11 +193,12 @@ def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: 
     # anything can collide with a multiplier off the circle or of no definite signature
     loose = np.nonzero(sign == 0)[0]
     if loose.size:
-        d = np.abs(m[:, None] - m[None, loose])
-        d[loose, np.arange(loose.size)] = np.inf
-        out = np.minimum(out, d.min(axis=1))
-        out[loose] = np.minimum(out[loose], np.abs(m[loose, None] - m[None, :]).min(
-            axis=1, initial=np.inf, where=~np.eye(m.size, dtype=bool)[loose]))
+        # nearest loose multiplier to each (itself excluded), and nearest multiplier to each
+        # loose one (itself excluded): k-d tree searches (:func:`nearest_distances`)
+        pos = np.full(m.size, -1)
+        pos[loose] = np.arange(loose.size)
+        out = np.minimum(out, nearest_distances(m, m[loose], exclude=pos))
+        out[loose] = np.minimum(out[loose], nearest_distances(m[loose], m, exclude=loose))
     off = ~on
     with np.errstate(divide="ignore", invalid="ignore"):
         partner = np.abs(m - 1.0 / np.conj(m))
@@ -199,20 +207,98 @@ def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: 
     return out
 
 
+#: :func:`nearest_distances`: below this many pairs the distance matrix is formed at once
+_BRUTE_PAIRS = 4096
+
+
+def nearest_distances(x: np.ndarray, pts: np.ndarray, exclude: np.ndarray | None = None
+                      ) -> np.ndarray:
+    """``min_j |x_i - pts_j|`` for each ``x_i`` over ``j != exclude_i`` (``inf`` when no
+    point is left): the value of ``np.abs(x[:, None] - pts[None, :]).min(axis=1)`` (with
+    ``d[i, exclude_i] = inf``) without the ``len(x) x len(pts)`` matrix. The candidates are
+    the four nearest points of a k-d tree of ``pts`` in the plane (O((n + m) log m)), less the
+    excluded one; the distance to each is then evaluated as ``|x - p|`` (complex modulus, as
+    in the dense formula), so the result is the dense one unless more than three points are
+    within rounding of the same distance (then equal to it within rounding). Small or
+    non-finite inputs use the dense formula in row blocks."""
+    x = np.asarray(x, dtype=complex).ravel()
+    pts = np.asarray(pts, dtype=complex).ravel()
+    excl = np.full(x.size, -1) if exclude is None else np.asarray(exclude, dtype=int).ravel()
+    if pts.size == 0:
+        return np.full(x.size, np.inf)
+    if x.size == 0:
+        return np.empty(0)
+    if x.size * pts.size <= _BRUTE_PAIRS or not (np.all(np.isfinite(x))
+                                                 and np.all(np.isfinite(pts))):
+        out = np.empty(x.size)
+        rows = max(1, _BRUTE_PAIRS // pts.size)
+        for a in range(0, x.size, rows):
+            d = np.abs(x[a:a + rows, None] - pts[None, :])
+            e = excl[a:a + rows]
+            r = np.nonzero(e >= 0)[0]
+            d[r, e[r]] = np.inf
+            out[a:a + rows] = d.min(axis=1)
+        return out
+    from scipy.spatial import cKDTree
+
+    kk = min(4, pts.size)
+    tree = cKDTree(np.column_stack([pts.real, pts.imag]))
+    _, idx = tree.query(np.column_stack([x.real, x.imag]), k=kk)
+    idx = np.asarray(idx).reshape(x.size, kk)
+    d = np.abs(x[:, None] - pts[idx])
+    d[idx == excl[:, None]] = np.inf
+    return d.min(axis=1)
+
+
 #: rows of the Cauchy matrix ``1/(mu_m - lam_k)`` formed at once (keeps it in cache)
 _CHUNK = 64
 
 
-def _cauchy_chunk(mu: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+class _Poles:
+    """The poles ``mu`` of a secular equation with what finds the pole nearest to a point
+    fast: when every pole lies on the unit circle (to rounding: the spectrum of a rotation),
+    the distance ``|mu_m - lam|^2 = 1 + |lam|^2 - 2 |lam| cos(arg mu_m - arg lam)`` grows with
+    the angle between them, so the nearest pole is among the neighbours of ``arg lam`` in the
+    poles sorted by angle (``np.searchsorted``, O(log n) per point; two on each side are
+    compared by distance, which settles ties and the wrap at ``+-pi``). Otherwise the nearest
+    pole is the minimum over all of them (O(n) per point)."""
+
+    #: poles within this of the unit circle are "on it" (``exp(i x)`` is within a few ulp)
+    ON_CIRCLE = 1e-14
+
+    def __init__(self, mu: np.ndarray) -> None:
+        self.mu = mu
+        self.on_circle = bool(mu.size >= 4 and np.all(np.abs(np.abs(mu) - 1.0)
+                                                       <= self.ON_CIRCLE))
+        if self.on_circle:
+            phi = np.angle(mu)
+            self.order = np.argsort(phi, kind="stable")
+            self.phi = phi[self.order]
+
+    def nearest(self, lam: np.ndarray) -> np.ndarray | None:
+        """Index of the pole nearest to each ``lam``, or None when the poles are not on the
+        unit circle (the caller takes the minimum over all of them)."""
+        if not self.on_circle:
+            return None
+        n = self.mu.size
+        j = np.searchsorted(self.phi, np.angle(lam))
+        cand = self.order[(j[:, None] + np.arange(-2, 2)[None, :]) % n]
+        D = self.mu[cand] - lam[:, None]
+        d2 = D.real**2 + D.imag**2
+        return cand[np.arange(lam.size), np.argmin(d2, axis=1)]
+
+
+def _cauchy_chunk(poles: _Poles, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(G, star)``: ``G_km = 1/(mu_m - lam_k)`` with the entry of the pole nearest to each
     ``lam_k`` (index ``star_k``) set to 0."""
-    D = mu[None, :] - lam[:, None]
-    d2 = D.real**2 + D.imag**2
-    star = np.argmin(d2, axis=1)
+    mu = poles.mu
     rows = np.arange(lam.size)
-    d2[rows, star] = 1.0
-    G = D.conj()
-    G /= d2
+    G = np.subtract(mu[None, :], lam[:, None])
+    star = poles.nearest(lam)
+    if star is None:
+        star = np.argmin(G.real**2 + G.imag**2, axis=1)
+    G[rows, star] = 1.0  # no division by zero when lam_k is (numerically) at a pole
+    np.reciprocal(G, out=G)
     G[rows, star] = 0.0
     return G, star
 
@@ -273,12 +359,13 @@ def _secular_terms(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray
     dS = np.empty((K, k * k), dtype=complex)
     Gsum = np.empty(K, dtype=complex)
     star = np.empty(K, dtype=int)
+    poles = _Poles(mu)
     for a in range(0, K, _CHUNK):
-        G, st = _cauchy_chunk(mu, lam[a:a + _CHUNK])
+        G, st = _cauchy_chunk(poles, lam[a:a + _CHUNK])
         star[a:a + _CHUNK] = st
         S[a:a + _CHUNK] = G @ Z
         Gsum[a:a + _CHUNK] = G.sum(axis=1)
-        G *= G
+        np.multiply(G, G, out=G)
         dS[a:a + _CHUNK] = G @ Z
     S = S.reshape(K, k, k) + np.eye(k)
     dS = dS.reshape(K, k, k)
@@ -424,18 +511,38 @@ def refine_roots(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, guesses: np.ndarr
 
 
 def _aberth_sums(lam: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """``sum_{j != k} 1/(lam_k - lam_j)`` for each ``k`` in ``idx`` (chunks of rows)."""
+    """``sum_{j != k} 1/(lam_k - lam_j)`` for each ``k`` in ``idx`` (chunks of rows). For all
+    the roots at once the matrix ``G_kj = 1/(lam_k - lam_j)`` is antisymmetric: only its
+    blocks on and right of the diagonal are formed, a block's column sums entering the rows
+    below with the opposite sign (half the reciprocals)."""
+    if idx.size == lam.size and idx.size > _CHUNK and np.array_equal(idx, np.arange(lam.size)):
+        return _aberth_sums_all(lam)
     out = np.empty(idx.size, dtype=complex)
     for a in range(0, idx.size, _CHUNK):
         rows = idx[a:a + _CHUNK]
-        D = lam[rows, None] - lam[None, :]
-        d2 = D.real**2 + D.imag**2
+        G = np.subtract(lam[rows, None], lam[None, :])
         r = np.arange(rows.size)
-        d2[r, rows] = 1.0
-        G = D.conj()
-        G /= d2
+        G[r, rows] = 1.0
+        np.reciprocal(G, out=G)
         G[r, rows] = 0.0
         out[a:a + _CHUNK] = G.sum(axis=1)
+    return out
+
+
+def _aberth_sums_all(lam: np.ndarray) -> np.ndarray:
+    """:func:`_aberth_sums` of every root, from the upper block triangle of the
+    antisymmetric ``G_kj = 1/(lam_k - lam_j)`` (``G_jk = -G_kj`` exactly)."""
+    K = lam.size
+    out = np.zeros(K, dtype=complex)
+    for a in range(0, K, _CHUNK):
+        e = min(a + _CHUNK, K)
+        G = np.subtract(lam[a:e, None], lam[None, a:])
+        r = np.arange(e - a)
+        G[r, r] = 1.0
+        np.reciprocal(G, out=G)
+        G[r, r] = 0.0
+        out[a:e] += G.sum(axis=1)
+        out[e:] -= G[:, e - a:].sum(axis=0)
     return out
 
 
@@ -479,31 +586,46 @@ def krein_definiteness(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.nda
     eigenvalue ``lam`` of ``diag(mu) + X Y^T`` (see :func:`low_rank_update_eigen`; ``lam`` from
     any solver), computed from ``(mu_* - lam) v = -(mu_* - lam)(diag(mu) - lam)^-1 X w``
     (bounded near a pole), ``w`` the largest column of ``adj((mu_* - lam) S(lam))``. O(n) per
-    eigenvalue."""
-    _, star, _, _, S, d_star = _secular_terms(mu, X, Y, lam)
-    # M = (mu_* - lam) S = d S_r + y_* x_*^T is singular at an eigenvalue: its null vector
-    # is the largest column of adj(M) (rank one)
-    M = d_star[:, None, None] * S + Y[star][:, :, None] * X[star][:, None, :]
-    A = _adj(M)
-    col = np.argmax(np.linalg.norm(A, axis=1), axis=1)
-    w = A[np.arange(lam.size), :, col]
+    eigenvalue, in one pass over the Cauchy matrix ``G_km = 1/(mu_m - lam_k)`` (chunks of
+    rows): ``S_r = I + Y^T diag(G_k) X`` (the pole ``*`` split off as in
+    :func:`_secular_terms`), then with ``d = mu_* - lam`` the weights
+    ``|d v_m|^2 = |d|^2 |G_km (X w)_m|^2`` (``m != *``) and ``|d v_*|^2 = |(X w)_*|^2``."""
+    mu = np.asarray(mu, dtype=complex)
+    X = np.asarray(X, dtype=complex)
+    Y = np.asarray(Y, dtype=complex)
+    lam = np.asarray(lam, dtype=complex)
+    s = np.asarray(s, dtype=float)
+    k = X.shape[1]
+    Z = (Y[:, :, None] * X[:, None, :]).reshape(-1, k * k)
+    XT = np.ascontiguousarray(X.T)
+    weights = np.stack([s, np.abs(s)], axis=1)
+    weights2 = np.repeat(weights, 2, axis=0)  # for the (re, im) pairs of a complex row
     num = np.empty(lam.size)
     den = np.empty(lam.size)
-    s_abs = np.abs(s)
-    d2_star = np.abs(d_star) ** 2
+    star = np.empty(lam.size, dtype=int)
+    poles = _Poles(mu)
     for a in range(0, lam.size, _CHUNK):
         sl = slice(a, a + _CHUNK)
-        D = mu[None, :] - lam[sl, None]
-        Xw = w[sl] @ X.T  # (X w)_m for each root
-        # |(mu_* - lam) v_m|^2 = |(X w)_m|^2 |mu_* - lam|^2 / |mu_m - lam|^2 (m != *)
-        p = Xw.real**2 + Xw.imag**2
-        d2 = D.real**2 + D.imag**2
-        rows = np.arange(d2.shape[0])
-        st = star[sl]
-        d2[rows, st] = d2_star[sl]
-        p *= d2_star[sl, None] / d2
-        num[a:a + _CHUNK] = p @ s
-        den[a:a + _CHUNK] = p @ s_abs
+        G, st = _cauchy_chunk(poles, lam[sl])
+        star[sl] = st
+        rows = np.arange(st.size)
+        S = (G @ Z).reshape(-1, k, k) + np.eye(k)
+        d_star = mu[st] - lam[sl]
+        # M = (mu_* - lam) S = d S_r + y_* x_*^T is singular at an eigenvalue: its null
+        # vector is the largest column of adj(M) (rank one)
+        M = d_star[:, None, None] * S + Y[st][:, :, None] * X[st][:, None, :]
+        A = _adj(M)
+        col = np.argmax(np.linalg.norm(A, axis=1), axis=1)
+        w = A[rows, :, col]
+        Xw = w @ XT  # (X w)_m for each root
+        xw_star = Xw[rows, st]
+        # sum_m w_m |G_km (X w)_m|^2 over re and im parts at once (G_k* = 0 leaves * out)
+        G *= Xw
+        V = G.view(float)
+        np.multiply(V, V, out=V)
+        nd = (V @ weights2) * (np.abs(d_star) ** 2)[:, None]
+        nd += (xw_star.real**2 + xw_star.imag**2)[:, None] * weights[st]
+        num[sl], den[sl] = nd[:, 0], nd[:, 1]
     # an eigenvalue at an uncoupled pole (its row of X vanishes) has that pole's unit vector
     # as eigenvector, which -(diag(mu) - lam)^-1 X w does not see
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -41,10 +41,10 @@ import numpy as np
 
 from .events import bisect_predicate, illinois, interior_extremum, pole_estimate
 from .floquet import (
-    KREIN_DEFINITE,
     classify_crossing,
     collision_distances,
     count_outside,
+    definite_sign,
     krein_of,
 )
 from .krein import SEVERAL, discriminant, swap_paths
@@ -654,13 +654,20 @@ class ContinuationEngine:
         st = self.settings
         if not (st.krein_step_control and self.problem.conservative):
             return None
-        fl = self._floquet_memo.get(np.asarray(a.y, dtype=float).tobytes())
+        key = np.asarray(a.y, dtype=float).tobytes()
+        # the step from ``a`` may be halved more times than the memo holds trial points: the
+        # Krein data of the last ``a`` are kept aside (the same values, not computed again)
+        base = getattr(self, "_krein_base", None)
+        if base is not None and base[0] == key and base[1].shape == np.shape(a.multipliers):
+            return base[1]
+        fl = self._floquet_memo.get(key)
         if fl is None:
             fl = self._floquet(a.y, a.tangent)
             self._remember_floquet(a.y, fl)
         krein = krein_of(fl)
         if krein is None or np.asarray(fl.multipliers).shape != np.asarray(a.multipliers).shape:
             return None
+        self._krein_base = (key, krein)
         return krein
 
     def _analyse_step(self, a: Point, pts: list[Point], y_new: np.ndarray, t_new: np.ndarray,
@@ -1674,18 +1681,26 @@ def krein_motion(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.
     if distances is None:
         distances = (collision_distances(a, krein_a, circle_tol),
                      collision_distances(b, krein_b, circle_tol))
+    from .floquet import nearest_distances
+
     motion = 0.0
-    sa, sb = _definite_sign(a, krein_a, circle_tol), _definite_sign(b, krein_b, circle_tol)
-    full = np.abs(a[:, None] - b[None, :])
-    for d_all, sx, sz, x, cx in ((full, sa, sb, a, distances[0]),
-                                 (full.T, sb, sa, b, distances[1])):
+    sa, sb = definite_sign(a, krein_a, circle_tol), definite_sign(b, krein_b, circle_tol)
+    for sx, sz, x, z, cx in ((sa, sb, a, b, distances[0]), (sb, sa, b, a, distances[1])):
         watch = (np.abs(x) > lo) & (np.abs(x) < hi)
         if not watch.any():
             continue
-        d = d_all[watch]
-        other = (sx[watch][:, None] * sz[None, :]) < 0  # a definite multiplier of the other sign
-        disp = np.where(other, np.inf, d).min(axis=1)
-        disp = np.where(np.isfinite(disp), disp, d.min(axis=1))
+        xw, sw = x[watch], sx[watch]
+        # nearest multiplier of the other point among those of signature +1, -1 and of no
+        # definite signature (off the circle or indefinite), each set searched on its own
+        # (k-d tree, O(n log n)): a definite multiplier's displacement is the distance to
+        # the nearest one that is not definite of the opposite sign, or to the nearest of
+        # all when there is no such one; any other multiplier's, to the nearest of all
+        d_pos, d_neg, d_none = (nearest_distances(xw, z[sel])
+                                for sel in (sz > 0, sz < 0, sz == 0))
+        nearest = np.minimum(np.minimum(d_pos, d_neg), d_none)
+        disp = np.where(sw > 0, np.minimum(d_pos, d_none),
+                        np.where(sw < 0, np.minimum(d_neg, d_none), nearest))
+        disp = np.where(np.isfinite(disp), disp, nearest)
         counts = disp >= fraction * cx[watch]
         if counts.any():
             motion = max(motion, float(disp[counts].max()))
@@ -1758,13 +1773,6 @@ def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np
         return False
     min_a, min_b = float(ca[wa].min()), float(cb[wb].min())
     return min_b < KREIN_NEAR and min_b < KREIN_CLOSING * min_a
-
-
-def _definite_sign(m: np.ndarray, krein: np.ndarray, circle_tol: float) -> np.ndarray:
-    """``sign(kappa)`` of the multipliers on the circle with a definite signature, else 0."""
-    on = np.abs(np.abs(m) - 1.0) <= circle_tol
-    k = np.asarray(krein, dtype=float)
-    return np.where(on & (np.abs(k) >= KREIN_DEFINITE), np.sign(k), 0.0)
 
 
 def multiplier_motion(a: np.ndarray, b: np.ndarray, lo: float = 0.5, hi: float = 2.0) -> float:

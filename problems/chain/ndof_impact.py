@@ -272,10 +272,13 @@ class NDofImpactProblem(Problem):
         self.symbolic = "SX" if N <= 30 else "MX"
         #: (the branches, their static grazing spectrum): see :meth:`static_grazing_spectrum`
         self._spectrum_cache: tuple[list[Any], list[dict[str, Any]]] | None = None
-        #: multipliers of the last :meth:`floquet` calls with their period: the start of the
-        #: next call is the set computed at the nearest period (event location bisects
-        #: inside a step: the nearest point computed so far is the best start)
-        self._multiplier_memory: list[tuple[float, np.ndarray]] = []
+        #: multipliers of the last :meth:`floquet` calls with their point ``y``: the start of
+        #: the next call is extrapolated from the sets computed at the nearest points
+        #: (:meth:`_nearest_guess`; event location bisects inside a step: the points computed
+        #: so far around it are the best start), and their lineage (sets of one lineage were
+        #: started from each other: multiplier k of one is multiplier k of the other)
+        self._multiplier_memory: list[tuple[np.ndarray, np.ndarray, int]] = []
+        self._lineages = 0
         #: :meth:`floquet` calls answered by the dense method (structured iteration failed)
         self.floquet_fallbacks = 0
 
@@ -795,8 +798,9 @@ class NDofImpactProblem(Problem):
         first asked (:class:`~nsm_continuation.floquet.KreinFloquetData`; its sign is the Krein
         signature on the unit circle). ``trivial_error`` is ``|DF t - t| / |t|`` plus
         ``|h^T DF|`` (the section row, eq. A.10), both O(N). The iteration starts from the
-        multipliers computed at the nearest period among the last calls; it falls back to
-        :meth:`floquet_dense` when it does not converge (counted in ``floquet_fallbacks``)."""
+        multipliers computed at the nearest points among the last calls, extrapolated
+        (:meth:`_nearest_guess`); it falls back to :meth:`floquet_dense` when it does not
+        converge (counted in ``floquet_fallbacks``)."""
         r = self._family_direction(y, tangent)
         if r is None:
             return None
@@ -816,15 +820,17 @@ class NDofImpactProblem(Problem):
                                     matrix_norm=dense.matrix_norm, krein_source=source)
         st = self.return_map_structure(y)
         X, Y, removed = self._deflated_update(st, r)
-        out = None
-        for guess in (self._nearest_guess(float(y[-1])), None):
-            if out is None:
-                out = low_rank_update_eigen(st["mu"], X, Y, removed=removed, guess=guess)
+        start = self._nearest_guess(y)
+        out = None if start is None else low_rank_update_eigen(
+            st["mu"], X, Y, removed=removed, guess=start[0])
+        lineage = None if start is None else start[1]
+        if out is None:
+            out, lineage = low_rank_update_eigen(st["mu"], X, Y, removed=removed), None
         if out is None:
             self.floquet_fallbacks += 1
             return self.floquet_dense(y, tangent)
         mult, _, _ = out
-        self._remember_multipliers(float(y[-1]), mult)
+        self._remember_multipliers(y, mult, lineage)
         res = np.linalg.norm(self.return_map_apply(st, r) - r) / np.linalg.norm(r)
         U, V = st["U"], st["V"]
         # |h^T DF| / |h|: h^T U = (0, -1) and V[:, 1] = h make the section row vanish
@@ -895,14 +901,50 @@ class NDofImpactProblem(Problem):
 
     #: how many multiplier sets :meth:`floquet` remembers as starts
     MULTIPLIER_MEMORY: ClassVar[int] = 8
+    #: :meth:`_nearest_guess`: a multiplier that moved more than this between the two
+    #: nearest remembered points is not extrapolated (a jump, or not the same multiplier)
+    EXTRAPOLATE_MAX_MOVE: ClassVar[float] = 0.05
+    #: :meth:`_nearest_guess`: no extrapolation farther than this many secant lengths
+    EXTRAPOLATE_MAX_SECANTS: ClassVar[float] = 2.0
 
-    def _nearest_guess(self, T: float) -> np.ndarray | None:
+    def _nearest_guess(self, y: np.ndarray) -> tuple[np.ndarray, int] | None:
+        """The start of the Aberth iteration at the point ``y`` and its lineage: the
+        multipliers ``m1`` remembered at the nearest point ``y1``, extrapolated linearly along
+        the secant to the second nearest ``y2`` (multipliers ``m2``): ``m1 + s (m1 - m2)``
+        with ``s = (y - y1).(y1 - y2) / |y1 - y2|^2`` (the projection of ``y`` on the line
+        through ``y1`` and ``y2``; ``-1 < s < 0`` interpolates, as when an event is located
+        inside a step). Only sets of one lineage pair by index (multiplier ``k`` of one set
+        descends from multiplier ``k`` of the set it was started from); one that moved by
+        more than ``EXTRAPOLATE_MAX_MOVE`` between ``y2`` and ``y1`` (a jump) is not
+        extrapolated, nor is anything beyond ``EXTRAPOLATE_MAX_SECANTS``. The start only
+        changes the number of sweeps, not the roots the iteration converges to."""
         if not self._multiplier_memory:
             return None
-        return min(self._multiplier_memory, key=lambda tm: abs(tm[0] - T))[1]
+        y = np.asarray(y, dtype=float)
+        mem = sorted(self._multiplier_memory, key=lambda e: float(np.linalg.norm(e[0] - y)))
+        y1, m1, lin = mem[0]
+        other = [e for e in mem[1:]
+                 if e[2] == lin and e[1].shape == m1.shape and not np.array_equal(e[0], y1)]
+        if not other:
+            return m1, lin
+        y2, m2, _ = other[0]
+        dy = y1 - y2
+        nn = float(dy @ dy)
+        if nn == 0.0:
+            return m1, lin
+        step = float((y - y1) @ dy) / nn
+        if not abs(step) <= self.EXTRAPOLATE_MAX_SECANTS:
+            return m1, lin
+        delta = m1 - m2
+        return np.where(np.abs(delta) <= self.EXTRAPOLATE_MAX_MOVE, m1 + step * delta, m1), lin
 
-    def _remember_multipliers(self, T: float, mult: np.ndarray) -> None:
-        self._multiplier_memory.append((T, mult))
+    def _remember_multipliers(self, y: np.ndarray, mult: np.ndarray,
+                              lineage: int | None) -> None:
+        """Remember ``mult`` at ``y``; ``lineage`` None: a new lineage (a cold start)."""
+        if lineage is None:
+            self._lineages += 1
+            lineage = self._lineages
+        self._multiplier_memory.append((np.array(y, dtype=float), mult, lineage))
         del self._multiplier_memory[:-self.MULTIPLIER_MEMORY]
 
     @staticmethod
