@@ -80,7 +80,6 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from functools import cached_property
-from threading import Lock
 from typing import Any, ClassVar
 
 import casadi as ca
@@ -88,6 +87,7 @@ import numpy as np
 from pydantic import BaseModel, TypeAdapter
 
 from .bordered import BorderedFactor, DenseBorderedFactor
+from .casadi_buffers import BufferedFunction
 from .records import CORE_EVENT_KINDS, OrbitTrace, Point, register_event_kinds
 
 
@@ -175,48 +175,34 @@ class StartPoint:
 class CompiledResidual:
     """CasADi Functions for ``G`` and its exact Jacobian ``dG/dy``, built once per problem.
 
-    Evaluated through CasADi's function buffers (``Function.buffer``): the outputs are written
+    Evaluated through CasADi's function buffers
+    (:class:`~nsm_continuation.casadi_buffers.BufferedFunction`): the outputs are written
     straight into numpy arrays. Converting a ``DM`` result with ``np.asarray`` goes through a
     Python list of its elements and cost ten times the evaluation itself for a dense
     1000 x 1001 Jacobian (70 ms against 7 ms; 48 % of a continuation run of the 1000-dof
-    chain). The Jacobian is densified at construction (the engine's linear algebra is dense),
-    so its buffer is the column-major matrix. A buffer is not re-entrant: calls are serialised
-    by a lock (a problem is used by one thread at a time anyway)."""
+    chain). The Jacobian is densified at construction (the engine's linear algebra is dense);
+    it comes out as the transpose of a C array (the buffer writes column-major)."""
 
     def __init__(self, G: ca.Function, J: ca.Function, GJ: ca.Function, n: int) -> None:
         self.G, self.J, self.GJ, self.n = G, J, GJ, n
-        self._lock = Lock()
-        self._buffers = {name: f.buffer() for name, f in (("G", G), ("J", J), ("GJ", GJ))}
+        self._calls = {name: BufferedFunction(f) for name, f in (("G", G), ("J", J),
+                                                                 ("GJ", GJ))}
 
-    def _call(self, name: str, y: np.ndarray, outputs: list[np.ndarray]) -> None:
-        x = np.ascontiguousarray(y, dtype=float).reshape(-1)
+    def _call(self, name: str, y: np.ndarray) -> Any:
+        x = np.asarray(y, dtype=float).reshape(-1)
         if x.size != self.n + 1:
             raise ValueError(f"residual evaluated at {x.size} unknowns, expects {self.n + 1}")
-        buf, trigger = self._buffers[name]
-        with self._lock:
-            buf.set_arg(0, memoryview(x))
-            for i, out in enumerate(outputs):
-                buf.set_res(i, memoryview(out))
-            trigger()
-
-    def _jacobian_buffer(self) -> np.ndarray:
-        # column-major n x (n + 1): the rows of this array are the Jacobian's columns
-        return np.empty((self.n + 1, self.n))
+        return self._calls[name](x)
 
     def residual(self, y: np.ndarray) -> np.ndarray:
-        g = np.empty(self.n)
-        self._call("G", y, [g])
-        return g
+        return self._call("G", y).ravel()
 
     def jacobian(self, y: np.ndarray) -> np.ndarray:
-        jt = self._jacobian_buffer()
-        self._call("J", y, [jt])
-        return jt.T
+        return self._call("J", y)
 
     def both(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        g, jt = np.empty(self.n), self._jacobian_buffer()
-        self._call("GJ", y, [g, jt])
-        return g, jt.T
+        g, jac = self._call("GJ", y)
+        return g.ravel(), jac
 
 
 class Problem(ABC):

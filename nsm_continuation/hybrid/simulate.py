@@ -209,7 +209,7 @@ class SimResult:
 
 def initial_state(c: CompiledHybrid, X: np.ndarray) -> str:
     """Discrete state of a point (free flight up/down, or sticking)."""
-    H, v, a, _ = np.asarray(c.probe(X), dtype=float).ravel()
+    H, v, a, _ = c.calls().probe(X).ravel()
     scale = 1e-12 * (1.0 + np.linalg.norm(X))
     if H < -scale:
         raise SimulationError(
@@ -316,6 +316,8 @@ class Simulator:
 
     def __init__(self, c: CompiledHybrid, opts: SimOptions | None = None) -> None:
         self.c = c
+        #: the compiled Functions, called through their buffers
+        self.calls = c.calls()
         self.o = opts or SimOptions()
         #: chatter error estimates of the current sequence (stall detection)
         self._errs: list[float] = []
@@ -323,8 +325,8 @@ class Simulator:
     # ------------------------------------------------------------------ helpers
     def _step(self, mode: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
         key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
-        f = self.c.steps[key][1 if jac else 0]
-        flat = np.asarray(f(Y, dt), dtype=float).ravel()
+        f = self.calls.steps[key][1 if jac else 0]
+        flat = f(Y, dt).ravel()
         m = Y.size
         npr = 6 if key == "ext" else 4
         i1, i2, i3, i4, i5 = m, 2 * m, 3 * m, 3 * m + npr, 4 * m + npr
@@ -335,15 +337,15 @@ class Simulator:
 
     def _field(self, mode: str, Y: np.ndarray) -> np.ndarray:
         if mode in EXTENDED:
-            return np.asarray(self.c.fe(Y), dtype=float).ravel()
+            return self.calls.fe(Y).ravel()
         if mode == S4:
-            return np.asarray(self.c.fs(Y), dtype=float).ravel()
-        return np.asarray(self.c.f(Y), dtype=float).ravel()
+            return self.calls.fs(Y).ravel()
+        return self.calls.f(Y).ravel()
 
     def _probe(self, mode: str, Y: np.ndarray) -> np.ndarray:
         if mode in EXTENDED:
-            return np.asarray(self.c.probe_e(Y), dtype=float).ravel()
-        return np.asarray(self.c.probe(Y), dtype=float).ravel()
+            return self.calls.probe_e(Y).ravel()
+        return self.calls.probe(Y).ravel()
 
     def _err_norm(self, Y: np.ndarray, Yn: np.ndarray, err: np.ndarray, err3: np.ndarray,
                   dt: float) -> float:
@@ -653,7 +655,7 @@ class Simulator:
             g[N] = 1.0
         else:
             row = {"H": 0, "v": 1, "a": 2}[name]
-            g[:N] = np.asarray(self.c.grads(Y[:N]), dtype=float)[row]
+            g[:N] = self.calls.grads(Y[:N])[row]
         return g
 
     def _refine(self, mode: str, Y: np.ndarray, dt: float, tau0: float, name: str, idx: int,
@@ -772,10 +774,10 @@ class Simulator:
                 Xs, Js, Jts, ts, count = done
                 info["chatter_count"] = count
                 return S4, Xs, Js, Jts, ts, info
-        R, Rx, _v, _r = (np.asarray(z, dtype=float) for z in c.impact(X))
+        R, Rx, _v, _r = self.calls.impact(X)
         Xp = R.ravel()
         Jp = None if JX is None else Rx @ JX
-        vplus = np.asarray(c.vgrad(Xp)[0], dtype=float).item()
+        vplus = self.calls.vgrad(Xp)[0].item()
         if mode == S2:
             events.append(SimEvent("impact", t, X[: c.n].copy(),
                                    {"v": q["v"], "a": a,
@@ -795,7 +797,7 @@ class Simulator:
                 return S4, Xs, Js, Jt, t, info
             return S3, Xp, Jp, Jt, t, info
         if a < 0:                                                         # III, VII
-            v_row = np.asarray(c.vgrad(Xp)[1], dtype=float).ravel()
+            v_row = self.calls.vgrad(Xp)[1].ravel()
             Ye = np.concatenate([Xp, [0.0, vplus]])
             Je = None
             if Jp is not None:
@@ -805,7 +807,7 @@ class Simulator:
         return S1, Xp, Jp, Jt, t, info
 
     def _project(self, X: np.ndarray, J: np.ndarray | None) -> tuple[np.ndarray, Any]:
-        P, Px = (np.asarray(z, dtype=float) for z in self.c.project(X))
+        P, Px = self.calls.project(X)
         return P.ravel(), (None if J is None else Px @ J)
 
     def _chatter_step(self, X: np.ndarray, JX: np.ndarray | None, Jt: np.ndarray | None,
@@ -816,7 +818,7 @@ class Simulator:
         c, o = self.c, self.o
         N = c.N
         sens = JX is not None
-        Q1, q1, Q1x, q1x, r, rx = (np.asarray(z, dtype=float) for z in c.chatter(X))
+        Q1, q1, Q1x, q1x, r, rx = self.calls.chatter(X)
         val = np.concatenate([Q1.ravel(), [t + q1.item()]])
         jac = None
         rj = None

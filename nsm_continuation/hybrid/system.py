@@ -32,6 +32,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from ..casadi_buffers import BufferedFunction
 from . import tableaus
 
 
@@ -298,6 +299,24 @@ def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, metho
     return fF, fFs, fFe, probe_e, Xe, steps
 
 
+@dataclass(frozen=True)
+class HybridCalls:
+    """The simulator's Functions of a :class:`CompiledHybrid` as
+    :class:`~nsm_continuation.casadi_buffers.BufferedFunction` (numpy in, numpy out)."""
+
+    f: BufferedFunction
+    fs: BufferedFunction
+    fe: BufferedFunction
+    probe: BufferedFunction
+    probe_e: BufferedFunction
+    grads: BufferedFunction
+    impact: BufferedFunction
+    vgrad: BufferedFunction
+    chatter: BufferedFunction
+    project: BufferedFunction
+    steps: dict[str, tuple[BufferedFunction, BufferedFunction]]
+
+
 @dataclass
 class CompiledHybrid:
     """Compiled CasADi Functions of a :class:`HybridSystem` at fixed parameter values.
@@ -327,6 +346,21 @@ class CompiledHybrid:
     project: ca.Function
     steps: dict[str, tuple[ca.Function, ca.Function]]
     values: dict[str, float] = field(default_factory=dict)
+    _calls: HybridCalls | None = field(default=None, init=False, repr=False, compare=False)
+
+    def calls(self) -> HybridCalls:
+        """The Functions the simulator evaluates, called through their buffers (built once):
+        the same values as calling them, without the ``DM`` conversions."""
+        if self._calls is None:
+            self._calls = HybridCalls(
+                f=BufferedFunction(self.f), fs=BufferedFunction(self.fs),
+                fe=BufferedFunction(self.fe), probe=BufferedFunction(self.probe),
+                probe_e=BufferedFunction(self.probe_e), grads=BufferedFunction(self.grads),
+                impact=BufferedFunction(self.impact), vgrad=BufferedFunction(self.vgrad),
+                chatter=BufferedFunction(self.chatter), project=BufferedFunction(self.project),
+                steps={k: (BufferedFunction(a), BufferedFunction(b))
+                       for k, (a, b) in self.steps.items()})
+        return self._calls
 
     def q(self, X: np.ndarray) -> dict[str, float]:
         """``H, v, a, r, lambda, L_W H`` at ``X`` as floats."""
