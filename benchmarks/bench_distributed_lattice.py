@@ -53,10 +53,12 @@ ADOPT = "adopt the pieces' nodes (master, overlapped)"
 
 
 def outputs(res: Any) -> tuple[str, list[str]]:
-    """report.json without its timings, and each branch's CSV, as written."""
+    """report.json without its timings and the recorded execution block (where it ran, not
+    what it computed), and each branch's CSV, as written."""
     rr = res.run_result
     rep = build_report(rr, "run")
     rep.pop("timings", None)
+    rep["case"]["input"].pop("execution", None)
     csvs = []
     for br in rr.branches:
         cols, rows = branch_rows(br, rr.problem.variables, rr.problem.csv_head)

@@ -461,12 +461,23 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         if ms is None:
             h = kernel_dimensions_at_period(self.model.N, M)
             ms = self._scan_nodes[M] = (np.nonzero((h >= 1) & (h <= 8))[0] + 1).astype(np.int32)
-        # at g0 != 0 most nodes fail COND2 on every candidate: screened in one batch (at g0 = 0
-        # a candidate's coefficients may vanish and the screen does not apply)
-        may = (scan_screen(self.model.N, M, ms) if self.model.g0 != 0
-               else np.ones(ms.size, dtype=bool))
+        return self._physical_at_period(M, ms)
+
+    def _physical_at_period(self, M: int, ms: np.ndarray) -> list[LatticeSolution]:
+        """The physical orbits of the nodes ``(m, M - m)``, ``m`` in ``ms``, in that order.
+
+        At g0 != 0 most nodes fail COND2 on every candidate: they are screened in one batch
+        (:func:`problems.bar.wfem_lattice.scan_screen`; at g0 = 0 a candidate's coefficients
+        may vanish and the screen does not apply); nodes already solved (adopted from Dask
+        tasks, or by an earlier scan) are not screened again."""
+        nodes = ms.tolist()
+        may = np.ones(len(nodes), dtype=bool)
+        if self.model.g0 != 0:
+            new = np.array([(m, M - m) not in self._cache for m in nodes], dtype=bool)
+            if new.any():
+                may[new] = scan_screen(self.model.N, M, ms[new])
         out = []
-        for m, keep in zip(ms.tolist(), may.tolist(), strict=True):
+        for m, keep in zip(nodes, may.tolist(), strict=True):
             out += self.physical((m, M - m), screened_out=not keep)
         return out
 
@@ -695,17 +706,17 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
                 m_c = last.counts[0] + jumps * (M - last.M)
                 width = W + 2 * j
                 e_pred = last.energy
-            cands = []
-            for m in range(max(1, m_c - width), min(M - 1, m_c + width) + 1):
-                if len(last.counts) == 2:
-                    cands += self.physical((m, M - m))
-                    continue
-                # two contact phases: keep the p = l symmetry (section 6.4), search p as well
+            ms = np.arange(max(1, m_c - width), min(M - 1, m_c + width) + 1)
+            if len(last.counts) == 2:
+                cands = self._physical_at_period(M, ms)
+            else:  # two contact phases: keep the p = l symmetry (section 6.4), search p too
+                cands = []
                 p_c = int(round(pred[1])) if slopes is not None else last.counts[1]
-                for p in range(max(1, p_c - width), p_c + width + 1):
-                    k = M - m - 2 * p
-                    if k >= 1:
-                        cands += self.physical((m, p, k, p))
+                for m in ms.tolist():
+                    for p in range(max(1, p_c - width), p_c + width + 1):
+                        k = M - m - 2 * p
+                        if k >= 1:
+                            cands += self.physical((m, p, k, p))
             # continuity: same characteristic profile structure (number of jumps) and, once the
             # branch direction is known, an energy within 25 % of the extrapolated one
             cands = [c for c in cands if profile_jumps(c.w0) == jumps
