@@ -108,3 +108,25 @@ def test_per_cycle_sign_test_changes_no_enumeration(monkeypatch: pytest.MonkeyPa
                     assert np.array_equal(a.w0, b.w0)
                 checked += 1
     assert checked > 100
+
+
+def test_every_physical_orbit_seeds_a_branch_unless_cut_with_a_warning() -> None:
+    """``start: {scan: true}`` seeds a branch at every physical orbit below the energy bound
+    (the docstring's promise; a default cut at 200 hid Fig. 12's subharmonics n = 2-4); a
+    ``max_seeds`` that cuts keeps the first ones and says so in the report's warnings."""
+    def seeds(max_seeds: int | None) -> tuple[list, list[str]]:
+        pb = WfemBarProblem({"E": 1.0, "rho": 1.0, "L": 1.0, "cells": 40, "gap": 1e-3})
+        pb.energy_cap = 1e3
+        spec = {"scan": True} if max_seeds is None else {"scan": True, "max_seeds": max_seeds}
+        return pb.lattice_seeds(spec, (1.0, 4.0)), pb.warnings()
+
+    every, quiet = seeds(None)
+    # the independent count: the scan's physical orbits below the energy bound
+    pb = WfemBarProblem({"E": 1.0, "rho": 1.0, "L": 1.0, "cells": 40, "gap": 1e-3})
+    below = [s for s in pb.scan_window((1.0, 4.0))
+             if s.energy / pb.model.energy_ref <= 1e3]
+    assert len(every) == len(below) > 5 and quiet == []
+    cut, said = seeds(3)
+    assert [s.solution.counts for s in cut] == [s.solution.counts for s in every[:3]]
+    assert len(said) == 1 and f"{len(below)} physical orbits" in said[0]
+    assert "max_seeds = 3" in said[0]
