@@ -608,7 +608,8 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
             if cap is not None:  # seeds above the energy bound would give one-point branches
                 sols = [s for s in sols if s.energy / md.energy_ref <= cap]
             if spec.max_seeds is not None and len(sols) > spec.max_seeds:
-                note = (f"start.scan: {len(sols)} physical orbits in the window, only the first "
+                note = (f"start.scan: {len(sols)} physical orbits in the window (below "
+                        f"continuation.max_energy), only the first "
                         f"max_seeds = {spec.max_seeds} (fewest profile jumps, then lowest "
                         "energy) seed branches; a branch none of them lies on is not computed "
                         "(raise start.max_seeds: a seed on a branch already computed costs "
