@@ -466,16 +466,21 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     def _physical_at_period(self, M: int, ms: np.ndarray) -> list[LatticeSolution]:
         """The physical orbits of the nodes ``(m, M - m)``, ``m`` in ``ms``, in that order.
 
-        At g0 != 0 most nodes fail COND2 on every candidate: they are screened in one batch
+        A node with an empty kernel (``h = 0`` in closed form,
+        :func:`problems.bar.wfem_operators.kernel_dimensions_at_period`: half the nodes of a
+        period where ``gcd(M, 2N) = 1``) has no orbit. At g0 != 0 most others fail COND2 on
+        every candidate: they are screened in one batch
         (:func:`problems.bar.wfem_lattice.scan_screen`; at g0 = 0 a candidate's coefficients
-        may vanish and the screen does not apply); nodes already solved (adopted from Dask
-        tasks, or by an earlier scan) are not screened again."""
+        may vanish and the screen does not apply). Nodes already solved (adopted from Dask
+        tasks, or by an earlier scan) are neither screened nor solved again."""
         nodes = ms.tolist()
+        new = np.array([(m, M - m) not in self._cache for m in nodes], dtype=bool)
         may = np.ones(len(nodes), dtype=bool)
-        if self.model.g0 != 0:
-            new = np.array([(m, M - m) not in self._cache for m in nodes], dtype=bool)
-            if new.any():
-                may[new] = scan_screen(self.model.N, M, ms[new])
+        if new.any():
+            may[new] = kernel_dimensions_at_period(self.model.N, M)[ms[new] - 1] > 0
+            test = np.nonzero(new & may)[0]
+            if self.model.g0 != 0 and test.size:
+                may[test] = scan_screen(self.model.N, M, ms[test])
         out = []
         for m, keep in zip(nodes, may.tolist(), strict=True):
             out += self.physical((m, M - m), screened_out=not keep)
