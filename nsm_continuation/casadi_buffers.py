@@ -2,11 +2,11 @@
 
 Calling a CasADi ``Function`` from Python with numpy arguments converts every argument to a
 ``DM`` and every result back (``np.asarray(DM)`` goes through a Python list of the elements):
-20-70 us per call whatever the function computes. ``Function.buffer()`` gives a call that
-reads its arguments from, and writes its results into, memory the caller owns. The hybrid
-simulator makes ~2000 such calls per simulated period of a chattering orbit (one per
-Runge-Kutta step, event probe and impact), where the conversions were 40-50 % of a
-continuation (``benchmarks/bench_chatter.py``).
+a function of 8 inputs with a vector and an 8 x 8 output took 32 us per call that way, 6 us
+through ``Function.buffer()``, which reads its arguments from, and writes its results into,
+memory the caller owns. The hybrid simulator calls such functions at every Runge-Kutta step,
+event probe and impact: the conversions were 34-45 % of the wall time of three hybrid runs
+(``benchmarks/README.md``, "Scans below O(N^3), buffered CasADi calls").
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ class BufferedFunction:
 
     def __call__(self, *args: Any) -> Any:
         if len(args) != len(self._n_in):
-            raise TypeError(f"{self.function.name()}: {len(args)} arguments, expects "
-                            f"{len(self._n_in)}")
+            raise TypeError(f"{self.function.name()}: expects {len(self._n_in)} arguments, "
+                            f"got {len(args)}")
         ins = [np.ascontiguousarray(a, dtype=float).reshape(-1) for a in args]
         for a, n, i in zip(ins, self._n_in, range(len(ins)), strict=True):
             if a.size != n:

@@ -46,6 +46,7 @@ from .floquet import (
     count_outside,
     definite_sign,
     krein_of,
+    nearest_distances,
 )
 from .krein import SEVERAL, discriminant, swap_paths
 from .protocol import EvaluationError, FloquetData, Problem, StartPoint
@@ -1681,8 +1682,6 @@ def krein_motion(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.
     if distances is None:
         distances = (collision_distances(a, krein_a, circle_tol),
                      collision_distances(b, krein_b, circle_tol))
-    from .floquet import nearest_distances
-
     motion = 0.0
     sa, sb = definite_sign(a, krein_a, circle_tol), definite_sign(b, krein_b, circle_tol)
     for sx, sz, x, z, cx in ((sa, sb, a, b, distances[0]), (sb, sa, b, a, distances[1])):

@@ -191,7 +191,7 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     #: end series (M values each) and their partial sums
     NODE_BYTES_PER_STEP: ClassVar[float] = 8.0 * (2.5 * 2**11 + 30)
     #: bytes per scanned node kept by the master (the node cache, solved or screened out: the
-    #: N = 1000 scan of Fig. 12, 4.7e6 nodes, ran in 1.3 GB)
+    #: N = 1000 scan of Fig. 12, 4.7e6 nodes, peaked at 1.4 GB)
     SCAN_BYTES_PER_NODE: ClassVar[float] = 300.0
     #: seconds per lattice node tried by the corrector (filter included): 0.7 ms + 3 us per
     #: cell (measured: 23 ms per point at N = 1000, 80 ms at 4000, 320 ms at 16000; 7 nodes
@@ -202,10 +202,11 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     SEED_SECONDS_PER_N2: ClassVar[tuple[float, float]] = (6e-8, 1.5e-6)
     #: seconds per scanned node and cell of the batch screen
     #: (:func:`problems.bar.wfem_lattice.scan_screen`), per node it keeps (solved: 0.3 ms +
-    #: 0.1 us per cell, for the 5 % it keeps at most), and per scanned node for the branches
-    #: of its seeds (at most one point, ~5 ms, per physical orbit, 2.5e-3 of the nodes at
-    #: N = 200): the N = 1000 scan of Fig. 12 measured 3.5e-5 s per node in all
-    SCAN_SECONDS: ClassVar[tuple[float, float, float]] = (5e-8, 0.05 * 3e-4, 2.5e-3 * 5e-3)
+    #: 0.1 us per cell, for the 15 % it keeps at most: 12 % measured at N = 400, 2-3 % at
+    #: N = 1000), and per scanned node for the branches of its seeds (at most one point,
+    #: ~5 ms, per physical orbit: 2.3e-3 of the nodes at N = 200): the N = 1000 scan of
+    #: Fig. 12 measured 5.0e-5 s per node in all (237 s for 4.7e6 nodes)
+    SCAN_SECONDS: ClassVar[tuple[float, float, float]] = (5e-8, 0.15 * 3e-4, 2.5e-3 * 5e-3)
     #: the seed search itself runs in the preflight up to this many cells (~0.1 s per start at
     #: N = 1000, 0.3 s at N = 4000; for g0 = 0, 1.4 s at N = 1000); beyond it only its
     #: necessary conditions are checked. Its seeds are kept for the run.

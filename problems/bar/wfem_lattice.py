@@ -38,6 +38,7 @@ import numpy as np
 from .wfem_operators import (
     BarConstants,
     Pattern,
+    SignedRotation,
     end_series,
     pattern_from_counts,
     phase_operator,
@@ -380,8 +381,6 @@ def scan_screen(N: int, M: int, ms: np.ndarray, chunk: int = 256) -> np.ndarray:
     ``tests/test_wfem_scan_speed.py`` checks that no rejected node has a solution and that a
     scan with the screen equals the scan without it, node for node.
     """
-    from .wfem_operators import SignedRotation
-
     n2 = 2 * N
     ms = np.asarray(ms, dtype=np.int64)
     out = np.ones(ms.size, dtype=bool)
