@@ -337,7 +337,7 @@ class Result:
         ``labels``, impact ``marks``, sticking ``intervals`` and the family's ``views``.
         ``ValueError`` naming the argument for a branch, row or number of periods the run
         does not have, or if the problem does not draw its orbits."""
-        from .orbits import problem_of
+        from .orbit_selection import problem_of
 
         n = _orbit_periods(periods, "periods")
         br = self._branch(branch)

@@ -157,6 +157,7 @@ def _target(args: argparse.Namespace, case: Case) -> OutputTarget:
 
 def _run(args: argparse.Namespace, path: str) -> int:
     from . import cases
+    from .figure_process import FigureProcess
     from .results import build_report, termination_text, write_files
     from .runner import run_case
 
@@ -167,22 +168,27 @@ def _run(args: argparse.Namespace, path: str) -> int:
                                 ("--workers", "--scheduler"))
     target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
+    # matplotlib is imported (and the figures drawn) by a child while this process computes
+    drawer = FigureProcess(case, problem) if case.output.plots else None
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
                        poll=_poll)
         assert target.tmp is not None
-        write_files(res, target.tmp, plots=case.output.plots)
+        write_files(res, target.tmp, plots=case.output.plots, drawer=drawer)
         _poll()
         out = target.commit()
     except BaseException:
         target.abort()
         raise
+    finally:
+        if drawer is not None:
+            drawer.close()
     if _received:  # arrived during the final move, held until it was complete
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
     failed = [b for b in res.branches if not b.points]
     if case.output.orbits is not None:
-        from .orbits import spec_warnings
+        from .orbit_selection import spec_warnings
 
         for w in spec_warnings(res):  # also in report.md; stderr even with --quiet
             print(f"warning: {w}", file=sys.stderr)

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from .scalar_search import bounded_minimum
+
 
 def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: float, fb: float,
              tol: float, max_iter: int = 80, close: bool = False) -> tuple[float, Any, float]:
@@ -166,10 +168,7 @@ def pole_estimate(p: np.ndarray, q: np.ndarray, k_range: tuple[float, float] = (
     i = int(np.argmin([fit(k)[0] for k in ks]))
     k = float(ks[i])
     if 0 < i < len(ks) - 1:  # refine between the grid neighbours (golden section)
-        from scipy.optimize import minimize_scalar
-
-        k = float(minimize_scalar(lambda v: fit(v)[0], bounds=(ks[i - 1], ks[i + 1]),
-                                  method="bounded", options={"xatol": 1e-10 * k}).x)
+        k = bounded_minimum(lambda v: fit(v)[0], ks[i - 1], ks[i + 1], xatol=1e-10 * k)[0]
     err, dist = fit(k)  # dist = p* - p[-1]
     at_edge = k <= k_range[0] * (1 + 1e-9) or k >= k_range[1] * (1 - 1e-9)
     if at_edge or not (err <= rtol and np.isfinite(dist) and np.sign(dist) == direction):

@@ -51,6 +51,7 @@ from .floquet import (
 from .krein import SEVERAL, discriminant, swap_paths
 from .protocol import EvaluationError, FloquetData, Problem, StartPoint
 from .records import Branch, Event, Point
+from .scalar_search import bounded_minimum
 from .settings import ContinuationSettings
 
 #: errors of numerical origin (a problem that cannot evaluate at a point, linear algebra,
@@ -1353,8 +1354,6 @@ class ContinuationEngine:
         the two multipliers: no event (``krein_passings``). Several collisions in the step,
         or a window the count does not confirm, retry the step shorter (when it may be
         retried; else the step is kept and ``unlocated_events`` counts it)."""
-        from scipy.optimize import minimize_scalar
-
         pr, st = self.problem, self.settings
         if not (pr.conservative and st.krein_step_control):
             return []
@@ -1387,10 +1386,8 @@ class ContinuationEngine:
             return discriminant(pair[0], pair[1]), (y, pair)
 
         d0, dh = discriminant(z1a, z2a), discriminant(z1b, z2b)
-        best = minimize_scalar(lambda sig: np.nan_to_num(f(sig)[0], nan=np.inf),
-                               bounds=(0.0, h), method="bounded",
-                               options={"xatol": st.event_tol, "maxiter": 60})
-        sig_m, d_m = float(best.x), float(best.fun)
+        sig_m, d_m, _ = bounded_minimum(lambda sig: np.nan_to_num(f(sig)[0], nan=np.inf),
+                                        0.0, h, xatol=st.event_tol, maxiter=60)
         if not d_m < -4.0 * tol**2:
             self.krein_passings += 1
             return []

@@ -22,11 +22,6 @@ by :func:`_vertical_bands`, pixel for pixel what ``axvspan`` draws, as one artis
 
 from __future__ import annotations
 
-import os
-import pickle
-import sys
-import threading
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +33,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
+from .figure_process import in_two_processes  # noqa: E402
 from .protocol import Problem  # noqa: E402
 from .records import Branch, Point  # noqa: E402
 from .runner import RunResult  # noqa: E402
@@ -350,7 +346,8 @@ def make_all(res: RunResult, out: Path) -> list[str]:
     """Every figure of a run written into ``out`` (the branch diagram, the multipliers, the
     problem's own figures, the bifurcation diagram of a tree, the orbit figures of
     ``output.orbits``, :mod:`nsm_continuation.orbits`): their file names, in this order.
-    Drawn in two processes where that is possible (:func:`in_two_processes`)."""
+    Drawn in two processes where that is possible
+    (:func:`nsm_continuation.figure_process.in_two_processes`)."""
 
     def branch_diagram() -> list[str]:
         if res.branches and any(br.points for br in res.branches):
@@ -385,52 +382,3 @@ def make_all(res: RunResult, out: Path) -> list[str]:
 
     return in_two_processes([branch_diagram, along, plane, problem_figures, tree,
                              orbit_figures])
-
-
-#: :func:`in_two_processes` forks only here (POSIX ``fork`` without the macOS caveats)
-FORKS = sys.platform.startswith("linux")
-
-
-def in_two_processes(jobs: list[Callable[[], list[str]]]) -> list[str]:
-    """``[name for job in jobs for name in job()]``, the jobs shared with a forked child
-    process where the platform forks (:data:`FORKS`), two cores are available and this process
-    runs no other thread: the child
-    draws every other job (it inherits the run and matplotlib, nothing is sent), reports its
-    file names through a pipe and exits without running any of this process's clean-up
-    (``os._exit``). The figures are those of one process, byte for byte
-    (``tests/test_startup.py``): each is drawn from the same data by the same code. A job that
-    raises in the child raises here, as ``RuntimeError`` with its message."""
-    if not (FORKS and len(jobs) > 1 and (os.cpu_count() or 1) > 1
-            and threading.active_count() == 1):
-        # a process with other threads (a Dask client's event loop) is not forked: a lock one
-        # of them holds would stay locked in the child
-        return [name for job in jobs for name in job()]
-    mine, theirs = jobs[0::2], jobs[1::2]
-    read, write = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # pragma: no cover - the child (its coverage is not collected)
-        os.close(read)
-        try:
-            outcome: tuple[str, Any] = ("ok", [job() for job in theirs])
-        except BaseException as exc:  # noqa: BLE001 - reported to the parent
-            outcome = ("error", f"{type(exc).__name__}: {exc}")
-        try:
-            with os.fdopen(write, "wb") as fh:
-                pickle.dump(outcome, fh)
-        finally:
-            os._exit(0)
-    os.close(write)
-    try:
-        own = [job() for job in mine]
-    finally:
-        with os.fdopen(read, "rb") as fh:
-            data = fh.read()
-        os.waitpid(pid, 0)
-    status, payload = pickle.loads(data) if data else ("error", "the process drawing "
-                                                       "figures ended without a result")
-    if status != "ok":
-        raise RuntimeError(f"figures: {payload}")
-    names: list[str] = []
-    for k in range(len(jobs)):
-        names += own[k // 2] if k % 2 == 0 else payload[k // 2]
-    return names

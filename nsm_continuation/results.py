@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .figure_process import FigureProcess
 from .output import IfExists, OutputTarget
 from .records import Branch, Event, Point
 from .restart import restart_block
@@ -161,7 +162,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
     s = res.settings
     warnings = list(pr.warnings())
     if res.case.output.orbits is not None:
-        from .orbits import spec_warnings
+        from .orbit_selection import spec_warnings
 
         warnings += spec_warnings(res)
     for b in branches:
@@ -224,9 +225,12 @@ def hint_context(res: RunResult) -> dict[str, Any]:
             "curve_parameters": list(pr.curve_parameters())}
 
 
-def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
+def write_files(res: RunResult, directory: Path, plots: bool = True,
+                drawer: FigureProcess | None = None) -> None:
     """Write every output of a run (CSV per branch, report.json, report.md, figures) into
-    ``directory``, which exists and is the run's own (see :mod:`nsm_continuation.output`)."""
+    ``directory``, which exists and is the run's own (see :mod:`nsm_continuation.output`).
+    The figures are drawn by ``drawer`` where it can (a process started before the
+    computation, :class:`~nsm_continuation.figure_process.FigureProcess`), else here."""
     from . import report as report_md
 
     directory = Path(directory)
@@ -239,9 +243,12 @@ def write_files(res: RunResult, directory: Path, plots: bool = True) -> None:
             w.writerows(rows)
     figures: list[str] = []
     if plots:
-        from . import plots as plotting
+        drawn = drawer.draw(res, directory) if drawer is not None else None
+        if drawn is None:
+            from . import plots as plotting
 
-        figures = plotting.make_all(res, directory)
+            drawn = plotting.make_all(res, directory)
+        figures = drawn
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))

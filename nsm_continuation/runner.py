@@ -39,7 +39,7 @@ class RunResult:
     #: branch of a diagram: the period-2k problem at a period doubling)
     branch_problems: dict[int, Problem] = field(default_factory=dict)
     #: what ``output.orbits`` asks for that the run cannot draw, one line each, once checked
-    #: (:func:`nsm_continuation.orbits.spec_warnings`; None: not yet)
+    #: (:func:`nsm_continuation.orbit_selection.spec_warnings`; None: not yet)
     orbit_warnings: list[str] | None = None
 
 
@@ -78,7 +78,7 @@ class _Progress:
             from tqdm import tqdm
 
             # no monitor thread: a process without threads may draw its figures in a forked
-            # child (nsm_continuation.plots.in_two_processes)
+            # child (nsm_continuation.figure_process)
             tqdm.monitor_interval = 0
             self.bar = tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
         self.poll = poll

@@ -61,6 +61,9 @@ def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path):
     assert "casadi" in out["before"]  # it did compute (the check is not vacuous)
     assert "matplotlib" not in out["before"]
     assert "dask" not in out["before"] and "distributed" not in out["before"]
+    # the chain needs no SciPy (0.3 s of imports): its modal analysis, root finding and
+    # bounded minimisation are numpy and nsm_continuation's own
+    assert "scipy" not in out["before"]
     assert out["plots"] is True
     written = {p.name for p in run.iterdir()}
     assert "report.json" in written and not any(n.endswith(".png") for n in written)
@@ -77,13 +80,13 @@ def _fresh(code: str, tmp_path) -> str:
 
 
 def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path):
-    """``plots.in_two_processes`` (a forked child draws every other figure): the same files,
-    in the same order in ``report.json``, byte for byte the PNGs of a single process; and the
-    child was used (its pid differs)."""
+    """``figure_process.in_two_processes`` (a forked child draws every other figure): the same
+    files, in the same order in ``report.json``, byte for byte the PNGs of a single process;
+    and the child was used (its pid differs)."""
     out = _fresh(
         "import json, os\n"
         "import nsm_continuation as nsm\n"
-        "from nsm_continuation import cli, plots\n"
+        "from nsm_continuation import cli, figure_process, plots\n"
         "real = plots.multipliers_vs_frequency\n"
         "def spy(*a):\n"
         "    open(f'pid_{os.getpid()}', 'w').close()\n"
@@ -91,7 +94,7 @@ def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path):
         "plots.multipliers_vs_frequency = spy\n"
         "res = nsm.run(nsm.load_case(cli._default_case_path(), {'output.progress': False}))\n"
         "two = res.save('two')\n"
-        "plots.FORKS = False\n"
+        "figure_process.FORKS = False\n"
         "one = res.save('one')\n"
         "print(json.dumps({'pid': os.getpid(), 'one': str(one), 'two': str(two)}))\n",
         tmp_path)
@@ -111,20 +114,20 @@ def test_a_figure_failing_in_the_child_process_is_raised_here(tmp_path):
     jobs done, the child reaped; the order of the names is the jobs' order; a process that
     runs another thread is not forked."""
     out = _fresh(
-        "from nsm_continuation import plots\n"
+        "from nsm_continuation import figure_process\n"
         "def fails():\n"
         "    raise ValueError('no data for this panel')\n"
         "try:\n"
-        "    plots.in_two_processes([lambda: ['a.png'], fails, lambda: ['c.png']])\n"
+        "    figure_process.in_two_processes([lambda: ['a.png'], fails, lambda: ['c.png']])\n"
         "except RuntimeError as exc:\n"
         "    print('raised:', exc)\n"
-        "print(plots.in_two_processes([lambda: ['a'], lambda: ['b'], lambda: [], "
+        "print(figure_process.in_two_processes([lambda: ['a'], lambda: ['b'], lambda: [], "
         "lambda: ['d']]))\n"
         "import os, threading, time\n"
-        "print('forked', len(set(plots.in_two_processes([lambda: [os.getpid()], "
+        "print('forked', len(set(figure_process.in_two_processes([lambda: [os.getpid()], "
         "lambda: [os.getpid()]]))) == 2)\n"
         "threading.Thread(target=time.sleep, args=(1,)).start()\n"
-        "print('with a thread, forked', len(set(plots.in_two_processes([lambda: "
+        "print('with a thread, forked', len(set(figure_process.in_two_processes([lambda: "
         "[os.getpid()], lambda: [os.getpid()]]))) == 2)\n", tmp_path)
     assert "raised: figures: ValueError: no data for this panel" in out
     assert "['a', 'b', 'd']" in out

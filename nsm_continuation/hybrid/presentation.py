@@ -45,6 +45,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..scalar_search import bounded_minimum
+
 if TYPE_CHECKING:
     from .system import HybridSystem
 
@@ -277,8 +279,6 @@ def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int | None = None,
     accuracy), ``mu_leading_only`` (the law without the next order, same points), ``n_points``,
     ``period_range`` (the points used) and ``model``.
     """
-    from scipy.optimize import minimize_scalar
-
     ps = np.asarray(ps, dtype=float)
     Ts = np.asarray(Ts, dtype=float)
     dTs = (np.zeros_like(Ts) if uncertainty is None
@@ -317,10 +317,8 @@ def homoclinic_fit(ps: np.ndarray, Ts: np.ndarray, n_last: int | None = None,
             grid = np.geomspace(lo, hi, 120)
             vals = [solve(m, w, terms)[0] for m in grid]
             k = int(np.argmin(vals))
-            res = minimize_scalar(lambda m, w=w: solve(m, w, terms)[0], method="bounded",
-                                  bounds=(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]),
-                                  options={"xatol": 1e-12 * hi})
-            mu = float(res.x)
+            mu = bounded_minimum(lambda m, w=w: solve(m, w, terms)[0], grid[max(k - 1, 0)],
+                                 grid[min(k + 1, len(grid) - 1)], xatol=1e-12 * hi)[0]
             r2, coef = solve(mu, w, terms)
             p_star = float(coef[0])
         if not (coef[1] != 0.0 and np.isfinite(mu) and mu > 0):

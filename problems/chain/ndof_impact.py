@@ -56,7 +56,6 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import casadi as ca
 import numpy as np
-import scipy.linalg as sla
 from pydantic import (
     BaseModel,
     Discriminator,
@@ -68,6 +67,7 @@ from pydantic import (
 )
 
 from nsm_continuation.bordered import BorderedFactor, DiagonalBorderedFactor
+from nsm_continuation.events import illinois
 from nsm_continuation.floquet import (
     KreinFloquetData,
     deflate_known_eigenvector,
@@ -224,6 +224,20 @@ def _start_kind(v: Any) -> str:
 StartSpec = Annotated[Annotated[ModeStart, Tag("Mode")] | Annotated[PeriodStart, Tag("Period")]
                       | Annotated[AllStart, Tag("All")], Discriminator(_start_kind)]
 START_ADAPTER = one_or_many(StartSpec)
+
+
+def generalized_eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The modal analysis (2.9): ``K P = M P diag(w2)`` with ``P^T M P = I``, ``w2`` ascending,
+    for symmetric ``K`` and symmetric positive definite ``M``. The reduction LAPACK's
+    ``sygvd`` makes (what ``scipy.linalg.eigh(K, M)`` calls): ``M = L L^T``,
+    ``C = L^-1 K L^-T``, ``C Q = Q diag(w2)``, ``P = L^-T Q``, in numpy alone: a run of the
+    chain then never imports SciPy (0.16 s of its start-up, ``benchmarks/bench_startup.py``).
+    Raises ``numpy.linalg.LinAlgError`` if ``M`` is not positive definite."""
+    L = np.linalg.cholesky(M)
+    A = np.linalg.solve(L, K)
+    C = np.linalg.solve(L, A.T)  # L^-1 K L^-T (K symmetric)
+    w2, Q = np.linalg.eigh(0.5 * (C + C.T))
+    return w2, np.linalg.solve(L.T, Q)
 
 
 class NDofImpactProblem(Problem):
@@ -456,7 +470,7 @@ class NDofImpactProblem(Problem):
             raise ValueError(f"{self._matrix_key}: the mass or stiffness matrix overflows "
                              "(an entry beyond 1.8e308)")
         try:
-            w2, P = sla.eigh(K, M)
+            w2, P = generalized_eigh(K, M)
         except (np.linalg.LinAlgError, ValueError) as exc:
             raise ValueError(f"{self._matrix_key}: the modal analysis K P = M P Omega^2 "
                              f"failed ({str(exc).splitlines()[0]})") from None
@@ -839,9 +853,12 @@ class NDofImpactProblem(Problem):
         # Frobenius norm of DF = (I + U V^T) D (D orthogonal), in O(N)
         n2 = U.shape[0] + 2.0 * np.trace(V.T @ U) + float(np.sum((U.T @ U) * (V.T @ V)))
         mult = np.asarray(mult, dtype=complex)
+        # symplectic (Prop. 6.1): off the circle kappa = 0 exactly, not computed
+        off = self.KREIN_OFF_CIRCLE if self.conservative else None
         return KreinFloquetData(
             mult, trivial_error=float(res + sec), matrix_norm=float(np.sqrt(max(n2, 0.0))),
-            krein_source=lambda: krein_definiteness(st["mu"], X, Y, mult, st["krein_weights"]))
+            krein_source=lambda: krein_definiteness(st["mu"], X, Y, mult, st["krein_weights"],
+                                                    off_circle=off))
 
     def _family_direction(self, y: np.ndarray, tangent: np.ndarray) -> np.ndarray | None:
         """The branch tangent in energy coordinates (the trivial multiplier's eigenvector,
@@ -899,6 +916,10 @@ class NDofImpactProblem(Problem):
         nrm = np.sum((np.abs(xi) ** 2 + np.abs(eta) ** 2) * iw, axis=0)
         return g / nrm
 
+    #: :meth:`floquet` of a conservative chain: multipliers farther than this from the unit
+    #: circle (their accuracy is ~1e-10) are off it, with Krein definiteness 0 exactly
+    #: (:func:`~nsm_continuation.floquet.krein_definiteness`, ``off_circle``)
+    KREIN_OFF_CIRCLE: ClassVar[float] = 1e-6
     #: how many multiplier sets :meth:`floquet` remembers as starts
     MULTIPLIER_MEMORY: ClassVar[int] = 8
     #: :meth:`_nearest_guess`: a multiplier that moved more than this between the two
@@ -1132,9 +1153,9 @@ class NDofImpactProblem(Problem):
         return sorted(out)
 
     def zeros_of_w_N(self, T_lo: float, T_hi: float, kmax: int = 1000) -> np.ndarray:
-        """Roots of ``w_N`` in ``(T_lo, T_hi)``: brentq between consecutive poles on a grid."""
-        from scipy.optimize import brentq
-
+        """Roots of ``w_N`` in ``(T_lo, T_hi)``: each sign change of ``w_N`` on a grid of 400
+        points between consecutive poles, closed by the Illinois iteration to ``1e-15 + 4 eps T``
+        (a pole between two grid points is not a root: ``|w_N|`` must be small there)."""
         poles = [p[0] for p in self.poles(1e-12, T_hi * (1 + 1e-12), kmax)]
         edges = sorted({T_lo, T_hi, *[p for p in poles if T_lo < p < T_hi]})
         roots = []
@@ -1143,8 +1164,9 @@ class NDofImpactProblem(Problem):
             grid = np.linspace(lo + eps, hi - eps, 400)
             vals = self.w_N(grid)
             for i in np.nonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]:
-                r = brentq(lambda t: float(self.w_N(t)), grid[i], grid[i + 1], xtol=1e-15,
-                           rtol=4 * np.finfo(float).eps)
+                r = illinois(lambda t: (float(self.w_N(t)), None), grid[i], float(vals[i]),
+                             grid[i + 1], float(vals[i + 1]),
+                             tol=1e-15 + 4 * np.finfo(float).eps * grid[i + 1], close=True)[0]
                 if abs(self.w_N(r)) < 1e-6 * (1 + abs(vals[i]) + abs(vals[i + 1])):
                     roots.append(r)
         return np.array(roots)

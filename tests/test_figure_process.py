@@ -1,0 +1,171 @@
+"""The process that draws a run's figures, started by the command line before the computation
+(:class:`nsm_continuation.figure_process.FigureProcess`, issue 13 item 4): the same files as
+drawing in this process, byte for byte, for each kind of problem (its copy of the problem is
+the one made at the fork); this process never imports matplotlib; the child is ended and
+reaped when the run fails, is interrupted or draws itself. Each run is in a fresh interpreter
+(this test process may run Dask's threads, which turn the fork off)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from nsm_continuation import figure_process
+
+ROOT = Path(__file__).resolve().parents[1]
+
+pytestmark = pytest.mark.skipif(not figure_process.FORKS or (os.cpu_count() or 1) < 2,
+                                reason="the figures are drawn by a forked child on Linux "
+                                       "with two cores")
+
+
+def _fresh(code: str, cwd: Path) -> str:
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=cwd, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+#: one case per kind of figure: the chain (w_N), a hybrid forced system (impacts panels), the
+#: bar's lattice (space-time fields, re-simulated from the problem), orbit figures
+CASES = [("ndof_default.yaml", 60), ("impact_oscillator_grazing.yaml", 12),
+         ("wfem_fig18_two_contact_phases.yaml", 12), ("ndof_fig5_1_branches.yaml", 25)]
+
+
+@pytest.mark.parametrize("name, points", CASES)
+def test_figures_drawn_while_computing_are_those_drawn_after(tmp_path, name, points):
+    """The command line's run (child started before the computation) against the same run
+    with forking off (every figure drawn by this process after the computation): the same
+    figure list in ``report.json`` and the same bytes in every PNG; the figures were drawn
+    by other processes, and the main process never imported matplotlib."""
+    case = ROOT / "yaml_cases" / name
+    out = _fresh(
+        "import json, os, sys\n"
+        "from nsm_continuation import cli, figure_process\n"
+        f"args = ['--quiet', '--set', 'continuation.max_points={points}']\n"
+        "draw = figure_process.FigureProcess.draw\n"
+        "used = []\n"
+        "def spy(self, res, d):\n"
+        "    used.append(self.pid)\n"
+        "    return draw(self, res, d)\n"
+        "figure_process.FigureProcess.draw = spy\n"
+        f"assert cli.main(['run', {str(case)!r}, '--out', 'forked', *args]) == 0\n"
+        "parent_mpl = 'matplotlib' in sys.modules\n"
+        "figure_process.FORKS = False\n"
+        f"assert cli.main(['run', {str(case)!r}, '--out', 'here', *args]) == 0\n"
+        "print(json.dumps({'child': used[0], 'me': os.getpid(), 'parent_mpl': parent_mpl,\n"
+        "                  'mpl_after': 'matplotlib' in sys.modules}))\n", tmp_path)
+    info = json.loads(out.strip().splitlines()[-1])
+    assert info["child"] is not None and info["child"] != info["me"]
+    assert info["parent_mpl"] is False and info["mpl_after"] is True  # the control
+    forked, here = tmp_path / "forked", tmp_path / "here"
+    figures = json.loads((here / "report.json").read_text())["figures"]
+    assert len(figures) >= 2
+    assert json.loads((forked / "report.json").read_text())["figures"] == figures
+    for f in figures:
+        assert (forked / f).read_bytes() == (here / f).read_bytes(), f
+
+
+def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
+    """``close`` before drawing kills and reaps the child (it wrote nothing); a run holding
+    problems made during it (a diagram's switched branches) or objects that do not pickle is
+    drawn by the caller: ``draw`` returns None and the child is gone; without a second core
+    or fork nothing is started."""
+    out = _fresh(
+        "import dataclasses, json, os\n"
+        "import nsm_continuation as nsm\n"
+        "from nsm_continuation import figure_process\n"
+        "res = nsm.run('yaml_cases/ndof_default.yaml', {'continuation.max_points': 5,\n"
+        "              'output.plots': False}).run_result\n"
+        "def gone(pid):\n"
+        "    try:\n"
+        "        os.waitpid(pid, os.WNOHANG)\n"
+        "    except ChildProcessError:\n"
+        "        return True\n"
+        "    return False\n"
+        "fp = figure_process.FigureProcess(res.case, res.problem)\n"
+        "a = fp.pid\n"
+        "fp.close()\n"
+        "fp.close()  # twice is harmless\n"
+        "fp = figure_process.FigureProcess(res.case, res.problem)\n"
+        "b = fp.pid\n"
+        "switched = dataclasses.replace(res, branch_problems={1: res.problem})\n"
+        "drawn = fp.draw(switched, 'nowhere')\n"
+        "fp = figure_process.FigureProcess(res.case, res.problem)\n"
+        "c = fp.pid\n"
+        "unsendable = fp.draw(dataclasses.replace(res, timings={'f': lambda: 0}), 'nowhere')\n"
+        "figure_process.FORKS = False\n"
+        "idle = figure_process.FigureProcess(res.case, res.problem)\n"
+        "print(json.dumps({'a': [a, gone(a)], 'b': [b, gone(b)], 'drawn': drawn,\n"
+        "                  'c': [c, gone(c)], 'unsendable': unsendable,\n"
+        "                  'idle': [idle.pid, idle.draw(res, 'nowhere')],\n"
+        "                  'files': sorted(os.listdir('.'))}))\n", ROOT)
+    info = json.loads(out.strip().splitlines()[-1])
+    assert info["a"][0] and info["a"][1] is True
+    assert info["b"][0] and info["b"][1] is True and info["drawn"] is None
+    assert info["c"][0] and info["c"][1] is True and info["unsendable"] is None
+    assert info["idle"] == [None, None]
+    assert "nowhere" not in info["files"]
+
+
+def test_a_failure_in_the_child_is_reported_by_the_run(tmp_path):
+    """A figure that raises in the child: the run ends with the command line's bug report
+    (exit 1, the message names the figure's error), nothing is written, the child reaped."""
+    out = _fresh(
+        "import contextlib, io, json, os\n"
+        "from nsm_continuation import cli, plots\n"
+        "def broken(res, path):\n"
+        "    raise ValueError('no data for this panel')\n"
+        "plots.multipliers_plane = broken\n"
+        "with contextlib.redirect_stderr(io.StringIO()) as err:\n"
+        "    code = cli.main(['run', '--out', 'run', '--quiet', '--set',\n"
+        "                     'continuation.max_points=10'])\n"
+        "print(json.dumps({'code': code, 'err': err.getvalue(),\n"
+        "                  'files': sorted(os.listdir('.'))}))\n", tmp_path)
+    info = json.loads(out.strip().splitlines()[-1])
+    assert info["code"] == 1
+    assert "figures: ValueError: no data for this panel" in info["err"]
+    assert not any(f == "run" or f.startswith(".run") for f in info["files"])
+    Path(info["err"].rsplit("traceback in ", 1)[1].split(")")[0].strip()).unlink()
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_while_computing_ends_the_child_too(tmp_path, sig, code):
+    """SIGINT / SIGTERM during the computation: the run exits as usual (130 / 143, nothing
+    written) and the child that waited to draw is gone, not left behind."""
+    pid_file = tmp_path / "child.pid"
+    script = (
+        "import sys\n"
+        "from nsm_continuation import cli, figure_process\n"
+        "start = figure_process.FigureProcess.__init__\n"
+        "def spy(self, case, problem):\n"
+        "    start(self, case, problem)\n"
+        f"    open({str(pid_file)!r}, 'w').write(str(self.pid))\n"
+        "figure_process.FigureProcess.__init__ = spy\n"
+        "sys.exit(cli.main(sys.argv[1:]))\n")
+    slow = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script, "run", str(slow), "--out", str(tmp_path / "out"),
+         "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    t0 = time.time()
+    while not pid_file.exists() or not pid_file.read_text():
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() - t0 < 60
+        time.sleep(0.05)
+    child = int(pid_file.read_text())
+    assert Path(f"/proc/{child}").exists()
+    time.sleep(1.0)  # inside the computation
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == code, err
+    assert not (tmp_path / "out").exists()
+    # reaped by the run (not a zombie waiting for init): no such process any more
+    assert not Path(f"/proc/{child}").exists()
