@@ -113,3 +113,47 @@ def test_backbones_as_tasks_give_the_serial_outputs() -> None:
     dist = nsm.run(case, workers=2)
     assert len(serial.run_result.branches) == 5
     assert_same_outputs(serial, dist)
+
+
+def _scan_seeds(algorithm: Any, case: Any, window: Any) -> list[tuple[Any, ...]]:
+    return [(s.solution.counts, s.solution.energy, s.label)
+            for s in algorithm.starts(case.start, window)]
+
+
+@pytest.mark.parametrize("known_before", [False, True])
+def test_a_scan_adopted_from_compact_records_is_the_serial_scan(known_before: bool) -> None:
+    """The scan's pieces (one worker, in piece order) adopted by a master: the records list
+    no node of a scanned period that has neither orbits nor filter reasons (most nodes: the
+    period implies them), yet the master's seeds, its counters and every node of the scanned
+    periods (:meth:`physical`) are the serial run's. With a node of a period solved on the
+    master before (``known_before``), that period is adopted node by node and nothing is
+    counted twice. Oracle: the serial scan of the same case."""
+    case = nsm.load_case(FIG12, {**QUIET, "parameters.cells": 24})
+    raw = case.model_dump(mode="json")
+    scase, serial_problem, swindow, serial = rebuild_case(raw)
+    serial_seeds = _scan_seeds(serial, scase, swindow)
+    wcase, _, wwindow, worker = rebuild_case(raw)
+    mcase, master_problem, mwindow, master = rebuild_case(raw)
+    M_lo, M_hi = serial_problem._scan_periods(swindow)
+    if known_before:  # a node of a scanned period with no orbit, solved here first
+        M = (M_lo + M_hi) // 2
+        m = int(serial_problem._scan_nodes[M][0])
+        assert master_problem.physical((m, M - m)) == serial_problem.physical((m, M - m))
+    implied = listed = 0
+    for piece in worker.seed_pieces(wcase.start, wwindow, 5):
+        record = worker.seed_piece(wcase.start, wwindow, piece)
+        sols, detailed, plain, periods = record
+        scanned = {M for M, _ in periods}
+        assert not any(len(c) == 2 and c[0] + c[1] in scanned for c in plain)
+        implied += sum(len(ms) for _, ms in periods) - len(detailed)
+        listed += len(detailed) + len(plain)
+        master.adopt_seed_piece(record)
+    assert implied > 10 * listed  # the records are compact
+    assert _scan_seeds(master, mcase, mwindow) == serial_seeds
+    assert master_problem.node_evaluations == serial_problem.node_evaluations
+    assert master_problem.filter_counts == serial_problem.filter_counts
+    for M in range(M_lo, M_hi + 1):
+        for m in serial_problem._scan_nodes[M].tolist():
+            a, b = master_problem.physical((m, M - m)), serial_problem.physical((m, M - m))
+            assert [(s.counts, s.energy) for s in a] == [(s.counts, s.energy) for s in b]
+    assert master_problem.node_evaluations == serial_problem.node_evaluations  # no re-solve

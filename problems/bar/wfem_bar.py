@@ -176,6 +176,14 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         #: nodes solved on a worker whose orbits were not sent (a branch task's): counted in
         #: node_evaluations and filter_counts already, solved again here if ever needed
         self._solved_elsewhere: set[tuple[int, ...]] = set()
+        #: periods a Dask task scanned (lattice_replay): the m (sorted) of their nodes that the
+        #: task solved with nothing (most of a scan's: 4.7e6 at N = 1000), known solved here
+        #: without being listed node by node, and the period's physical orbits in the order of
+        #: m (what _scan_period returns)
+        self._scanned_empty: dict[int, np.ndarray] = {}
+        self._period_orbits: dict[int, list[LatticeSolution]] = {}
+        #: periods with a one-phase node in the cache or solved elsewhere (node by node)
+        self._periods_touched: set[int] = set()
         self.filter_counts: dict[str, int] = {}
         self.node_evaluations = 0
         #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
@@ -424,6 +432,11 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
             self._record[0][counts] = None
         if counts in self._cache:
             return self._cache[counts]
+        if self._scanned_empty and self._known_empty(counts):
+            self._cache[counts] = []  # solved with nothing by a task: counted then
+            return self._cache[counts]
+        if len(counts) == 2:
+            self._periods_touched.add(counts[0] + counts[1])
         counted = counts in self._solved_elsewhere
         if not counted:
             self.node_evaluations += 1
@@ -446,6 +459,16 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
             self._removed[counts] = removed
         return keep
 
+    def _known_empty(self, counts: tuple[int, ...]) -> bool:
+        """A one-phase node of a period a task scanned, solved there with nothing."""
+        if len(counts) != 2:
+            return False
+        ms = self._scanned_empty.get(counts[0] + counts[1])
+        if ms is None:
+            return False
+        i = int(np.searchsorted(ms, counts[0]))
+        return i < ms.size and int(ms[i]) == counts[0]
+
     def _scan_periods(self, window: tuple[float | None, float | None]) -> tuple[int, int]:
         """First and last period (in steps) of the scan of the window."""
         lo, hi = window
@@ -458,6 +481,8 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         """The physical orbits of the scan's nodes at period M."""
         if self._record is not None:
             self._record[1][M] = None
+        elif M in self._period_orbits:  # scanned by a task (lattice_replay)
+            return list(self._period_orbits[M])
         ms = self._scan_nodes.get(M)
         if ms is None:
             h = kernel_dimensions_at_period(self.model.N, M)
@@ -476,6 +501,8 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         tasks, or by an earlier scan) are neither screened nor solved again."""
         nodes = ms.tolist()
         new = np.array([(m, M - m) not in self._cache for m in nodes], dtype=bool)
+        if M in self._scanned_empty:  # solved with nothing by a task (lattice_replay)
+            new &= ~np.isin(ms, self._scanned_empty[M])
         may = np.ones(len(nodes), dtype=bool)
         if new.any():
             may[new] = kernel_dimensions_at_period(self.model.N, M)[ms[new] - 1] > 0
@@ -535,49 +562,83 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     def lattice_recorded(self) -> Any:
         """The nodes touched since :meth:`lattice_record` (solved here or found in the
         cache), in order of first touch, and the periods scanned with their nodes. A node with
-        filter reasons or (``solutions``) physical orbits comes with them; the others (most of
-        a scan's) are listed by their counts only."""
+        filter reasons or (``solutions``) physical orbits comes with them; the others are
+        listed by their counts only, except (``solutions``) the nodes of a scanned period
+        (every one was touched): those are implied by the period (most of a scan's nodes: the
+        master neither receives nor stores them one by one, :meth:`lattice_replay`)."""
         if self._record is None:
             return None
         nodes, periods = self._record
         self._record = None
         sols = self._record_solutions
+        scanned = {M: set(self._scan_nodes[M].tolist()) for M in periods} if sols else {}
         detailed, plain = [], []
         for c in nodes:
             removed = self._removed.get(c, ())
             keep = self._cache[c] if sols else None
             if removed or keep:
                 detailed.append((c, keep, removed))
-            else:
+            elif not (len(c) == 2 and c[0] in scanned.get(c[0] + c[1], ())):
                 plain.append(c)
         return sols, detailed, plain, [(M, self._scan_nodes[M]) for M in periods]
 
     def lattice_replay(self, record: Any) -> None:
         """The nodes of a record not solved here yet count as solved here (the counters of
         ``report_extras``; those with filter reasons in the record's order, as the serial run
-        solves them); their orbits, if sent, are cached."""
+        solves them); their orbits, if sent, are cached.
+
+        The nodes a scanned period implies (:meth:`lattice_recorded`) are kept as the sorted
+        ``m`` of the period's nodes solved with nothing (:meth:`physical` finds them there)
+        and the period's physical orbits as :meth:`_scan_period` returns them; a period of
+        which this process already knows a node (rare: a seed's own search) is adopted node
+        by node instead, so that nothing is counted twice."""
         if record is None:
             return
         sols, detailed, plain, periods = record
         cache, elsewhere = self._cache, self._solved_elsewhere
+        whole = {M for M, _ in periods if M not in self._periods_touched
+                 and M not in self._scanned_empty} if sols else set()
+        plain = list(plain)
         for counts, keep, removed in detailed:
-            if counts in cache or counts in elsewhere:
+            if counts in cache or counts in elsewhere or self._known_empty(counts):
                 continue
             self.node_evaluations += 1
             for reason in removed:
                 self.filter_counts[reason] = self.filter_counts.get(reason, 0) + 1
             if removed:
                 self._removed[counts] = list(removed)
+            if len(counts) == 2:
+                self._periods_touched.add(counts[0] + counts[1])
             if keep is None:
                 self._solved_elsewhere.add(counts)
             else:
                 self._cache[counts] = [replace(s, model=self.model) for s in keep]
-        new = [c for c in plain if c not in cache and c not in elsewhere]
+        if sols:
+            at_period: dict[int, list[int]] = {}
+            for counts, _, _ in detailed:
+                if len(counts) == 2:
+                    at_period.setdefault(counts[0] + counts[1], []).append(counts[0])
+            for M, ms in periods:
+                detailed_ms = at_period.get(M, [])
+                empty = np.setdiff1d(ms, detailed_ms).astype(np.int32)  # sorted
+                if M not in whole:
+                    plain += [(m, M - m) for m in empty.tolist()]
+                    continue
+                self._scanned_empty[M] = empty
+                self.node_evaluations += int(empty.size)
+                in_scan = set(ms.tolist())
+                self._period_orbits[M] = [s for m in sorted(detailed_ms) if m in in_scan
+                                          for s in self._cache[(m, M - m)]]
+        new = [c for c in plain if c not in cache and c not in elsewhere
+               and not self._known_empty(c)]
         self.node_evaluations += len(new)
         if sols:
             self._cache.update((c, []) for c in new)
         else:
             self._solved_elsewhere.update(new)
+        for c in new:
+            if len(c) == 2:
+                self._periods_touched.add(c[0] + c[1])
         for M, ms in periods:
             self._scan_nodes.setdefault(M, ms)
 
