@@ -135,7 +135,12 @@ class FigureProcess:
             return
         to_child, from_parent = os.pipe()
         from_child, to_parent = os.pipe()
-        pid = os.fork()
+        try:
+            pid = os.fork()
+        except OSError:  # no process to spare (EAGAIN, ENOMEM): the figures are drawn here
+            for fd in (to_child, from_parent, from_child, to_parent):
+                os.close(fd)
+            return
         if pid == 0:  # pragma: no cover - the child
             os.close(from_parent)
             os.close(from_child)

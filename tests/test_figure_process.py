@@ -77,7 +77,7 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
     """``close`` before drawing kills and reaps the child (it wrote nothing); a run holding
     problems made during it (a diagram's switched branches) or objects that do not pickle is
     drawn by the caller: ``draw`` returns None and the child is gone; without a second core
-    or fork nothing is started."""
+    or fork, or when the system refuses a process, nothing is started."""
     out = _fresh(
         "import dataclasses, json, os\n"
         "import nsm_continuation as nsm\n"
@@ -101,17 +101,25 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
         "fp = figure_process.FigureProcess(res.case, res.problem)\n"
         "c = fp.pid\n"
         "unsendable = fp.draw(dataclasses.replace(res, timings={'f': lambda: 0}), 'nowhere')\n"
+        "real_fork = os.fork\n"
+        "def no_fork():\n"
+        "    raise BlockingIOError(11, 'Resource temporarily unavailable')\n"
+        "os.fork = no_fork\n"
+        "refused = figure_process.FigureProcess(res.case, res.problem)\n"
+        "os.fork = real_fork\n"
         "figure_process.FORKS = False\n"
         "idle = figure_process.FigureProcess(res.case, res.problem)\n"
         "print(json.dumps({'a': [a, gone(a)], 'b': [b, gone(b)], 'drawn': drawn,\n"
         "                  'c': [c, gone(c)], 'unsendable': unsendable,\n"
         "                  'idle': [idle.pid, idle.draw(res, 'nowhere')],\n"
+        "                  'refused': [refused.pid, refused.draw(res, 'nowhere')],\n"
         "                  'files': sorted(os.listdir('.'))}))\n", ROOT)
     info = json.loads(out.strip().splitlines()[-1])
     assert info["a"][0] and info["a"][1] is True
     assert info["b"][0] and info["b"][1] is True and info["drawn"] is None
     assert info["c"][0] and info["c"][1] is True and info["unsendable"] is None
     assert info["idle"] == [None, None]
+    assert info["refused"] == [None, None]  # no process to spare: the caller draws
     assert "nowhere" not in info["files"]
 
 
