@@ -13,11 +13,22 @@ paper's 5-dof branch 1 (issue 13, targets of item "200-dof chain ... < 30 s", "N
   continuation point timed separately (best of repeats): residual + Jacobian, one bordered
   Newton step (dense LU of size N + 2), the tangent, the multipliers from the structure
   (:meth:`NDofImpactProblem.floquet`, O(N^2), warm start from a point 1e-9 T away, and cold)
-  against the dense eigenvalues (:meth:`NDofImpactProblem.floquet_dense`, O(N^3)), and the
-  exact admissibility test.
+  and their Krein definiteness, against the dense eigenvalues
+  (:meth:`NDofImpactProblem.floquet_dense`, O(N^3)), and the exact admissibility test; then
+  whole runs of ``RUN_POINTS`` points from it (the engine's step control included) without
+  multipliers, with them, and with their crossings located, per point, with the multiplier
+  sets computed per point.
 * ``N = 5`` (the paper's chain, ``m = 0.2``, ``k = 5``): branch 1 from ``0.99 T_1`` down to
   ``0.90 T_1`` with detection on (the window of ``bench_engine_vs_pycont.py``), wall time and
   events, with the Krein-aware step control and with the generic motion check.
+
+With ``--baseline FILE`` (another version of ``nsm_continuation/floquet.py``, e.g. the
+committed one: ``git show HEAD:nsm_continuation/floquet.py > /tmp/floquet_head.py``) the
+``N = 1000`` point is timed twice in the same run, first with the chain's multipliers from
+that file's solvers (``low_rank_update_eigen``, ``krein_definiteness``, ``refine_roots``),
+then with the current ones, so that a change is measured under the same load (``--repeat
+R``: R such rounds, alternating, the best of each number kept); the ``N = 200`` branch is
+run with both too, and the periods of its located crossings compared.
 
 BLAS pinned to one thread (see benchmarks/README.md). Machine: 2 cores (shared), see
 ``/work/.library/env``; the numbers change with the load: rerun to refresh.
@@ -32,11 +43,15 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import collections  # noqa: E402
+import contextlib  # noqa: E402
+import importlib.util  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
+from collections.abc import Callable, Iterator  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
+from nsm_continuation.problems.chain import ndof_impact  # noqa: E402
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
 import nsm_continuation as nsm  # noqa: E402
@@ -157,6 +172,8 @@ def point_1000(n: int) -> dict[str, float]:
         pb.floquet(y, t)
 
     out["Floquet structured (cold)"] = best(cold)
+    krein = pb.floquet(y, t).krein_source  # what the step control asks for once per set
+    out["Krein definiteness of a set"] = best(krein)
     out["Floquet dense"] = best(lambda: pb.floquet_dense(y, t), repeat=1)
     out["admissibility"] = best(lambda: pb.admissibility(y), repeat=2)
     fs, fd = pb.floquet(y, t), pb.floquet_dense(y, t)
@@ -174,9 +191,22 @@ def point_1000(n: int) -> dict[str, float]:
                                   detect_bifurcations=detect, max_points=RUN_POINTS,
                                   step_initial=1e-3, direction=-1)
         run = ContinuationEngine(pb, st)
+        sets = [0]
+        floquet = pb.floquet
+
+        def counted(*args: Any, floquet: Callable[..., Any] = floquet,
+                    sets: list[int] = sets) -> Any:
+            sets[0] += 1
+            return floquet(*args)
+
+        pb.floquet = counted  # type: ignore[method-assign]
         t0 = time.perf_counter()
         br = run.run(StartPoint(y, "b1", -1))
         out[f"per point, {key}"] = (time.perf_counter() - t0) / len(br.points)
+        del pb.floquet  # the method again
+        if stability:
+            out[f"  multiplier sets per point ({'' if detect else 'not '}located)"] = \
+                sets[0] / len(br.points)
         if detect:
             out["  crossings located in the run"] = float(
                 sum(e.kind != "endpoint" for e in br.events))
@@ -185,6 +215,38 @@ def point_1000(n: int) -> dict[str, float]:
 
 #: points of the timed runs of :func:`point_1000`
 RUN_POINTS = 20
+
+
+@contextlib.contextmanager
+def multiplier_solvers(path: str | None) -> Iterator[None]:
+    """Within the block the chain's multipliers come from the solvers of the ``floquet.py``
+    at ``path`` (loaded as a module of the package, so that its relative imports resolve);
+    None: the current ones. A keyword the other version does not know (``off_circle`` of
+    :func:`~nsm_continuation.floquet.krein_definiteness`) is dropped."""
+    if path is None:
+        yield
+        return
+    spec = importlib.util.spec_from_file_location("nsm_continuation._floquet_baseline", path)
+    if spec is None or spec.loader is None:
+        raise FileNotFoundError(path)
+    base = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = base  # its dataclasses look their module up there
+    spec.loader.exec_module(base)
+
+    def krein(*args: Any, off_circle: float | None = None) -> np.ndarray:
+        return base.krein_definiteness(*args)
+
+    names = {"low_rank_update_eigen": base.low_rank_update_eigen,
+             "krein_definiteness": krein, "refine_roots": base.refine_roots}
+    saved = {k: getattr(ndof_impact, k) for k in names}
+    try:
+        for k, v in names.items():
+            setattr(ndof_impact, k, v)
+        yield
+    finally:
+        for k, v in saved.items():
+            setattr(ndof_impact, k, v)
+        del sys.modules[spec.name]
 
 
 def branch1_paper(krein: bool) -> dict[str, Any]:
@@ -216,6 +278,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--skip", nargs="*", default=[], choices=["branch", "point", "paper"])
     ap.add_argument("--oracle", type=int, default=0,
                     help="check the branch's crossings against this many sampled orbits")
+    ap.add_argument("--baseline", default=None, metavar="FILE",
+                    help="a floquet.py to time the N = 1000 point against, in the same run")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs of the N = 1000 point (alternating with --baseline); best kept")
     args = ap.parse_args(argv)
     print(f"BLAS threads: OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, "
           f"cores: {os.cpu_count()}, load: {os.getloadavg()}")
@@ -228,14 +294,32 @@ def main(argv: list[str] | None = None) -> None:
                   f"{r['points']:>8}{r['events']:>8}  {r['kinds']}")
     if "point" not in args.skip:
         print(f"\nN = {args.n_point}: one continuation point, parts (best of repeats) [s]")
-        for k, v in point_1000(args.n_point).items():
-            print(f"  {k:<30}{v:>12.4g}")
+        variants = ((("baseline", args.baseline),) if args.baseline else ()) \
+            + (("current", None),)
+        runs: dict[str, dict[str, float]] = {}
+        for _ in range(args.repeat):  # alternated, so that a change of load hits both
+            for label, path in variants:
+                with multiplier_solvers(path):
+                    r = point_1000(args.n_point)
+                runs[label] = {k: min(v, runs.get(label, r)[k]) for k, v in r.items()}
+        print(f"  {'':<30}" + "".join(f"{label:>12}" for label in runs))
+        for k in runs["current"]:
+            print(f"  {k:<30}" + "".join(f"{r[k]:>12.4g}" for r in runs.values()))
     if "branch" not in args.skip:
         print(f"\nN = {args.n_branch}: mode-1 branch, omega in [0.5, 3], stability + "
               f"bifurcations, max_points {args.max_points}")
+        if args.baseline:  # the same branch from the other solvers: the same events?
+            with multiplier_solvers(args.baseline):
+                rb, base_crossings, _ = branch_200(args.n_branch, args.max_points)
+            print(f"  baseline: {rb}")
         r, crossings, t_range = branch_200(args.n_branch, args.max_points)
         for k, v in r.items():
             print(f"  {k}: {v}")
+        if args.baseline:
+            same = len(crossings) == len(base_crossings)
+            print("  crossings' periods, largest difference to the baseline's: " + (
+                f"{np.max(np.abs(np.subtract(crossings, base_crossings)), initial=0.0):.3g}"
+                if same else f"counts differ ({len(crossings)} vs {len(base_crossings)})"))
         if args.oracle:
             print(f"  oracle ({args.oracle} closed-form orbits on the branch's T range):")
             for k, v in oracle_coverage(args.n_branch, t_range, args.oracle, crossings).items():
