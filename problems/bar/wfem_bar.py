@@ -500,9 +500,12 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
         may vanish and the screen does not apply). Nodes already solved (adopted from Dask
         tasks, or by an earlier scan) are neither screened nor solved again."""
         nodes = ms.tolist()
+        empty = self._scanned_empty.get(M)
+        if empty is not None and empty.size:  # solved with nothing by a task (lattice_replay)
+            at = np.minimum(np.searchsorted(empty, ms), empty.size - 1)
+            for m in ms[empty[at] == ms].tolist():
+                self._cache.setdefault((m, M - m), [])
         new = np.array([(m, M - m) not in self._cache for m in nodes], dtype=bool)
-        if M in self._scanned_empty:  # solved with nothing by a task (lattice_replay)
-            new &= ~np.isin(ms, self._scanned_empty[M])
         may = np.ones(len(nodes), dtype=bool)
         if new.any():
             may[new] = kernel_dimensions_at_period(self.model.N, M)[ms[new] - 1] > 0
