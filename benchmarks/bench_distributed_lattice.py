@@ -185,8 +185,16 @@ def main() -> None:
           f"{longest:.1f}) = {t_p:.0f} s, plus the cluster start (~2 s locally, seconds to "
           f"minutes for a batch cluster); speed-up {(work + serial_t) / t_p:.0f}x "
           f"(Amdahl with serial fraction {serial_t / (work + serial_t):.3f})")
-    print("   memory: the master holds every solved node, like the serial run (~270 B each, "
-          f"measured at N = 100): ~{nodes_t * 270 / 1e9:.1f} GB")
+    # the master keeps a scanned period's nodes without orbits as one int32 each (the sorted m
+    # of WfemBarProblem._scanned_empty); the workers keep their pieces' nodes (~300 B each)
+    mp = r_dist.run_result.problem
+    implied = sum(int(v.size) for v in mp._scanned_empty.values())
+    listed = len(mp._cache)
+    print(f"   memory here (N = {N}): the master lists {listed} nodes one by one and "
+          f"{implied} implied by their periods (4 B each); each worker holds the nodes of its "
+          f"pieces: ~{n_nodes * 300 / a.workers / 1e9:.2f} GB at ~300 B per node")
+    print(f"   memory at N = {Nt} on {P} cores: ~{nodes_t * 300 / P / 1e9:.2f} GB per worker, "
+          f"~{nodes_t * 4 / 1e9:.2f} GB of implied nodes on the master")
 
 
 if __name__ == "__main__":
