@@ -9,7 +9,7 @@ platform that forks (:data:`FORKS`) with a second core:
   that imports :mod:`nsm_continuation.plots` and lays out one throw-away figure (fonts,
   mathtext parser) while this process computes; the finished run is then sent to it through a
   pipe (its branches are plain data; the problem is the child's own copy, made at the fork)
-  and it draws the figures there;
+  and it draws the figures there while this process writes the CSVs and the report;
 * :func:`in_two_processes` splits the figures between a process and a forked child.
 
 The figures are those of one process, byte for byte (``tests/test_startup.py``): each is
@@ -116,7 +116,7 @@ def _warm_up() -> None:  # pragma: no cover - runs in the child
 
 class FigureProcess:
     """A child process, forked now (before the computation), that prepares matplotlib and
-    then draws the figures of the run :meth:`draw` sends it.
+    then draws the figures of the run :meth:`send` sends it.
 
     The child keeps copies of the run's inputs, ``case`` and ``problem``, as they are at the
     fork (only the run's results are sent: a case may hold CasADi objects, which do not
@@ -125,7 +125,7 @@ class FigureProcess:
     (``tests/test_figure_process.py`` compares the figures of each kind of problem). It
     ignores SIGINT and SIGTERM (the command line handles them here and :meth:`close` ends
     it) and exits when the pipe closes, also when this process dies. Where :func:`can_fork`
-    is false nothing is started and :meth:`draw` returns None (the caller draws)."""
+    is false nothing is started and :meth:`send` returns False (the caller draws)."""
 
     def __init__(self, case: Case, problem: Problem) -> None:
         self.pid: int | None = None
@@ -151,14 +151,14 @@ class FigureProcess:
         os.close(to_parent)
         self.pid, self._send, self._read = pid, from_parent, from_child
 
-    def draw(self, res: RunResult, directory: Path) -> list[str] | None:
-        """The figures of ``res`` drawn by the child into ``directory``: their file names
-        (:func:`nsm_continuation.plots.make_all`); None if there is no child, if the run
-        holds problems made during it (a diagram's switched branches), which the child does
-        not have, or objects that cannot be sent: the caller then draws them itself (the child
-        is ended)."""
-        if self.pid is None or self._send is None or self._read is None:
-            return None
+    def send(self, res: RunResult, directory: Path) -> bool:
+        """Send the run to the child, which starts drawing its figures into ``directory``
+        while this process writes the rest (:meth:`figures` collects them): True. False if
+        there is no child, if the run holds problems made during it (a diagram's switched
+        branches), which the child does not have, or objects that cannot be sent: the caller
+        then draws the figures itself (the child is ended)."""
+        if self.pid is None or self._send is None:
+            return False
         payload = None
         if not res.branch_problems:
             try:
@@ -168,25 +168,34 @@ class FigureProcess:
                 payload = None
         if payload is None:
             self.close()
-            return None
-        send, read, pid = self._send, self._read, self.pid
-        self._send = self._read = self.pid = None
+            return False
+        send, self._send = self._send, None
         try:
             with os.fdopen(send, "wb") as fh:
                 fh.write(payload)
         except BrokenPipeError:
-            pass  # the child ended early: _collect reports why
+            pass  # the child ended early: figures() reports why
+        return True
+
+    def figures(self) -> list[str]:
+        """The file names of the figures the child drew after :meth:`send`, in the order of
+        :func:`nsm_continuation.plots.make_all`; ``RuntimeError`` with its message if it
+        failed."""
+        assert self.pid is not None and self._read is not None and self._send is None
+        read, pid = self._read, self.pid
+        self._read = self.pid = None
         return _collect(read, pid)
 
     def close(self) -> None:
-        """End the child if it has not drawn (the run failed, was interrupted or draws
-        itself): it is killed (it has written nothing) and reaped."""
+        """End the child if its figures were not collected (the run failed, was interrupted
+        or draws itself): it is killed (what it drew is in the run's own temporary folder,
+        which the run then removes) and reaped."""
         if self.pid is None:
             return
-        assert self._send is not None and self._read is not None
-        os.close(self._send)
-        os.close(self._read)
-        os.kill(self.pid, signal.SIGKILL)  # it has written nothing: no clean-up to wait for
+        for fd in (self._send, self._read):
+            if fd is not None:
+                os.close(fd)
+        os.kill(self.pid, signal.SIGKILL)
         os.waitpid(self.pid, 0)
         self._send = self._read = self.pid = None
 

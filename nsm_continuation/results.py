@@ -230,10 +230,12 @@ def write_files(res: RunResult, directory: Path, plots: bool = True,
     """Write every output of a run (CSV per branch, report.json, report.md, figures) into
     ``directory``, which exists and is the run's own (see :mod:`nsm_continuation.output`).
     The figures are drawn by ``drawer`` where it can (a process started before the
-    computation, :class:`~nsm_continuation.figure_process.FigureProcess`), else here."""
+    computation, :class:`~nsm_continuation.figure_process.FigureProcess`, drawing while this
+    process writes the CSVs and the report), else here."""
     from . import report as report_md
 
     directory = Path(directory)
+    drawing = plots and drawer is not None and drawer.send(res, directory)
     rep = build_report(res, run_folder(directory))
     for br in res.branches:
         cols, rows = branch_rows(br, res.problem.variables, res.problem.csv_head)
@@ -242,13 +244,13 @@ def write_files(res: RunResult, directory: Path, plots: bool = True,
             w.writerow(cols)
             w.writerows(rows)
     figures: list[str] = []
-    if plots:
-        drawn = drawer.draw(res, directory) if drawer is not None else None
-        if drawn is None:
-            from . import plots as plotting
+    if drawing:
+        assert drawer is not None
+        figures = drawer.figures()
+    elif plots:
+        from . import plots as plotting
 
-            drawn = plotting.make_all(res, directory)
-        figures = drawn
+        figures = plotting.make_all(res, directory)
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))

@@ -50,12 +50,12 @@ def test_figures_drawn_while_computing_are_those_drawn_after(tmp_path, name, poi
         "import json, os, sys\n"
         "from nsm_continuation import cli, figure_process\n"
         f"args = ['--quiet', '--set', 'continuation.max_points={points}']\n"
-        "draw = figure_process.FigureProcess.draw\n"
+        "send = figure_process.FigureProcess.send\n"
         "used = []\n"
         "def spy(self, res, d):\n"
         "    used.append(self.pid)\n"
-        "    return draw(self, res, d)\n"
-        "figure_process.FigureProcess.draw = spy\n"
+        "    return send(self, res, d)\n"
+        "figure_process.FigureProcess.send = spy\n"
         f"assert cli.main(['run', {str(case)!r}, '--out', 'forked', *args]) == 0\n"
         "parent_mpl = 'matplotlib' in sys.modules\n"
         "figure_process.FORKS = False\n"
@@ -76,7 +76,7 @@ def test_figures_drawn_while_computing_are_those_drawn_after(tmp_path, name, poi
 def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
     """``close`` before drawing kills and reaps the child (it wrote nothing); a run holding
     problems made during it (a diagram's switched branches) or objects that do not pickle is
-    drawn by the caller: ``draw`` returns None and the child is gone; without a second core
+    drawn by the caller: ``send`` returns False and the child is gone; without a second core
     or fork, or when the system refuses a process, nothing is started."""
     out = _fresh(
         "import dataclasses, json, os\n"
@@ -97,10 +97,10 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
         "fp = figure_process.FigureProcess(res.case, res.problem)\n"
         "b = fp.pid\n"
         "switched = dataclasses.replace(res, branch_problems={1: res.problem})\n"
-        "drawn = fp.draw(switched, 'nowhere')\n"
+        "drawn = fp.send(switched, 'nowhere')\n"
         "fp = figure_process.FigureProcess(res.case, res.problem)\n"
         "c = fp.pid\n"
-        "unsendable = fp.draw(dataclasses.replace(res, timings={'f': lambda: 0}), 'nowhere')\n"
+        "unsendable = fp.send(dataclasses.replace(res, timings={'f': lambda: 0}), 'nowhere')\n"
         "real_fork = os.fork\n"
         "def no_fork():\n"
         "    raise BlockingIOError(11, 'Resource temporarily unavailable')\n"
@@ -111,15 +111,15 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
         "idle = figure_process.FigureProcess(res.case, res.problem)\n"
         "print(json.dumps({'a': [a, gone(a)], 'b': [b, gone(b)], 'drawn': drawn,\n"
         "                  'c': [c, gone(c)], 'unsendable': unsendable,\n"
-        "                  'idle': [idle.pid, idle.draw(res, 'nowhere')],\n"
-        "                  'refused': [refused.pid, refused.draw(res, 'nowhere')],\n"
+        "                  'idle': [idle.pid, idle.send(res, 'nowhere')],\n"
+        "                  'refused': [refused.pid, refused.send(res, 'nowhere')],\n"
         "                  'files': sorted(os.listdir('.'))}))\n", ROOT)
     info = json.loads(out.strip().splitlines()[-1])
     assert info["a"][0] and info["a"][1] is True
-    assert info["b"][0] and info["b"][1] is True and info["drawn"] is None
-    assert info["c"][0] and info["c"][1] is True and info["unsendable"] is None
-    assert info["idle"] == [None, None]
-    assert info["refused"] == [None, None]  # no process to spare: the caller draws
+    assert info["b"][0] and info["b"][1] is True and info["drawn"] is False
+    assert info["c"][0] and info["c"][1] is True and info["unsendable"] is False
+    assert info["idle"] == [None, False]
+    assert info["refused"] == [None, False]  # no process to spare: the caller draws
     assert "nowhere" not in info["files"]
 
 
@@ -140,6 +140,35 @@ def test_a_failure_in_the_child_is_reported_by_the_run(tmp_path):
     info = json.loads(out.strip().splitlines()[-1])
     assert info["code"] == 1
     assert "figures: ValueError: no data for this panel" in info["err"]
+    assert not any(f == "run" or f.startswith(".run") for f in info["files"])
+    Path(info["err"].rsplit("traceback in ", 1)[1].split(")")[0].strip()).unlink()
+
+
+def test_a_failure_while_the_child_draws_ends_it(tmp_path):
+    """The run fails after the child received the branches (writing the report raises): exit
+    1 with the error named, nothing written, and the child that was drawing is killed and
+    reaped (it does not go on writing into the removed folder)."""
+    out = _fresh(
+        "import contextlib, io, json, os\n"
+        "from nsm_continuation import cli, figure_process, results\n"
+        "pids = []\n"
+        "start = figure_process.FigureProcess.__init__\n"
+        "def spy(self, case, problem):\n"
+        "    start(self, case, problem)\n"
+        "    pids.append(self.pid)\n"
+        "figure_process.FigureProcess.__init__ = spy\n"
+        "def broken(*a, **k):\n"
+        "    raise ValueError('the report broke')\n"
+        "results.build_report = broken\n"
+        "with contextlib.redirect_stderr(io.StringIO()) as err:\n"
+        "    code = cli.main(['run', '--out', 'run', '--quiet', '--set',\n"
+        "                     'continuation.max_points=10'])\n"
+        "print(json.dumps({'code': code, 'err': err.getvalue(), 'child': pids[0],\n"
+        "                  'alive': os.path.exists(f'/proc/{pids[0]}'),\n"
+        "                  'files': sorted(os.listdir('.'))}))\n", tmp_path)
+    info = json.loads(out.strip().splitlines()[-1])
+    assert info["code"] == 1 and "the report broke" in info["err"]
+    assert info["child"] and info["alive"] is False
     assert not any(f == "run" or f.startswith(".run") for f in info["files"])
     Path(info["err"].rsplit("traceback in ", 1)[1].split(")")[0].strip()).unlink()
 

@@ -299,13 +299,23 @@ def test_validate_checks_where_the_run_would_write(tmp_path, capsys, monkeypatch
     assert not (tmp_path / "elsewhere").exists()
 
 
-def test_folders_created_for_a_run_are_removed_when_it_fails(tmp_path, capsys, monkeypatch):
-    from nsm_continuation import plots
+@pytest.mark.parametrize("where", ["here", "child"])
+def test_folders_created_for_a_run_are_removed_when_it_fails(tmp_path, capsys, monkeypatch,
+                                                              where):
+    """Interrupted while the figures are drawn, by this process (``here``) or by the child
+    forked before the computation (``child``: the interrupt arrives while this process waits
+    for it): exit 130, and the folders the run created are gone."""
+    from nsm_continuation import figure_process, plots
 
     def boom(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(plots, "make_all", boom)
+    if where == "here":
+        monkeypatch.setattr(figure_process, "FORKS", False)
+        monkeypatch.setattr(plots, "make_all", boom)
+    else:
+        monkeypatch.setattr(figure_process, "can_fork", lambda: True)
+        monkeypatch.setattr(figure_process.FigureProcess, "figures", boom)
     case = _case(tmp_path, output={"plots": True, "progress": False})
     code, _ = _run([str(case), "--out", str(tmp_path / "a" / "b" / "out")], capsys)
     assert code == 130
