@@ -37,11 +37,7 @@ def parameter_name(res: Any) -> str:
 
 def parameter_value(problem: Problem, p: Point, name: str) -> float:
     """``name`` at ``p``: a derived quantity, else an unknown, else NaN."""
-    if name in p.derived:
-        return float(p.derived[name])
-    if name in problem.variables:
-        return float(p.y[problem.variables.index(name)])
-    return float("nan")
+    return float(p.value(name, problem.variables))
 
 
 def branches_of(res: Any, ids: Sequence[int] | None = None) -> list[Branch]:

@@ -50,11 +50,7 @@ MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
 
 def quantity(problem: Problem, p: Point, name: str) -> float:
     """The value of ``name`` at ``p``: a derived quantity, else an unknown, else NaN."""
-    if name in p.derived:
-        return p.derived[name]
-    if name in problem.variables:
-        return float(p.y[problem.variables.index(name)])
-    return float("nan")
+    return p.value(name, problem.variables)
 
 
 def draws_markers(br: Branch) -> bool:

@@ -7,6 +7,7 @@ there), :class:`Event` (a located change along a branch) and :class:`Branch`. Ev
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -106,6 +107,16 @@ class Point:
         if self.multipliers is None or self.multipliers.size == 0:
             return float("nan") if self.multipliers is None else 1.0
         return float(np.max(np.abs(self.multipliers)))
+
+    def value(self, name: str, variables: Sequence[str], missing: Any = float("nan")) -> Any:
+        """The quantity ``name`` here: a derived quantity, else the unknown of that name
+        (``variables``: the problem's), else ``missing``. What the figures, the CSV columns and
+        the orbit selection read."""
+        if name in self.derived:
+            return self.derived[name]
+        if name in variables:
+            return float(self.y[variables.index(name)])
+        return missing
 
 
 @dataclass

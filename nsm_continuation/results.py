@@ -60,15 +60,6 @@ def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
 
 
-def _head_value(p: Point, name: str, variables: list[str]) -> Any:
-    """A head column's value at ``p``: a derived quantity, else an unknown, else empty."""
-    if name in p.derived:
-        return p.derived[name]
-    if name in variables:
-        return float(p.y[variables.index(name)])
-    return ""
-
-
 def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
                 ) -> tuple[list[str], list[list[Any]]]:
     """Columns and rows of ``branch_<id>.csv``: ``head`` (the problem's ``csv_head``, derived
@@ -98,7 +89,7 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
         mult_flat = [c for z in mult for c in z] + [""] * (2 * n_mult - 2 * len(mult))
         stable = "" if p.stable is None else int(p.stable)
         mam = p.max_abs_multiplier
-        rows.append([_head_value(p, k, variables) for k in head] + [int(p.admissible), stable,
+        rows.append([p.value(k, variables, "") for k in head] + [int(p.admissible), stable,
                     "" if not np.isfinite(mam) else mam, p.s]
                     + [p.derived.get(k, "") for k in extra]
                     + [p.tests.get(k, "") for k in test_keys]
