@@ -169,7 +169,8 @@ def _run(args: argparse.Namespace, path: str) -> int:
     target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
     # matplotlib is imported (and the figures drawn) by a child while this process computes
-    drawer = FigureProcess(case, problem) if case.output.plots else None
+    drawer = (FigureProcess(case, problem)
+              if case.output.plots and problem.figures_from_inputs else None)
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
                        poll=_poll)

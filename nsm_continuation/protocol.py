@@ -541,6 +541,14 @@ _locate_collision`)."""
         return None
 
     # == presentation (pure functions of the results) =========================================
+    #: the figures (branch diagram, multipliers, :meth:`extra_plots`, orbits) depend only on
+    #: the run's results and on what the problem was built from, not on state the computation
+    #: leaves in the problem: the command line may then draw them in a process forked before
+    #: the computation, with its own copy of the problem
+    #: (:class:`~nsm_continuation.figure_process.FigureProcess`). Default False: a problem
+    #: that keeps run data for its figures is drawn from the problem the run used. The
+    #: bundled problems declare True (``tests/test_figure_process.py`` compares their figures).
+    figures_from_inputs: ClassVar[bool] = False
     #: title of the branch diagram (``fep.png``), followed by ``: <case name>``
     diagram_title: ClassVar[str] = "Branch diagram"
     #: scale of the branch diagram's vertical axis: "linear" or "log" (log drops values <= 0)

@@ -402,6 +402,8 @@ class BarContinuumProblem(BarFrequencyEnergy, Problem):
     """Continuum nonsmooth modes of the bar: straight branches ``t_f = a T + b`` (module doc)."""
 
     name: ClassVar[str] = "bar_continuum"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = BarContinuumParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
 

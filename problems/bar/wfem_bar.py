@@ -154,6 +154,8 @@ def subharmonic_asymptote(k: int, n: int) -> float:
 
 class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     name = "wfem_bar"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     Parameters = WfemBarParameters
     start_adapter = one_or_many(OneStart)
     #: a change of the number of grazing instants is a grazing event

@@ -244,6 +244,8 @@ class NDofImpactProblem(Problem):
     """T-parametrised fixed points of the first return map R(T) (Legrand et al. 2017)."""
 
     name: ClassVar[str] = "ndof_impact"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     #: a case continues the frequency unless it says otherwise (its unknown is T)
     case_parameter: ClassVar[str | None] = "omega"
     Parameters: ClassVar[type[BaseModel]] = NDofParameters

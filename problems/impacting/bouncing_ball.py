@@ -170,6 +170,8 @@ class BouncingBallProblem(CanonicalParameter, Problem):
     """The bouncing ball as a simulation case (no continuation; see the module docstring)."""
 
     name: ClassVar[str] = "bouncing_ball"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = BouncingBallParameters
     fep_axes = ("restitution", "t_star")
 

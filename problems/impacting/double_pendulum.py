@@ -78,6 +78,8 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits of the forced double pendulum with chattering (sec. 6)."""
 
     name: ClassVar[str] = "double_pendulum"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = DoublePendulumParameters
     default_parameter: ClassVar[str] = "restitution"
     #: continued in the period (``continuation.parameter: period``, sec. 6.3), the torque is

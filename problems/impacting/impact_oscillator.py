@@ -50,6 +50,8 @@ class ImpactOscillatorProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits (with chattering and sticking) of the forced impact oscillator."""
 
     name: ClassVar[str] = "impact_oscillator"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = ImpactOscillatorParameters
     default_parameter: ClassVar[str] = "omega"
     setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "section_phase")

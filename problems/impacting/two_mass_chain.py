@@ -46,6 +46,8 @@ class TwoMassChainProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits of a forced two-mass chain whose second mass hits a wall."""
 
     name: ClassVar[str] = "two_mass_chain"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = TwoMassChainParameters
     default_parameter: ClassVar[str] = "omega"
 
