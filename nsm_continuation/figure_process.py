@@ -41,10 +41,20 @@ FORKS = sys.platform.startswith("linux")
 Outcome = tuple[str, Any]
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the platform says, e.g. under
+    ``taskset`` or a container's cpuset), else the machine's."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # no sched_getaffinity (macOS, Windows)
+        return os.cpu_count() or 1
+
+
 def can_fork() -> bool:
-    """A forked child may draw: the platform forks, a second core is there, and this process
+    """A forked child may draw: the platform forks, a second core is there for this process
+    (a child on the only core would slow the computation it should overlap), and this process
     runs no other thread."""
-    return FORKS and (os.cpu_count() or 1) > 1 and threading.active_count() == 1
+    return FORKS and usable_cores() > 1 and threading.active_count() == 1
 
 
 def _run_child(work: Callable[[], Any], write: int) -> None:  # pragma: no cover - the child

@@ -8,7 +8,6 @@ reaped when the run fails, is interrupted or draws itself. Each run is in a fres
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -21,7 +20,7 @@ from nsm_continuation import figure_process
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.skipif(not figure_process.FORKS or (os.cpu_count() or 1) < 2,
+pytestmark = pytest.mark.skipif(not figure_process.FORKS or figure_process.usable_cores() < 2,
                                 reason="the figures are drawn by a forked child on Linux "
                                        "with two cores")
 
@@ -112,8 +111,9 @@ def test_a_problem_that_does_not_declare_figures_from_inputs_is_drawn_here(tmp_p
 def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
     """``close`` before drawing kills and reaps the child (it wrote nothing); a run holding
     problems made during it (a diagram's switched branches) or objects that do not pickle is
-    drawn by the caller: ``send`` returns False and the child is gone; without a second core
-    or fork, or when the system refuses a process, nothing is started."""
+    drawn by the caller: ``send`` returns False and the child is gone; without fork, with one
+    core for this process (its affinity), or when the system refuses a process, nothing is
+    started."""
     out = _fresh(
         "import dataclasses, json, os\n"
         "import nsm_continuation as nsm\n"
@@ -137,6 +137,10 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
         "fp = figure_process.FigureProcess(res.case, res.problem)\n"
         "c = fp.pid\n"
         "unsendable = fp.send(dataclasses.replace(res, timings={'f': lambda: 0}), 'nowhere')\n"
+        "cores = os.sched_getaffinity(0)\n"
+        "os.sched_setaffinity(0, {min(cores)})  # as under taskset -c 0\n"
+        "one_core = figure_process.FigureProcess(res.case, res.problem)\n"
+        "os.sched_setaffinity(0, cores)\n"
         "real_fork = os.fork\n"
         "def no_fork():\n"
         "    raise BlockingIOError(11, 'Resource temporarily unavailable')\n"
@@ -149,6 +153,7 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
         "                  'c': [c, gone(c)], 'unsendable': unsendable,\n"
         "                  'idle': [idle.pid, idle.send(res, 'nowhere')],\n"
         "                  'refused': [refused.pid, refused.send(res, 'nowhere')],\n"
+        "                  'one_core': [one_core.pid, one_core.send(res, 'nowhere')],\n"
         "                  'files': sorted(os.listdir('.'))}))\n", ROOT)
     info = json.loads(out.strip().splitlines()[-1])
     assert info["a"][0] and info["a"][1] is True
@@ -156,6 +161,7 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
     assert info["c"][0] and info["c"][1] is True and info["unsendable"] is False
     assert info["idle"] == [None, False]
     assert info["refused"] == [None, False]  # no process to spare: the caller draws
+    assert info["one_core"] == [None, False]  # one core for this process: no child
     assert "nowhere" not in info["files"]
 
 
