@@ -179,11 +179,10 @@ def _run(args: argparse.Namespace, path: str) -> int:
         _poll()
         out = target.commit()
     except BaseException:
+        if drawer is not None:  # first: it may be drawing into the folder abort removes
+            drawer.close()
         target.abort()
         raise
-    finally:
-        if drawer is not None:
-            drawer.close()
     if _received:  # arrived during the final move, held until it was complete
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
