@@ -9,10 +9,12 @@ The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
 * step control: a step is rejected (and retried with ``h / 2``) when Newton fails (or the
   problem raises :class:`~nsm_continuation.protocol.EvaluationError`) or the tangent turns by more
   than ``max_angle``; accepted steps grow or shrink ``h`` from the number of Newton iterations
-  and the turning angle. A step never carries the parameter past an edge of the window (it is
-  shortened to end on the edge, corrected there), nor an admissibility test function or an
-  event function far past a zero (``TEST_STEP_FACTOR``), and the multipliers near the unit
-  circle move at most ``max_multiplier_step`` per step (:func:`multiplier_motion`); in a
+  and the turning angle, and the multipliers' motion sizes the next step (refused or not) from
+  its ratio to the limits below (:func:`_motion_scaled_step`). A step never carries the
+  parameter past an edge of the window (it is shortened to end on the edge, corrected there),
+  nor an admissibility test function or an event function far past a zero
+  (``TEST_STEP_FACTOR``), and the multipliers near the unit circle move at most
+  ``max_multiplier_step`` per step (:func:`multiplier_motion`); in a
   conservative family (``problem.conservative``, multipliers with Krein signatures) only those
   near a collision with a partner of the other signature do (:func:`krein_motion`), and a step
   may not close the nearest such collision by more than half nor swap the multipliers outside
@@ -351,7 +353,7 @@ class ContinuationEngine:
         """Steps from ``pts[-1]``, appending accepted points and located events in place;
         returns the termination reason. One step: its length (:meth:`_step_length`), predictor
         and corrector (:meth:`_predict_correct`), the turning-angle and multiplier-motion
-        checks (:meth:`_moves_multipliers_too_far`), the analysis of the new point and the
+        checks (:meth:`_multiplier_motion`), the analysis of the new point and the
         events of the step (:meth:`_analyse_step`), then the step adaptation
         (:func:`_adapted_step`)."""
         st = self.settings
@@ -396,10 +398,9 @@ class ContinuationEngine:
             if angle > st.max_angle and h_step > 2 * st.step_min:
                 h = 0.5 * h_step
                 continue
-            pre, too_far = self._moves_multipliers_too_far(a, y_new, t_new, h_step,
-                                                           motion_halvings)
-            if too_far:
-                h = 0.5 * h_step
+            pre, ratio = self._multiplier_motion(a, y_new, t_new, h_step, motion_halvings)
+            if ratio > 1.0:
+                h = _motion_scaled_step(h_step, ratio, refused=True)
                 motion_halvings += 1
                 if motion_halvings == st.max_multiplier_halvings:
                     self.motion_limited_steps += 1
@@ -450,6 +451,8 @@ class ContinuationEngine:
                 events.append(asym)
                 return f"asymptote ({asym.detail})"
             h = _adapted_step(h, it, angle, st)
+            if ratio > 0.0:
+                h = min(h, _motion_scaled_step(h_step, ratio, refused=False))
         return "max_points"
 
     # ------------------------------------------------------------------ kinks
@@ -602,21 +605,23 @@ class ContinuationEngine:
                 y_new, why = None, describe_error(exc)
         return y_new, t_new, it, why
 
-    def _moves_multipliers_too_far(self, a: Point, y_new: np.ndarray, t_new: np.ndarray,
-                                   h_step: float, halvings: int
-                                   ) -> tuple[FloquetData | None, bool]:
-        """``(multipliers at the trial point, whether the step must be halved)``. Multipliers
-        near the unit circle must not move too far in one step (:func:`multiplier_motion`): a
-        collision and a narrow instability window (out and back in) could hide inside it.
-        Checked before the (costlier) admissibility tests of the new point, whose analysis
-        reuses the multipliers."""
+    def _multiplier_motion(self, a: Point, y_new: np.ndarray, t_new: np.ndarray,
+                           h_step: float, halvings: int) -> tuple[FloquetData | None, float]:
+        """``(multipliers at the trial point, motion ratio)``: the step is refused when the
+        ratio exceeds 1. Multipliers near the unit circle must not move too far in one step
+        (:func:`multiplier_motion`, :func:`krein_motion_ratio`): a collision and a narrow
+        instability window (out and back in) could hide inside it; in a conservative family
+        a step must not close the nearest collision too fast either (:func:`krein_closing`);
+        the larger ratio counts. The ratio is 0 when the check does not apply. Checked
+        before the (costlier) admissibility tests of the new point, whose analysis reuses
+        the multipliers."""
         st = self.settings
         if a.multipliers is None or not h_step > 4 * st.step_min \
                 or halvings >= st.max_multiplier_halvings:
-            return None, False
+            return None, 0.0
         pre = self._floquet(y_new, t_new)
         if pre is None:
-            return None, False
+            return None, 0.0
         b_mult = np.asarray(pre.multipliers)
         # Krein-aware check (conservative families): only multipliers that may collide with a
         # partner of the other signature within the step are bounded
@@ -628,14 +633,12 @@ class ContinuationEngine:
                       1e3 * np.finfo(float).eps * pre.matrix_norm)
             dist = (collision_distances(a.multipliers, krein_a, tol),
                     collision_distances(b_mult, krein_b, tol))
-            if krein_closing(a.multipliers, krein_a, b_mult, krein_b, tol,
-                             st.max_multiplier_step, dist):
-                return pre, True
-            motion = krein_motion(a.multipliers, krein_a, b_mult, krein_b, tol,
-                                  st.krein_fraction, distances=dist)
-        else:
-            motion = multiplier_motion(a.multipliers, b_mult)
-        return pre, motion > st.max_multiplier_step
+            closing = krein_closing(a.multipliers, krein_a, b_mult, krein_b, tol,
+                                    st.max_multiplier_step, dist)
+            return pre, max(closing, krein_motion_ratio(
+                a.multipliers, krein_a, b_mult, krein_b, tol, st.krein_fraction,
+                st.max_multiplier_step, distances=dist))
+        return pre, multiplier_motion(a.multipliers, b_mult) / st.max_multiplier_step
 
     def _remember_floquet(self, y: np.ndarray, fl: FloquetData | None) -> None:
         """Keep the multipliers (and their Krein data) of the last few trial points: the
@@ -1589,6 +1592,31 @@ def _with_tangent(p: Point, t: np.ndarray) -> Point:
     return replace(p, tangent=np.asarray(t, dtype=float), bordered_det=p.bordered_det * sign)
 
 
+#: :func:`_motion_scaled_step`: the motion ratio a step is aimed at, the bounds of the factor
+#: on a refused step, and the factors' lattice (powers of ``2^(1 / MOTION_LATTICE)``)
+MOTION_TARGET = 0.9
+MOTION_CUT = (0.2, 0.5)
+MOTION_LATTICE = 4
+
+
+def _motion_scaled_step(h_step: float, ratio: float, refused: bool) -> float:
+    """The step after one whose multiplier motion ratio (:meth:`ContinuationEngine.
+    _multiplier_motion`) was ``ratio``: displacements grow linearly with a short step, so
+    ``h_step * MOTION_TARGET / ratio`` is aimed just inside the limit. A refused step
+    (``ratio > 1``) is cut by a factor in ``MOTION_CUT`` (at least halved, as a plain
+    halving would; at most about a fifth, since the motion is only linear in the limit);
+    after an accepted one, the result only caps the growth of :func:`_adapted_step`.
+
+    The factor is rounded down to a power of ``2^(1/4)``: like the fixed factors of
+    :func:`_adapted_step`, it then does not follow the rounding errors of the multipliers,
+    so two runs whose multipliers differ by rounding (another BLAS, a structured and a dense
+    solve) take the same steps, unless a ratio lies on a boundary of the lattice."""
+    factor = MOTION_TARGET / ratio
+    if refused:
+        factor = min(max(factor, MOTION_CUT[0]), MOTION_CUT[1])
+    return h_step * 2.0 ** (np.floor(MOTION_LATTICE * np.log2(factor)) / MOTION_LATTICE)
+
+
 def _adapted_step(h: float, iterations: int, angle: float, st: ContinuationSettings) -> float:
     """Next step length after an accepted step: few Newton iterations and a small turning
     angle grow it (x 1.6, up to ``step_max``), many iterations or a large angle shrink it
@@ -1648,6 +1676,37 @@ def _nearest(multipliers: np.ndarray, ref: complex) -> complex:
     return complex(m[int(np.argmin(np.abs(m - ref)))])
 
 
+def _krein_displacements(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
+                         krein_b: np.ndarray, circle_tol: float, lo: float, hi: float,
+                         distances: tuple[np.ndarray, np.ndarray] | None
+                         ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``[(displacement, collision distance)]`` of the multipliers of ``a`` and of ``b`` in
+    the annulus ``lo < |lambda| < hi`` (one pair of arrays per end), as
+    :func:`krein_motion` defines them."""
+    if distances is None:
+        distances = (collision_distances(a, krein_a, circle_tol),
+                     collision_distances(b, krein_b, circle_tol))
+    out = []
+    sa, sb = definite_sign(a, krein_a, circle_tol), definite_sign(b, krein_b, circle_tol)
+    for sx, sz, x, z, cx in ((sa, sb, a, b, distances[0]), (sb, sa, b, a, distances[1])):
+        watch = (np.abs(x) > lo) & (np.abs(x) < hi)
+        if not watch.any():
+            continue
+        xw, sw = x[watch], sx[watch]
+        # nearest multiplier of the other point among those of signature +1, -1 and of no
+        # definite signature (off the circle or indefinite), each set searched on its own
+        # (k-d tree, O(n log n)): a definite multiplier's displacement is the distance to
+        # the nearest one that is not definite of the opposite sign, or to the nearest of
+        # all when there is no such one; any other multiplier's, to the nearest of all
+        d_pos, d_neg, d_none = (nearest_distances(xw, z[sel])
+                                for sel in (sz > 0, sz < 0, sz == 0))
+        nearest = np.minimum(np.minimum(d_pos, d_neg), d_none)
+        disp = np.where(sw > 0, np.minimum(d_pos, d_none),
+                        np.where(sw < 0, np.minimum(d_neg, d_none), nearest))
+        out.append((np.where(np.isfinite(disp), disp, nearest), cx[watch]))
+    return out
+
+
 def krein_motion(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.ndarray,
                  circle_tol: float, fraction: float, lo: float = 0.5, hi: float = 2.0,
                  distances: tuple[np.ndarray, np.ndarray] | None = None) -> float:
@@ -1676,31 +1735,34 @@ def krein_motion(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.
     a, b = np.asarray(a), np.asarray(b)
     if a.size == 0 or b.size == 0:
         return 0.0
-    if distances is None:
-        distances = (collision_distances(a, krein_a, circle_tol),
-                     collision_distances(b, krein_b, circle_tol))
     motion = 0.0
-    sa, sb = definite_sign(a, krein_a, circle_tol), definite_sign(b, krein_b, circle_tol)
-    for sx, sz, x, z, cx in ((sa, sb, a, b, distances[0]), (sb, sa, b, a, distances[1])):
-        watch = (np.abs(x) > lo) & (np.abs(x) < hi)
-        if not watch.any():
-            continue
-        xw, sw = x[watch], sx[watch]
-        # nearest multiplier of the other point among those of signature +1, -1 and of no
-        # definite signature (off the circle or indefinite), each set searched on its own
-        # (k-d tree, O(n log n)): a definite multiplier's displacement is the distance to
-        # the nearest one that is not definite of the opposite sign, or to the nearest of
-        # all when there is no such one; any other multiplier's, to the nearest of all
-        d_pos, d_neg, d_none = (nearest_distances(xw, z[sel])
-                                for sel in (sz > 0, sz < 0, sz == 0))
-        nearest = np.minimum(np.minimum(d_pos, d_neg), d_none)
-        disp = np.where(sw > 0, np.minimum(d_pos, d_none),
-                        np.where(sw < 0, np.minimum(d_neg, d_none), nearest))
-        disp = np.where(np.isfinite(disp), disp, nearest)
-        counts = disp >= fraction * cx[watch]
+    for disp, cx in _krein_displacements(a, krein_a, b, krein_b, circle_tol, lo, hi,
+                                         distances):
+        counts = disp >= fraction * cx
         if counts.any():
             motion = max(motion, float(disp[counts].max()))
     return motion
+
+
+def krein_motion_ratio(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
+                       krein_b: np.ndarray, circle_tol: float, fraction: float, step: float,
+                       lo: float = 0.5, hi: float = 2.0,
+                       distances: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """The Krein-aware motion check as one number: ``max_i d_i / max(step, fraction c_i)``
+    over the multipliers in the annulus (displacement ``d_i`` and collision distance ``c_i``
+    as in :func:`krein_motion`), 0 if there is none. It exceeds 1 exactly when
+    :func:`krein_motion` exceeds ``step`` (up to the tie ``d_i = fraction c_i``): some
+    multiplier moved by more than ``step`` *and* by at least ``fraction`` of its collision
+    distance. Displacements grow linearly with a short step, so the ratio also predicts the
+    step that would bring it to a target (:func:`_motion_scaled_step`)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.size == 0 or b.size == 0:
+        return 0.0
+    ratio = 0.0
+    for disp, cx in _krein_displacements(a, krein_a, b, krein_b, circle_tol, lo, hi,
+                                         distances):
+        ratio = max(ratio, float((disp / np.maximum(step, fraction * cx)).max()))
+    return ratio
 
 
 #: :func:`krein_closing`: a step may shrink the smallest collision distance at most by this
@@ -1711,9 +1773,10 @@ KREIN_NEAR = 0.1
 
 def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.ndarray,
                   circle_tol: float, match: float = 0.02,
-                  distances: tuple[np.ndarray, np.ndarray] | None = None) -> bool:
-    """Whether a step from ``a`` to ``b`` (multipliers with their Krein definiteness) closes
-    the nearest collision too fast: the smallest collision distance
+                  distances: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """How fast a step from ``a`` to ``b`` (multipliers with their Krein definiteness)
+    closes the nearest collision, as a ratio that exceeds 1 when the step is refused: the
+    smallest collision distance
     (:func:`~nsm_continuation.floquet.collision_distances`, over the annulus
     ``0.5 < |lambda| < 2``) falls below ``KREIN_NEAR`` and below ``KREIN_CLOSING`` times its
     value at ``a``, with the same number of multipliers outside the circle at both ends.
@@ -1733,27 +1796,40 @@ def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np
     ``match`` at the other end) beyond a single crossing: with the same count at both ends a
     window closed and another opened within the step, two crossings the count cannot see;
     more than two such multipliers, more crossings than one (a conjugate pair, or a real
-    multiplier, leaves or enters at a crossing) in the step."""
+    multiplier, leaves or enters at a crossing) in the step.
+
+    The ratio (linear in a short step, so it also predicts the next step): for a refusal of
+    the second kind, the largest distance from a multiplier outside (inside ``|lambda| <
+    2``) to the nearest one outside at the other end over ``match`` (2 when one end has
+    none outside: the step is halved); otherwise the larger of that ratio when every such
+    multiplier is matched within ``match``, and, once the smallest distance ``c_b`` at
+    ``b`` is below ``KREIN_NEAR``, of the fraction of the smallest distance ``c_a`` at
+    ``a`` that the step closed over the fraction allowed, ``(1 - c_b / c_a) / (1 -
+    KREIN_CLOSING)`` (``> 1`` exactly when ``c_b < KREIN_CLOSING c_a``)."""
     a, b = np.asarray(a), np.asarray(b)
     if a.size == 0 or b.size == 0:
-        return False
+        return 0.0
     n_a, n_b = count_outside(a, circle_tol), count_outside(b, circle_tol)
     if abs(n_a - n_b) > 2:
-        return True  # more than one crossing (a complex pair, or a real multiplier) at once
+        return 2.0  # more than one crossing (a complex pair, or a real multiplier) at once
     same_count = n_a == n_b
     out_a, out_b = a[np.abs(a) > 1.0 + circle_tol], b[np.abs(b) > 1.0 + circle_tol]
     # multipliers outside the circle (and near it: only those can have come from it or gone
     # back to it) at one end with none outside within ``match`` at the other end
+    near_a, near_b = np.abs(out_a) < 2.0, np.abs(out_b) < 2.0
+    moved = 0.0  # the largest motion of a multiplier outside, matched within ``match``
     if out_a.size and out_b.size:
         d = np.abs(out_a[:, None] - out_b[None, :])
-        crossed = np.concatenate([out_a[(d.min(axis=1) > match) & (np.abs(out_a) < 2.0)],
-                                  out_b[(d.min(axis=0) > match) & (np.abs(out_b) < 2.0)]])
+        da, db = d.min(axis=1), d.min(axis=0)
+        crossed = np.concatenate([out_a[(da > match) & near_a], out_b[(db > match) & near_b]])
+        moved = max(float(da[near_a].max(initial=0.0)), float(db[near_b].max(initial=0.0)))
     else:
-        crossed = np.concatenate([out_a[np.abs(out_a) < 2.0], out_b[np.abs(out_b) < 2.0]])
+        crossed = np.concatenate([out_a[near_a], out_b[near_b]])
     if (same_count and crossed.size) or crossed.size > 2:
         # a window closed and another opened (same count), or more than one crossing (a
         # complex pair or a real multiplier) in the step: the count cannot show them all
-        return True
+        return moved / match if moved > match else 2.0
+    matched = moved / match if not crossed.size and moved <= match else 0.0
     ca, cb = distances if distances is not None else (
         collision_distances(a, krein_a, circle_tol), collision_distances(b, krein_b, circle_tol))
     wa = (np.abs(a) > 0.5) & (np.abs(a) < 2.0)
@@ -1766,9 +1842,11 @@ def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np
         wa &= np.abs(a[:, None] - near[None, :]).min(axis=1) > match
         wb &= np.abs(b[:, None] - near[None, :]).min(axis=1) > match
     if not (wa.any() and wb.any()):
-        return False
+        return matched
     min_a, min_b = float(ca[wa].min()), float(cb[wb].min())
-    return min_b < KREIN_NEAR and min_b < KREIN_CLOSING * min_a
+    if not (min_b < KREIN_NEAR and min_a > 0.0):
+        return matched
+    return max(matched, max(1.0 - min_b / min_a, 0.0) / (1.0 - KREIN_CLOSING))
 
 
 def multiplier_motion(a: np.ndarray, b: np.ndarray, lo: float = 0.5, hi: float = 2.0) -> float:

@@ -29,7 +29,7 @@ from nsm_continuation.floquet import (
     low_rank_update_eigen,
     nearest_distances,
 )
-from nsm_continuation.palc import krein_motion
+from nsm_continuation.palc import krein_motion, krein_motion_ratio
 
 
 # ---------------------------------------------------------------- references (dense, old)
@@ -61,15 +61,12 @@ def _collision_distances_reference(mult: np.ndarray, krein: np.ndarray | None,
     return out
 
 
-def _krein_motion_reference(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
-                            krein_b: np.ndarray, circle_tol: float, fraction: float,
-                            lo: float = 0.5, hi: float = 2.0) -> float:
-    a, b = np.asarray(a), np.asarray(b)
-    if a.size == 0 or b.size == 0:
-        return 0.0
+def _reference_displacements(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
+                             krein_b: np.ndarray, circle_tol: float, lo: float = 0.5,
+                             hi: float = 2.0) -> list[tuple[np.ndarray, np.ndarray]]:
     distances = (_collision_distances_reference(a, krein_a, circle_tol),
                  _collision_distances_reference(b, krein_b, circle_tol))
-    motion = 0.0
+    out = []
     sa, sb = definite_sign(a, krein_a, circle_tol), definite_sign(b, krein_b, circle_tol)
     full = np.abs(a[:, None] - b[None, :])
     for d_all, sx, sz, x, cx in ((full, sa, sb, a, distances[0]),
@@ -80,11 +77,33 @@ def _krein_motion_reference(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
         d = d_all[watch]
         other = (sx[watch][:, None] * sz[None, :]) < 0
         disp = np.where(other, np.inf, d).min(axis=1)
-        disp = np.where(np.isfinite(disp), disp, d.min(axis=1))
-        counts = disp >= fraction * cx[watch]
+        out.append((np.where(np.isfinite(disp), disp, d.min(axis=1)), cx[watch]))
+    return out
+
+
+def _krein_motion_reference(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
+                            krein_b: np.ndarray, circle_tol: float, fraction: float) -> float:
+    a, b = np.asarray(a), np.asarray(b)
+    if a.size == 0 or b.size == 0:
+        return 0.0
+    motion = 0.0
+    for disp, cx in _reference_displacements(a, krein_a, b, krein_b, circle_tol):
+        counts = disp >= fraction * cx
         if counts.any():
             motion = max(motion, float(disp[counts].max()))
     return motion
+
+
+def _krein_motion_ratio_reference(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
+                                  krein_b: np.ndarray, circle_tol: float, fraction: float,
+                                  step: float) -> float:
+    """Each watched multiplier's displacement over the larger of ``step`` and ``fraction``
+    of its collision distance, the largest of them."""
+    ratios = [disp[i] / max(step, fraction * cx[i])
+              for disp, cx in _reference_displacements(np.asarray(a), krein_a, np.asarray(b),
+                                                       krein_b, circle_tol)
+              for i in range(disp.size)]
+    return max(ratios, default=0.0)
 
 
 def _krein_definiteness_reference(mu: np.ndarray, X: np.ndarray, Y: np.ndarray,
@@ -172,6 +191,13 @@ def test_krein_motion_and_collision_distances_equal_the_dense_reference(seed: in
                                _collision_distances_reference(a, ka, tol), rtol=1e-13, atol=0)
     assert krein_motion(a, ka, b, kb, tol, frac) == pytest.approx(
         _krein_motion_reference(a, ka, b, kb, tol, frac), rel=1e-13, abs=0)
+    # the step control's ratio: the same displacements over max(step, fraction c), and it
+    # exceeds 1 exactly when the motion exceeds the step
+    step = float(rng.choice([1e-4, 0.02, 0.1]))
+    ratio = krein_motion_ratio(a, ka, b, kb, tol, frac, step)
+    assert ratio == pytest.approx(
+        _krein_motion_ratio_reference(a, ka, b, kb, tol, frac, step), rel=1e-13, abs=0)
+    assert (ratio > 1.0) == (krein_motion(a, ka, b, kb, tol, frac) > step)
 
 
 # ---------------------------------------------------------------- secular equation
