@@ -92,6 +92,108 @@ def test_a_single_branch_starts_no_local_cluster(monkeypatch: Any) -> None:
     same_branches(ser.run_result.branches, res.run_result.branches)
 
 
+def test_the_master_computes_the_first_tasks_while_the_cluster_starts(
+        serial: Any, monkeypatch: Any) -> None:
+    """While the local cluster starts (held here until this process has computed three
+    branches itself), the master computes the first tasks; the rest go to the workers. The
+    result is the serial run's, to the last digit, and the report counts the tasks done
+    here."""
+    import threading
+
+    from nsm_continuation import execution
+
+    three, started = threading.Event(), threading.Event()
+    real_start = execution.start_client
+
+    def held_start(ex: Any) -> Any:
+        three.wait(120)
+        out = real_start(ex)
+        started.set()
+        return out
+
+    class Counted(execution.LocalResult):
+        count = 0
+
+        def __init__(self, task: Any) -> None:
+            super().__init__(task)
+            Counted.count += 1
+            if Counted.count == 3:
+                three.set()
+                started.wait(120)
+
+    monkeypatch.setattr(execution, "start_client", held_start)
+    monkeypatch.setattr(execution, "LocalResult", Counted)
+    res = nsm.run(CASE, workers=2)
+    same_branches(serial.run_result.branches, res.run_result.branches)
+    timings = res.run_result.timings
+    assert 3 <= timings["dask_tasks_here"] == Counted.count < timings["dask_branch_tasks"]
+
+
+def test_a_task_computed_here_fails_as_on_a_worker() -> None:
+    """A task the master computes: its exception is kept and raised by ``result()`` (the
+    merge records it on the branch, as a worker's); a signal (``BaseException``) is not a
+    task's failure and ends the run at once."""
+    from nsm_continuation.cli import Interrupted
+    from nsm_continuation.execution import LocalResult, Task
+
+    def boom() -> None:
+        raise RuntimeError("boom")
+
+    def interrupted() -> None:
+        raise Interrupted()
+
+    failed = LocalResult(Task(boom, (), "k"))
+    assert failed.status == "error" and failed.done()
+    with pytest.raises(RuntimeError, match="boom"):
+        failed.result()
+    assert LocalResult(Task(divmod, (7, 2), "k")).result() == (3, 1)
+    with pytest.raises(Interrupted):
+        LocalResult(Task(interrupted, (), "k"))
+
+
+def test_a_signal_while_the_master_computes_ends_the_cluster_too(monkeypatch: Any) -> None:
+    """The run's poll raises (a signal) while the master computes a task and the cluster
+    is still starting: the run ends with it, and the cluster, once started, is closed: no
+    worker process is left."""
+    import psutil
+
+    from nsm_continuation import execution, runner
+
+    class Stop(BaseException):
+        pass
+
+    real_start = execution.start_client
+
+    def slow_start(ex: Any) -> Any:
+        time.sleep(2.0)
+        return real_start(ex)
+
+    calls = [0]
+
+    def poll() -> None:
+        calls[0] += 1
+        if calls[0] == 40:
+            raise Stop()
+
+    monkeypatch.setattr(execution, "start_client", slow_start)
+    case = nsm.load_case(CASE)
+    problem = nsm.problem(case.problem, case.parameters)
+    with pytest.raises(Stop):
+        runner.run_case(case, problem, progress=False, poll=poll,
+                        execution=execution.Execution(workers=2))
+    import threading
+
+    for thread in threading.enumerate():  # a start still under way would start workers
+        if thread.name == "nsm-dask-start":
+            thread.join(120)
+
+    def workers_left() -> list[Any]:  # multiprocessing's resource tracker lives on
+        return [c for c in psutil.Process().children(recursive=True)
+                if "resource_tracker" not in " ".join(c.cmdline())]
+
+    _wait_for(lambda: not workers_left(), timeout=60)
+
+
 def two_transcriticals(**execution: Any) -> Any:
     from oracles.normal_forms import MuParameters, TwoTranscriticals
 
