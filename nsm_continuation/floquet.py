@@ -146,12 +146,32 @@ def krein_of(fl: FloquetData | None) -> np.ndarray | None:
     return krein
 
 
+def _signatures(m: np.ndarray, krein: np.ndarray, circle_tol: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(on, sign)``: which multipliers ``m`` lie on the unit circle (``||m| - 1| <=
+    circle_tol``) and :func:`definite_sign` of each (computed once for both)."""
+    on = np.abs(np.abs(m) - 1.0) <= circle_tol
+    k = np.asarray(krein, dtype=float)
+    return on, np.where(on & (np.abs(k) >= KREIN_DEFINITE), np.sign(k), 0.0)
+
+
 def definite_sign(m: np.ndarray, krein: np.ndarray, circle_tol: float) -> np.ndarray:
     """``sign(kappa)`` of the multipliers on the circle (to ``circle_tol``) whose Krein
-    definiteness is at least ``KREIN_DEFINITE`` in modulus, else 0."""
-    on = np.abs(np.abs(np.asarray(m)) - 1.0) <= circle_tol
-    k = np.asarray(krein, dtype=float)
-    return np.where(on & (np.abs(k) >= KREIN_DEFINITE), np.sign(k), 0.0)
+    definiteness is at least ``KREIN_DEFINITE`` in modulus, else 0 (few multipliers: the
+    tests on Python lists, :func:`_signs_small`)."""
+    m = np.asarray(m)
+    if m.size <= _SMALL_SPECTRUM:
+        am = np.abs(m).ravel().tolist()
+        kr = np.asarray(krein, dtype=float).ravel().tolist()
+        if len(kr) == len(am):
+            return np.array(_signs_small(am, kr, circle_tol)).reshape(m.shape)
+    return _signatures(m, krein, circle_tol)[1]
+
+
+#: :func:`collision_distances`, :func:`definite_sign`: up to this many multipliers the
+#: bookkeeping runs on Python lists (numpy's per-call overhead dominates there; measured
+#: crossover ~28); above, on arrays, with k-d tree searches
+_SMALL_SPECTRUM = 24
 
 
 def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: float
@@ -171,12 +191,24 @@ def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: 
 
     Without ``krein`` (not a conservative family) every distance is 0: every multiplier near
     the circle may leave it.
+
+    The chord to the nearest multiplier of the other signature is ``2 sin(gap / 2)``, ``gap``
+    the smaller of the wrapped angles ``|arg exp(i (phi - phi_left))|``,
+    ``|arg exp(i (phi_right - phi))|`` to its two neighbours ``phi_left``, ``phi_right``
+    among the other signature's angles sorted (a search in them, O(K log K)). Up to
+    ``_SMALL_SPECTRUM`` finite multipliers (the 5-dof chain's 8) the bookkeeping runs on
+    Python lists and the nearest multipliers of the loose ones come from one ``K x K``
+    distance matrix (:func:`_collision_distances_small`): the same numbers, by fewer numpy
+    calls.
     """
     m = np.asarray(mult, dtype=complex)
     if krein is None or m.size == 0:
         return np.zeros(m.size)
-    on = np.abs(np.abs(m) - 1.0) <= circle_tol
-    sign = definite_sign(m, krein, circle_tol)
+    if m.ndim == 1 and m.size <= _SMALL_SPECTRUM:
+        small = _collision_distances_small(m, krein, circle_tol)
+        if small is not None:
+            return small
+    on, sign = _signatures(m, krein, circle_tol)
     out = np.full(m.size, np.inf)
     # definite multipliers on the circle: the nearest one of the other signature, found on
     # the circle sorted by angle (the chord grows with the angle): O(K log K)
@@ -208,6 +240,79 @@ def collision_distances(mult: np.ndarray, krein: np.ndarray | None, circle_tol: 
     return out
 
 
+def _signs_small(am: list[float], krein: list[float], circle_tol: float) -> list[float]:
+    """:func:`definite_sign` on Python lists: ``am`` the moduli ``|m|`` (numpy's), ``krein``
+    the definiteness (same elementwise tests)."""
+    return [(1.0 if k > 0.0 else -1.0) if abs(a - 1.0) <= circle_tol and abs(k) >= KREIN_DEFINITE
+            else 0.0 for a, k in zip(am, krein, strict=True)]
+
+
+def _collision_distances_small(m: np.ndarray, krein: np.ndarray, circle_tol: float
+                               ) -> np.ndarray | None:
+    """:func:`collision_distances` of a few finite multipliers, the bookkeeping on Python
+    lists and the numbers from numpy's formulas (``|m|``, ``angle``, the wrapped angles and
+    chords, ``|m_i - m_j|``, ``|m - 1/conj(m)|``), so equal to the large path's: the nearest
+    multiplier of the other signature by bisection in the sorted angles of each signature
+    (``bisect_left`` is ``numpy.searchsorted``); the nearest multiplier of each loose one
+    (itself excluded) and the nearest loose one of each other one from the distance matrix
+    ``|m_i - m_j|``; the off-circle partners. None (use the large path) when a multiplier is
+    not finite (numpy's NaN propagation through the minima is not reproduced) or ``krein``
+    does not match ``m`` one to one."""
+    from bisect import bisect_left
+
+    am = np.abs(m).tolist()
+    kr = np.asarray(krein, dtype=float).ravel().tolist()
+    if len(kr) != len(am) or not all(a - a == 0.0 for a in am):  # a - a: nan for inf, nan
+        return None
+    sg = _signs_small(am, kr, circle_tol)
+    K = len(am)
+    out = [np.inf] * K
+    if 1.0 in sg and -1.0 in sg:
+        phi = np.angle(m).tolist()
+        ang = {s: sorted(p for p, q in zip(phi, sg, strict=True) if q == s) for s in (1.0, -1.0)}
+        idx: list[int] = []
+        to_left: list[float] = []
+        to_right: list[float] = []
+        for i, (p, s) in enumerate(zip(phi, sg, strict=True)):
+            if s != 0.0:
+                other = ang[-s]
+                j = bisect_left(other, p)
+                idx.append(i)
+                to_left.append(p - other[j - 1])  # j = 0: the last one (wrapped)
+                to_right.append(other[j % len(other)] - p)
+        k = len(idx)
+        d = np.abs(np.angle(np.exp(1j * np.array(to_left + to_right))))
+        for i, c in zip(idx, (2.0 * np.sin(0.5 * np.minimum(d[:k], d[k:]))).tolist(),
+                        strict=True):
+            out[i] = c
+    loose = [i for i, s in enumerate(sg) if s == 0.0]
+    if loose:
+        inf = np.inf
+        for i, row in enumerate(np.abs(m[:, None] - m[None, :]).tolist()):
+            # a loose one: the nearest of all (itself excluded); another: the nearest loose one
+            if sg[i] == 0.0:
+                row[i] = inf
+                near = min(row)
+            else:
+                near = min([row[j] for j in loose])
+            if near < out[i]:
+                out[i] = near
+    off = [i for i, a in enumerate(am) if not abs(a - 1.0) <= circle_tol]
+    if off:
+        mo = m[off]
+        if min(am[i] for i in off) > 0.0:
+            partner = np.abs(mo - 1.0 / np.conj(mo)).tolist()
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):  # 1 / 0
+                partner = np.abs(mo - 1.0 / np.conj(mo)).tolist()
+        for i, p in zip(off, partner, strict=True):
+            out[i] = p if p != p else min(out[i], p)  # numpy.minimum: nan wins
+    for i, (a, s) in enumerate(zip(am, sg, strict=True)):
+        if s == 0.0 and abs(a - 1.0) <= circle_tol:
+            out[i] = 0.0
+    return np.array(out)
+
+
 #: :func:`nearest_distances`: below this many pairs the distance matrix is formed at once
 _BRUTE_PAIRS = 4096
 
@@ -220,17 +325,24 @@ def nearest_distances(x: np.ndarray, pts: np.ndarray, exclude: np.ndarray | None
     the four nearest points of a k-d tree of ``pts`` in the plane (O((n + m) log m)), less the
     excluded one; the distance to each is then evaluated as ``|x - p|`` (complex modulus, as
     in the dense formula), so the result is the dense one unless more than three points are
-    within rounding of the same distance (then equal to it within rounding). Small or
-    non-finite inputs use the dense formula in row blocks."""
+    within rounding of the same distance (then equal to it within rounding). Small inputs
+    (at most ``_BRUTE_PAIRS`` pairs: the formula at once) and non-finite ones (the formula in
+    row blocks) use the dense formula."""
     x = np.asarray(x, dtype=complex).ravel()
     pts = np.asarray(pts, dtype=complex).ravel()
-    excl = np.full(x.size, -1) if exclude is None else np.asarray(exclude, dtype=int).ravel()
     if pts.size == 0:
         return np.full(x.size, np.inf)
     if x.size == 0:
         return np.empty(0)
-    if x.size * pts.size <= _BRUTE_PAIRS or not (np.all(np.isfinite(x))
-                                                 and np.all(np.isfinite(pts))):
+    if x.size * pts.size <= _BRUTE_PAIRS:
+        d = np.abs(x[:, None] - pts[None, :])
+        if exclude is not None:
+            excl = np.asarray(exclude, dtype=int).ravel()
+            r = np.flatnonzero(excl >= 0)
+            d[r, excl[r]] = np.inf
+        return d.min(axis=1)
+    excl = np.full(x.size, -1) if exclude is None else np.asarray(exclude, dtype=int).ravel()
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(pts))):
         out = np.empty(x.size)
         rows = max(1, _BRUTE_PAIRS // pts.size)
         for a in range(0, x.size, rows):

@@ -753,21 +753,8 @@ class NDofImpactProblem(Problem):
         (``krein_weights``). Also returned: ``D``'s angles, ``U``, ``V`` (for
         :meth:`return_map_apply`) and ``z0``.
         """
-        u0, du0, T = self.state(y)
-        w, Pi = self.omega, self.Pinv
-        a = self.P[self.c, :]
-        b = Pi[:, self.c]
-        xi0, eta0 = w * (Pi @ u0), Pi @ du0
-        th = w * T
-        c, s = np.cos(th), np.sin(th)
-        xim, etam = c * xi0 + s * eta0, -s * xi0 + c * eta0  # pre-impact state D z0
-        fxi, feta = w * etam, -w * xim                         # vector field there
-        hf = float(a @ etam)                                   # h^T f = u_c'-(T) = -v
-        Jfeta = feta - 2.0 * b * float(a @ feta)
-        zero = np.zeros_like(w)
-        U = np.stack([np.concatenate([zero, -2.0 * b]),
-                      np.concatenate([fxi, Jfeta]) / -hf], axis=1)
-        V = np.stack([np.concatenate([zero, a]), np.concatenate([a / w, zero])], axis=1)
+        th, _, _, U, V, xi0, eta0 = self._saltation(y)
+        w = self.omega
         r2 = np.sqrt(0.5)
         ep, em = np.exp(1j * th), np.exp(-1j * th)
         n = w.size
@@ -779,6 +766,35 @@ class NDofImpactProblem(Problem):
         return {"mu": np.concatenate([ep, em]), "X": X, "Y": Y,
                 "krein_weights": np.concatenate([1.0 / w, -1.0 / w]), "angles": th,
                 "U": U, "V": V, "z0": np.concatenate([xi0, eta0])}
+
+    def _saltation(self, y: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(theta, cos theta, sin theta, U, V, xi0, eta0)`` of :meth:`return_map_structure`:
+        the flight's angles ``theta_j = w_j T``, the saltation factors ``U = [-2 e_b,
+        -J f / (h^T f)]``, ``V = [a_eta, h]`` (``DF = (I + U V^T) D``) and the post-impact state
+        ``z0 = (xi0, eta0)`` in energy coordinates; shared with :meth:`_krein_dense` (which
+        needs neither ``X``, ``Y`` nor a second evaluation of the sines and cosines)."""
+        u0, du0, T = self.state(y)
+        w, Pi = self.omega, self.Pinv
+        a = self.P[self.c, :]
+        b = Pi[:, self.c]
+        xi0, eta0 = w * (Pi @ u0), Pi @ du0
+        th = w * T
+        c, s = np.cos(th), np.sin(th)
+        xim, etam = c * xi0 + s * eta0, -s * xi0 + c * eta0  # pre-impact state D z0
+        fxi, feta = w * etam, -w * xim                         # vector field there
+        hf = float(a @ etam)                                   # h^T f = u_c'-(T) = -v
+        Jfeta = feta - 2.0 * b * float(a @ feta)
+        n = w.size
+        # U = [[0, fxi], [-2 b, J feta]] / [1, -hf], V = [[0, a / w], [a, 0]] (columns)
+        U = np.empty((2 * n, 2))
+        U[:n, 0] = 0.0
+        U[n:, 0] = -2.0 * b
+        U[:n, 1] = fxi / -hf
+        U[n:, 1] = Jfeta / -hf
+        V = np.zeros((2 * n, 2))
+        V[n:, 0] = a
+        V[:n, 1] = a / w
+        return th, c, s, U, V, xi0, eta0
 
     @staticmethod
     def return_map_apply(st: dict[str, np.ndarray], z: np.ndarray) -> np.ndarray:
@@ -904,18 +920,25 @@ class NDofImpactProblem(Problem):
         per-root work of :func:`~nsm_continuation.floquet.krein_definiteness`):
         ``kappa = g(v) / |v|^2``, ``g(v) = -i omega(conj v, v) = 2 sum_j Im(conj xi_j eta_j)
         / w_j``, ``|v|^2 = sum_j (|xi_j|^2 + |eta_j|^2) / w_j``; each multiplier takes the
-        eigenvector of the nearest eigenvalue."""
-        st = self.return_map_structure(y)
+        eigenvector of the nearest eigenvalue. ``D``, ``U``, ``V`` from :meth:`_saltation`
+        (not the whole :meth:`return_map_structure`); ``D`` filled in place (the matrix
+        ``np.block([[diag c, diag s], [-diag s, diag c]])``, negative zeros included)."""
+        _, c, s, U, V, _, _ = self._saltation(y)
         n = self.N
-        c, s = np.cos(st["angles"]), np.sin(st["angles"])
-        D = np.block([[np.diag(c), np.diag(s)], [-np.diag(s), np.diag(c)]])
-        A = D + st["U"] @ (st["V"].T @ D)
+        D = np.zeros((2 * n, 2 * n))
+        D[n:, :n] = -0.0
+        i = np.arange(n)
+        D[i, i] = c
+        D[i, i + n] = s
+        D[i + n, i] = -s
+        D[i + n, i + n] = c
+        A = D + U @ (V.T @ D)
         lam, V = np.linalg.eig(A)
         V = V[:, np.argmin(np.abs(lam[None, :] - np.asarray(mult)[:, None]), axis=1)]
         xi, eta = V[:n], V[n:]
         iw = 1.0 / self.omega[:, None]
-        g = 2.0 * np.sum(np.imag(np.conj(xi) * eta) * iw, axis=0)
-        nrm = np.sum((np.abs(xi) ** 2 + np.abs(eta) ** 2) * iw, axis=0)
+        g = 2.0 * ((np.conj(xi) * eta).imag * iw).sum(axis=0)
+        nrm = ((np.abs(xi) ** 2 + np.abs(eta) ** 2) * iw).sum(axis=0)
         return g / nrm
 
     #: :meth:`floquet` of a conservative chain: multipliers farther than this from the unit

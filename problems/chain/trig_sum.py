@@ -20,15 +20,45 @@ speed, ``O((N + n) sqrt n)`` exponentials), which settles almost every cell; onl
 uncertified cells are split and evaluated pointwise. Measured on the ``m = 1/N, k = N`` chain next
 to its linear grazing orbit (``N`` modes, ``n = 3208`` / ``16008`` cells): 1.9 ms at
 ``N = 200`` and 26 ms at ``N = 1000`` (pointwise sines and cosines: 0.18 s and 4.2 s).
+
+Small sums (issue 13: the 5-dof chain calls this ~7000 times per frequency-energy plot, on
+16-100 cells and ~5 brackets, where numpy's per-call overhead, not arithmetic, is the cost):
+up to ``POINTWISE_GRID`` edge-mode pairs the first pass takes the sines and cosines at the
+edges directly (:meth:`TrigSum.d12`, one evaluation that includes ``t1``), and up to
+``SCALAR_MODES`` modes everything after the first pass (the safeguarded Newton iteration of
+each bracket, the subdivision of the few uncertified cells) runs on Python floats
+(:meth:`TrigSum._scalar_d12`: ``f'`` and ``f''`` by the same formulas, summed in a fixed order;
+the ``f''`` of a split cell's edges is computed with its ``f'`` and shared by the two cells that
+meet there). The cells, certificates, brackets, tolerances and convergence tests are those of
+the vectorised path, which large sums keep: the two agree to the rounding of ``f'`` and ``f''``
+(``tests/test_speed_small_chain_trig_sum.py``). On the 5-dof chain's Fig. 3.2 calls: ~3x faster.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 _EPS = float(np.finfo(float).eps)
+#: :meth:`TrigSum.critical_points`: the first pass evaluates ``f'`` and ``f''`` pointwise (sines
+#: and cosines at every edge, :meth:`TrigSum.d12`) up to this many edge-mode pairs, above by the
+#: matrix product of :meth:`TrigSum.d12_grid` (measured crossover: ~500-600 pairs)
+POINTWISE_GRID = 512
+#: :meth:`TrigSum.critical_points`: up to this many modes the work after the first pass (Newton
+#: on the brackets, subdivision of the uncertified cells) runs on Python floats ...
+SCALAR_MODES = 16
+#: ... when there is little of it: ``brackets (N + 4) + uncertified cells (N + 2)`` at most
+#: this (measured on Python floats: ~``N + 4`` us per bracket, ~``N + 2`` per uncertified cell;
+#: the vectorised loop: ~200 us for a few iterations over all of them at once; crossover ~28
+#: brackets at ``N = 5``, ~14 at ``N = 16``)
+SCALAR_WORK = 300
+
+
+def _sign(x: float) -> float:
+    """``numpy.sign`` of a Python float (``nan`` for ``nan``, so that it equals nothing)."""
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else x * 0.0)
 
 
 @dataclass
@@ -87,37 +117,61 @@ class TrigSum:
     def d2_bound(self) -> float:
         return float(np.sum(self.w**2 * np.hypot(self.a, self.b)))
 
+    #: :meth:`critical_points`: passes over the cells (the first one and the subdivisions;
+    #: a cell still uncertified after the last pass is dropped) and sub-cells per split
+    LEVELS = 60
+    SPLIT = 4
+
     def critical_points(self, t0: float, t1: float, cells_per_radian: float = 2.0,
                         min_width: float | None = None) -> np.ndarray:
         """All roots of ``f'`` in ``(t0, t1)`` (sorted), certified as described above."""
         span = t1 - t0
         if span <= 0:
             return np.empty(0)
-        wmax = float(np.max(self.w))
-        n = int(max(16, np.ceil(span * wmax * cells_per_radian)))
+        w, w2 = self.w, self.w**2
+        wmax = float(w.max())
+        cells = span * wmax * cells_per_radian
+        n = max(16, math.ceil(cells)) if cells == cells else 16  # NaN: 16, as max(16, nan)
         min_width = 1e-13 * max(span, 1.0) if min_width is None else min_width
-        L = self.d2_bound
-        L3 = float(np.sum(self.w**3 * np.hypot(self.a, self.b)))
+        amp = np.hypot(self.a, self.b)
+        L = float((w2 * amp).sum())  # = d2_bound
+        L3 = float((w**3 * amp).sum())
+        noise = self._noise(w2)
         h = span / n
         edges = t0 + h * np.arange(n + 1)
         edges[-1] = t1
         lo, hi = edges[:-1], edges[1:]
-        # f' and f'' at every edge at once (one matrix product): the first pass, which
-        # settles almost every cell, costs O(N n) flops at BLAS speed
-        e1, e2 = self.d12_grid(t0, h, n)
-        end1, end2 = self.d12(np.array([t1]))
-        e1[-1], e2[-1] = end1[0], end2[0]
+        # f' and f'' at every edge at once: the first pass, which settles almost every cell;
+        # few edges and modes: sines and cosines at each edge (t1 included: the formulas of
+        # d12, its coefficients computed once), else one matrix product, O(N n) flops at BLAS
+        # speed
+        if w.size * (n + 1) <= POINTWISE_GRID:
+            coef = (self.b * w, self.a * w, self.a * w2, self.b * w2)
+            wt = np.multiply.outer(edges, w)
+            c, s = np.cos(wt), np.sin(wt)
+            e1 = c @ coef[0] - s @ coef[1]
+            e2 = -(c @ coef[2] + s @ coef[3])
+        else:
+            coef = None
+            e1, e2 = self.d12_grid(t0, h, n)
+            end1, end2 = self.d12(np.array([t1]))
+            e1[-1], e2[-1] = end1[0], end2[0]
+        if w.size <= SCALAR_MODES:
+            out = self._critical_points_scalar(edges, e1, e2, L, L3, min_width, t0, t1, noise,
+                                               coef)
+            if out is not None:
+                return out
         flo, fhi = e1[:-1], e1[1:]
         g_first: tuple[np.ndarray, np.ndarray] | None = (e2[:-1], e2[1:])
         roots: list[np.ndarray] = []
         tangential: list[np.ndarray] = []
-        for _ in range(60):
+        for _ in range(self.LEVELS):
             if lo.size == 0:
                 break
             sign_change = np.sign(flo) != np.sign(fhi)
             if np.any(sign_change):
                 roots.append(self._bracketed_roots(lo[sign_change], hi[sign_change],
-                                                   flo[sign_change], fhi[sign_change]))
+                                                   flo[sign_change], fhi[sign_change], noise))
             rest = ~sign_change
             lo, hi, flo, fhi = lo[rest], hi[rest], flo[rest], fhi[rest]
             # no root: |f'| bounded away from 0 (|f''| <= L), or f' monotone on the cell
@@ -138,9 +192,8 @@ class TrigSum:
                 lo, hi, flo, fhi = lo[~small], hi[~small], flo[~small], fhi[~small]
             if lo.size == 0:
                 break
-            # split each remaining cell in 4
-            k = 4
-            frac = np.linspace(0.0, 1.0, k + 1)
+            # split each remaining cell in SPLIT
+            frac = np.linspace(0.0, 1.0, self.SPLIT + 1)
             new_edges = lo[:, None] + (hi - lo)[:, None] * frac[None, :]
             fe = self.d1(new_edges.ravel()).reshape(new_edges.shape)
             fe[:, 0], fe[:, -1] = flo, fhi
@@ -151,8 +204,180 @@ class TrigSum:
         # a root on an edge where f' is exactly 0 ends both cells' iterations: reported once
         return np.unique(out)
 
+    def _noise(self, w2: np.ndarray | None = None) -> tuple[float, float]:
+        """``(noise0, noise1)``: ``f'(t)`` vanishes to its own rounding error when
+        ``|f'(t)| <= noise0 + noise1 |t|`` (:meth:`_bracketed_roots`); ``w2``: ``w**2`` if
+        already computed."""
+        amp = np.abs(self.a) + np.abs(self.b)
+        w2 = self.w**2 if w2 is None else w2
+        return (4 * _EPS * float((self.w * amp).sum()), 4 * _EPS * float((w2 * amp).sum()))
+
+    def _scalar_terms(self, coef: tuple[np.ndarray, ...] | None = None
+                      ) -> list[tuple[float, float, float, float, float]]:
+        """``(w_l, b_l w_l, a_l w_l, a_l w_l^2, b_l w_l^2)`` of each mode as Python floats
+        (:meth:`_scalar_d12`); ``coef``: the last four as arrays, if already computed."""
+        w = self.w
+        if coef is None:
+            w2 = w**2
+            coef = (self.b * w, self.a * w, self.a * w2, self.b * w2)
+        return list(zip(w.tolist(), *(x.tolist() for x in coef), strict=True))
+
+    @staticmethod
+    def _scalar_d12(terms: list[tuple[float, float, float, float, float]], t: float
+                    ) -> tuple[float, float]:
+        """``(f'(t), f''(t))`` at one point on Python floats, by the formulas of :meth:`d12`:
+        ``f' = sum_l cos(w_l t) b_l w_l - sum_l sin(w_l t) a_l w_l`` and
+        ``f'' = -(sum_l cos(w_l t) a_l w_l^2 + sum_l sin(w_l t) b_l w_l^2)``, each sum in the
+        order of the modes (equal to :meth:`d12` to rounding: BLAS may sum in another order)."""
+        s1 = s2 = s3 = s4 = 0.0
+        for wl, bw, aw, aw2, bw2 in terms:
+            x = wl * t
+            c = math.cos(x)
+            s = math.sin(x)
+            s1 += c * bw
+            s2 += s * aw
+            s3 += c * aw2
+            s4 += s * bw2
+        return s1 - s2, -(s3 + s4)
+
+    def _critical_points_scalar(self, edges: np.ndarray, e1: np.ndarray, e2: np.ndarray,
+                                L: float, L3: float, min_width: float, t0: float, t1: float,
+                                noise: tuple[float, float],
+                                coef: tuple[np.ndarray, ...] | None = None
+                                ) -> np.ndarray | None:
+        """:meth:`critical_points` after the first pass's evaluation (``f'``, ``f''`` at the
+        ``edges``), for few modes: the first pass's sign changes and first-order certificate
+        vectorised over the cells, the monotonicity certificate on the few cells left, then
+        each bracket (:meth:`_scalar_newton`) and each uncertified cell
+        (:meth:`_subdivide_scalar`) on Python floats: the same certificates, splits and
+        Newton iteration as the vectorised loop. None when that is more work than the
+        vectorised loop (``SCALAR_WORK``)."""
+        width = edges[1:] - edges[:-1]
+        s1, a1 = np.sign(e1), np.abs(e1)
+        sign_change = s1[:-1] != s1[1:]
+        brackets = np.flatnonzero(sign_change)
+        n_modes = self.w.size
+        if brackets.size * (n_modes + 4) > SCALAR_WORK:
+            return None
+        # neither bracketed nor certified by |f'(lo)| + |f'(hi)| > L (hi - lo) ...
+        cand = np.flatnonzero(~(sign_change | (a1[:-1] + a1[1:] > L * width)))
+        open_cells: list[int] = []
+        if 0 < cand.size <= 8:
+            # ... nor by the monotonicity of f' (f'' of one sign, |f''(lo)| + |f''(hi)| >
+            # L3 (hi - lo)): the test of the vectorised loop, elementwise
+            g = e2.tolist()
+            for i, wd in zip(cand.tolist(), width[cand].tolist(), strict=True):
+                glo, ghi = g[i], g[i + 1]
+                if not (_sign(glo) == _sign(ghi) and abs(glo) + abs(ghi) > L3 * wd):
+                    open_cells.append(i)
+        elif cand.size:
+            g_lo, g_hi = e2[cand], e2[cand + 1]
+            monotone = (np.sign(g_lo) == np.sign(g_hi)) & (
+                np.abs(g_lo) + np.abs(g_hi) > L3 * width[cand])
+            open_cells = cand[~monotone].tolist()
+        if brackets.size == 0 and not open_cells:
+            return np.empty(0)
+        if brackets.size * (n_modes + 4) + len(open_cells) * (n_modes + 2) > SCALAR_WORK:
+            return None
+        terms = self._scalar_terms(coef)
+        found: list[float] = []
+        if brackets.size:
+            ed, f1 = edges.tolist(), e1.tolist()
+            for i in brackets.tolist():
+                found.append(self._scalar_newton(terms, noise, ed[i], ed[i + 1], f1[i],
+                                                 f1[i + 1]))
+        if open_cells:
+            ed, f1, g = edges.tolist(), e1.tolist(), e2.tolist()
+            cells = [(ed[i], ed[i + 1], f1[i], f1[i + 1], g[i], g[i + 1]) for i in open_cells]
+            found.extend(self._subdivide_scalar(terms, noise, cells, L, L3, min_width))
+        # a root on an edge where f' is exactly 0 ends both cells' iterations: reported once
+        return np.array(sorted({t for t in found if t0 < t < t1}), dtype=float)
+
+    def _subdivide_scalar(self, terms: list[tuple[float, float, float, float, float]],
+                          noise: tuple[float, float],
+                          cells: list[tuple[float, float, float, float, float, float]],
+                          L: float, L3: float, min_width: float) -> list[float]:
+        """Roots and tangential candidates in the cells of the first pass that are neither
+        bracketed nor certified (each ``(lo, hi, f'(lo), f'(hi), f''(lo), f''(hi))``), as in
+        the vectorised loop of :meth:`critical_points`: a cell no longer than ``min_width``
+        gives its end of smaller ``|f'|`` (a tangential candidate); a longer one is split in
+        ``SPLIT`` (edges ``lo + (hi - lo) k / SPLIT``, ``f'`` and ``f''`` at the new ones, each
+        computed once for the two sub-cells that share it), and each sub-cell is bracketed
+        (:meth:`_scalar_newton`), certified (``|f'(lo)| + |f'(hi)| > L (hi - lo)``, or ``f''``
+        of one sign at both ends with ``|f''(lo)| + |f''(hi)| > L3 (hi - lo)``) or kept for
+        the next pass; cells split by the last of the ``LEVELS`` passes are dropped."""
+        out: list[float] = []
+        split = self.SPLIT
+        frac = np.linspace(0.0, 1.0, split + 1).tolist()
+        level = cells
+        for depth in range(1, self.LEVELS + 1):
+            nxt: list[tuple[float, float, float, float, float, float]] = []
+            for lo, hi, flo, fhi, glo, ghi in level:
+                if hi - lo <= min_width:
+                    out.append(lo if abs(flo) < abs(fhi) else hi)
+                    continue
+                if depth == self.LEVELS:
+                    continue
+                size = hi - lo
+                xs = [lo + size * q for q in frac]
+                ev = [(flo, glo)]
+                ev.extend(self._scalar_d12(terms, x) for x in xs[1:-1])
+                ev.append((fhi, ghi))
+                for j in range(split):
+                    a, b = xs[j], xs[j + 1]
+                    (fa, ga), (fb, gb) = ev[j], ev[j + 1]
+                    if _sign(fa) != _sign(fb):
+                        out.append(self._scalar_newton(terms, noise, a, b, fa, fb))
+                        continue
+                    wd = b - a
+                    if abs(fa) + abs(fb) > L * wd or (
+                            _sign(ga) == _sign(gb) and abs(ga) + abs(gb) > L3 * wd):
+                        continue
+                    nxt.append((a, b, fa, fb, ga, gb))
+            if not nxt:
+                break
+            level = nxt
+        return out
+
+    @staticmethod
+    def _scalar_newton(terms: list[tuple[float, float, float, float, float]],
+                       noise: tuple[float, float], lo: float, hi: float, flo: float,
+                       fhi: float) -> float:
+        """:meth:`_bracketed_roots` on one bracket on Python floats: the same start, steps,
+        safeguard and convergence tests, ``f'`` and ``f''`` by :meth:`_scalar_d12`."""
+        noise0, noise1 = noise
+        if abs(flo) <= noise0 + noise1 * abs(lo):
+            return lo
+        if abs(fhi) <= noise0 + noise1 * abs(hi):
+            return hi
+        slo = _sign(flo)
+        t = 0.5 * (lo + hi)
+        for _ in range(100):
+            f, fp = TrigSum._scalar_d12(terms, t)
+            if _sign(f) == slo:
+                lo = t
+            else:
+                hi = t
+            tol = 8 * _EPS * max(abs(t), 1.0)
+            if fp != 0.0:
+                step = f / fp
+                tn = t - step
+                newton_done = math.isfinite(step) and abs(step) <= tol
+            else:  # numpy's f / 0: +-inf or nan, never converged; the safeguard bisects
+                tn, newton_done = math.nan, False
+            if not newton_done and not lo <= tn <= hi:  # also catches a non-finite tn
+                tn = 0.5 * (lo + hi)
+            conv = (newton_done or hi - lo <= tol or f == 0.0
+                    or abs(f) <= noise0 + noise1 * abs(t))
+            if f != 0.0:
+                t = tn
+            if conv:
+                break
+        return t
+
     def _bracketed_roots(self, lo: np.ndarray, hi: np.ndarray, flo: np.ndarray,
-                         fhi: np.ndarray) -> np.ndarray:
+                         fhi: np.ndarray, noise: tuple[float, float] | None = None
+                         ) -> np.ndarray:
         """Safeguarded Newton on ``f'`` inside brackets with a sign change (vectorised; only the
         brackets not yet converged are iterated).
 
@@ -163,10 +388,9 @@ class TrigSum:
         vanishes so is the root, taken as it is: there, every Newton step from inside
         overshoots the bracket and the safeguard bisects towards the end, one bit per
         evaluation (14-19 evaluations for the critical point at ``T / 2`` of a symmetric
-        orbit, which is an edge of the first pass's even grid: ``tests/test_trig_sum.py``)."""
-        amp = np.abs(self.a) + np.abs(self.b)
-        noise0 = 4 * _EPS * float(np.sum(self.w * amp))
-        noise1 = 4 * _EPS * float(np.sum(self.w**2 * amp))
+        orbit, which is an edge of the first pass's even grid: ``tests/test_trig_sum.py``).
+        ``noise``: :meth:`_noise`, if already computed."""
+        noise0, noise1 = self._noise() if noise is None else noise
         lo, hi = lo.copy(), hi.copy()
         slo = np.sign(flo)
         t = 0.5 * (lo + hi)
