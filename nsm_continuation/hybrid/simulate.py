@@ -51,10 +51,25 @@ from one more impact, ``|L(k) - L(k-1)| r^{m+1} / (1 - r^{m+1})``. The map is ap
 estimate is below ``chatter_tol`` and ``a < 0`` at the image (sec. 5.2); the image is projected
 onto ``{H = 0, v = 0}`` (an ``O(v^2)`` move, below the map's own error) so that sticking starts
 exactly on the sticking set.
+
+**Work skipped, the same numbers** (issue 13, session 9; ``tests/test_speed_chatter_*.py``
+check each against the computation it replaces). An event iteration that repeats an iterate
+(Newton jittering on the round-off of ``g``, ~8 % of the events of a long chattering sequence
+ran to the 30-iteration limit) ends where the 30 iterations would have (the iteration depends
+on ``tau`` alone); the iterations evaluate the probe alone. A step of a chattering flight
+(``s5``, ``s6``) is tried without its Jacobian, which is evaluated only if the step is taken
+whole (nearly every such step ends at an event). An interpolant whose Bernstein control points
+are all of one sign (beyond its rounding) has no crossing, and a step in which no component's
+slope changes sign has no interior extremum: neither is searched. Each impact computes its own
+extrapolation levels once (they do not depend on the window, :func:`_extrapolate`). The
+Functions are called through buffers bound once (:mod:`nsm_continuation.casadi_buffers`).
+Together: the 204-point continuation in ``e`` of ``benchmarks/bench_chatter.py`` 27.2 -> 13.4 s,
+its CSV and report bit for bit the same.
 """
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from dataclasses import dataclass, field
@@ -81,6 +96,9 @@ WATCH: dict[str, list[tuple[int, int, str]]] = {
 #: integrated exactly): the watched functions' interpolants are then checked (Simulator.
 #: _hermite_trustworthy) before the step is taken
 HERMITE_CHECK_BELOW = 1e-3
+
+#: Newton iterations of an event time on the true flow (Simulator._refine)
+REFINE_ITERATIONS = 30
 
 
 class SimulationError(RuntimeError):
@@ -221,6 +239,20 @@ def initial_state(c: CompiledHybrid, X: np.ndarray) -> str:
     return S2
 
 
+def _hermite_one_sign(g0: float, m0: float, g1: float, m1: float) -> bool:
+    """Whether the cubic Hermite interpolant with values ``g0``, ``g1`` and slopes ``m0``,
+    ``m1`` (per unit of ``s``) keeps one strict sign on ``[0, 1]``, with room for the rounding
+    of its evaluation: then :func:`_hermite_first_root` finds no crossing.
+
+    Its Bernstein control points ``g0, g0 + m0/3, g1 - m1/3, g1`` enclose it on ``[0, 1]``;
+    all beyond ``1e-13`` of the data's size (the evaluation's rounding is below ``1e-14`` of
+    it; ``1e-300`` covers the absolute rounding of subnormal values), no value at any knot can
+    reach zero or the other side. NaN or infinite data: False."""
+    b1, b2 = g0 + m0 / 3.0, g1 - m1 / 3.0
+    margin = 1e-13 * (abs(g0) + abs(g1) + abs(m0) + abs(m1)) + 1e-300
+    return min(g0, g1, b1, b2) > margin or max(g0, g1, b1, b2) < -margin
+
+
 def _hermite_first_root(g0: float, d0: float, g1: float, d1: float, dt: float,
                         direction: int, floor: float = 0.0,
                         verify: Any = None) -> float | None:
@@ -231,7 +263,11 @@ def _hermite_first_root(g0: float, d0: float, g1: float, d1: float, dt: float,
     at 1e-14 on a degenerate tangency): a crossing counts only from a value beyond it. A crossing
     inside the step with both step ends on the same side (a dip) is confirmed on the true flow by
     ``verify(s, direction)`` at the interpolant's extremum before it counts."""
-    m0, m1 = d0 * dt, d1 * dt
+    # Python floats: the same IEEE operations as on numpy scalars, several times faster
+    g0, g1, dt = float(g0), float(g1), float(dt)
+    m0, m1 = float(d0) * dt, float(d1) * dt
+    if _hermite_one_sign(g0, m0, g1, m1):
+        return None
     # p(s) = c0 + c1 s + c2 s^2 + c3 s^3
     c0, c1 = g0, m0
     c2 = -3 * g0 - 2 * m0 + 3 * g1 - m1
@@ -240,7 +276,7 @@ def _hermite_first_root(g0: float, d0: float, g1: float, d1: float, dt: float,
     if c3 != 0.0:
         disc = c2 * c2 - 3 * c3 * c1
         if disc >= 0:
-            sq = np.sqrt(disc)
+            sq = math.sqrt(disc)
             knots += sorted(s for s in ((-c2 - sq) / (3 * c3), (-c2 + sq) / (3 * c3))
                             if 0.0 < s < 1.0)
     elif c2 != 0.0:
@@ -248,28 +284,37 @@ def _hermite_first_root(g0: float, d0: float, g1: float, d1: float, dt: float,
         if 0.0 < s < 1.0:
             knots.append(s)
     knots.append(1.0)
-
-    def p(s: float) -> float:
-        return c0 + s * (c1 + s * (c2 + s * c3))
-
-    vals = [p(s) for s in knots]
-    vals[0] = g0 if g0 != 0.0 else (0.0 if m0 == 0 else np.sign(m0) * 1e-300)
-    pairs = list(zip(knots, vals, strict=True))
-    for (sa, va), (sb, vb) in zip(pairs[:-1], pairs[1:], strict=True):
-        if direction < 0 and va > floor and vb <= -floor * (sb < 1.0) \
+    vals = [c0 + s * (c1 + s * (c2 + s * c3)) for s in knots]
+    vals[0] = g0 if g0 != 0.0 else (0.0 if m0 == 0 else float(np.sign(m0)) * 1e-300)
+    falling = direction < 0
+    for k in range(len(knots) - 1):
+        sa, va, sb, vb = knots[k], vals[k], knots[k + 1], vals[k + 1]
+        if falling and va > floor and vb <= -floor * (sb < 1.0) \
                 or direction > 0 and va < -floor and vb >= floor * (sb < 1.0):
             if sb < 1.0 and verify is not None and not verify(sb, direction):
                 # a dip of the interpolant that the true flow does not make
                 continue
+            # bisection on the interpolant (p inlined: the same operations)
             lo, hi = sa, sb
             for _ in range(60):
                 mid = 0.5 * (lo + hi)
-                if (p(mid) > 0) == (direction < 0):
+                if (c0 + mid * (c1 + mid * (c2 + mid * c3)) > 0) == falling:
                     lo = mid
                 else:
                     hi = mid
             return hi
     return None
+
+
+def _quadratic_roots(p0: float, p1: float, p2: float) -> np.ndarray:
+    """``np.roots([p0, p1, p2])`` for ``p0 != 0`` and ``p2 != 0`` (no zero to strip): the
+    eigenvalues of the same companion matrix by the same LAPACK call, without ``np.roots``'s
+    general bookkeeping (the same values to the last bit)."""
+    p = np.array([p0, p1, p2], dtype=float)
+    A = np.zeros((2, 2))
+    A[1, 0] = 1.0
+    A[0, :] = -p[1:] / p[0]
+    return np.linalg.eigvals(A)
 
 
 @dataclass
@@ -324,9 +369,10 @@ class Simulator:
 
     # ------------------------------------------------------------------ helpers
     def _step(self, mode: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
+        """One Runge-Kutta step of length ``dt`` from ``Y`` in state ``mode``: ``(Y_new, err,
+        err3, probe, field[, J])`` at the step end (views into one fresh array)."""
         key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
-        f = self.calls.steps[key][1 if jac else 0]
-        flat = f(Y, dt).ravel()
+        flat = self.calls.steps[key][1 if jac else 0].flat(Y, dt)
         m = Y.size
         npr = 6 if key == "ext" else 4
         i1, i2, i3, i4, i5 = m, 2 * m, 3 * m, 3 * m + npr, 4 * m + npr
@@ -335,17 +381,23 @@ class Simulator:
             return (*parts, flat[i5:].reshape(m, m, order="F"))
         return parts
 
+    def _step_probe(self, mode: str, Y: np.ndarray, dt: float) -> np.ndarray:
+        """The probe (``H, v, a, jerk[, h, h']``) after one step of length ``dt`` from ``Y``:
+        ``self._step(mode, Y, dt, False)[3]``, without splitting the other outputs."""
+        key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
+        return self.calls.steps[key][2].flat(Y, dt)
+
     def _field(self, mode: str, Y: np.ndarray) -> np.ndarray:
         if mode in EXTENDED:
-            return self.calls.fe(Y).ravel()
+            return self.calls.fe.flat(Y)
         if mode == S4:
-            return self.calls.fs(Y).ravel()
-        return self.calls.f(Y).ravel()
+            return self.calls.fs.flat(Y)
+        return self.calls.f.flat(Y)
 
     def _probe(self, mode: str, Y: np.ndarray) -> np.ndarray:
         if mode in EXTENDED:
-            return self.calls.probe_e(Y).ravel()
-        return self.calls.probe(Y).ravel()
+            return self.calls.probe_e.flat(Y)
+        return self.calls.probe.flat(Y)
 
     def _err_norm(self, Y: np.ndarray, Yn: np.ndarray, err: np.ndarray, err3: np.ndarray,
                   dt: float) -> float:
@@ -450,12 +502,23 @@ class Simulator:
             raise SimulationError(f"more than {o.max_events} events (t = {w.t:.6g})")
 
     def _attempt(self, w: _Walk, dt: float) -> tuple[Any, ...] | None:
-        """One Runge-Kutta step of length ``dt`` under error control: its outputs, or None
-        (rejected; ``w.h`` shrunk)."""
-        outs = self._step(w.mode, w.Y, dt, w.J is not None)
+        """One Runge-Kutta step of length ``dt`` under error control: its outputs
+        ``(Y_new, err, err3, probe, field, J or None, error norm)``, or None (rejected; ``w.h``
+        shrunk).
+
+        In a chattering flight (``s5``, ``s6``) nearly every step ends at an event (the turn of
+        ``v``, the next impact), whose sensitivities come from the step to the event
+        (:meth:`_refine`): the step's Jacobian (four times the cost of the step) is then left
+        to :meth:`_accept`, which evaluates it only for a step taken whole (the same
+        ``Y_new``: both are the same CasADi expressions, ``tests/test_speed_chatter_step.py``).
+        """
+        jac = w.J is not None and w.mode not in EXTENDED
+        outs = self._step(w.mode, w.Y, dt, jac)
+        if not jac:
+            outs = (*outs, None)
         Yn = outs[0].ravel()
         en = self._err_norm(w.Y, Yn, outs[1], outs[2], dt)
-        if not np.isfinite(en) or not np.all(np.isfinite(Yn)):
+        if not math.isfinite(en) or not np.isfinite(Yn).all():
             w.h = dt * 0.2
             if w.h < 1e-15 * (1 + abs(w.t)):
                 raise SimulationError(f"non-finite state at t = {w.t:.6g}")
@@ -478,7 +541,7 @@ class Simulator:
         forcing clock moves, ``a = cos(phase)``) it is zero, the step grows fivefold per step,
         and a step spanning a whole oscillation of ``a`` would hide the release (the
         stroboscopic oscillator at omega ~ 0.357 then stuck to the wall for ever)."""
-        mid = np.asarray(self._step(w.mode, w.Y, 0.5 * dt, False)[3], dtype=float).ravel()
+        mid = self._step_probe(w.mode, w.Y, 0.5 * dt)
         prn = outs[3].ravel()
         for idx, _direction, _name in WATCH[w.mode]:
             g0, d0, g1, d1 = w.pr[idx], w.pr[idx + 1] * dt, prn[idx], prn[idx + 1] * dt
@@ -493,18 +556,22 @@ class Simulator:
                         ) -> tuple[float, str, int, int] | None:
         """First watched crossing in the step (cubic Hermite, both roots of a dip):
         ``(s, name, index, direction)`` with ``s`` the fraction of the step, or None."""
-        mode, Y, pr = w.mode, w.Y, w.pr
-        prn, Fn, Yn = outs[3].ravel(), outs[4].ravel(), outs[0].ravel()
+        mode, Y = w.mode, w.Y
+        # Python floats: the same arithmetic as on the arrays' elements, faster
+        pr, prn = w.pr.tolist(), outs[3].tolist()
         best: tuple[float, str, int, int] | None = None
+        fdt = float(dt)
         for idx, direction, name in WATCH[mode]:
             # the function that just fired is exactly zero at the step start (its round-off
             # sign must not fire it again): its derivative decides
             g0 = 0.0 if name == w.just else pr[idx]
+            if _hermite_one_sign(g0, pr[idx + 1] * fdt, prn[idx], prn[idx + 1] * fdt):
+                continue  # no crossing (what _hermite_first_root would find first)
             floor = 0.0 if name in ("H", "h") else 1e-13 * (
                 1.0 + abs(pr[idx]) + abs(prn[idx]) + dt * (abs(pr[idx + 1]) + abs(prn[idx + 1])))
 
             def verify(sx: float, d: int, idx: int = idx) -> bool:
-                gv = self._step(mode, Y, sx * dt, False)[3].ravel()[idx]
+                gv = self._step_probe(mode, Y, sx * dt)[idx]
                 return gv < 0 if d < 0 else gv > 0
 
             s = _hermite_first_root(g0, pr[idx + 1], prn[idx], prn[idx + 1], dt, direction,
@@ -513,7 +580,7 @@ class Simulator:
                 best = (s, name, idx, direction)
         if section is not None and w.t + dt > t_min_section:
             k, val, sd = section
-            s = _hermite_first_root(Y[k] - val, w.F[k], Yn[k] - val, Fn[k], dt, sd)
+            s = _hermite_first_root(Y[k] - val, w.F[k], outs[0][k] - val, outs[4][k], dt, sd)
             if s is not None and (best is None or s < best[0]):
                 best = (s, "section", k, sd)
         return best
@@ -523,7 +590,8 @@ class Simulator:
         Yn, prn, Fn, en = outs[0].ravel(), outs[3].ravel(), outs[4].ravel(), outs[-1]
         w.just = None
         if w.J is not None:
-            w.J = outs[5] @ w.J
+            Jstep = outs[5] if outs[5] is not None else self._step(w.mode, w.Y, dt, True)[5]
+            w.J = Jstep @ w.J
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
         w.Y, w.pr, w.F = Yn, prn, Fn
         w.t += dt
@@ -543,12 +611,20 @@ class Simulator:
         a, b = Y0[:n], Y1[:n]
         np.minimum(w.lo, np.minimum(a, b), out=w.lo)
         np.maximum(w.hi, np.maximum(a, b), out=w.hi)
+        # the slopes' signs in Python floats first (the same products as on the arrays): most
+        # steps have no component turning inside them
+        fdt = float(dt)
+        turning = [i for i, (f0, f1) in enumerate(zip(F0[:n].tolist(), F1[:n].tolist(),
+                                                     strict=True))
+                   if (f0 * fdt) * (f1 * fdt) < 0]
+        if not turning:
+            return
         m0, m1 = F0[:n] * dt, F1[:n] * dt
-        for i in np.nonzero(m0 * m1 < 0)[0]:
+        for i in turning:
             # p(s) = a + m0 s + c2 s^2 + c3 s^3 on [0, 1]; p'(s) = 0 between the ends
             c2 = -3 * a[i] - 2 * m0[i] + 3 * b[i] - m1[i]
             c3 = 2 * a[i] + m0[i] - 2 * b[i] + m1[i]
-            roots = np.roots([3 * c3, 2 * c2, m0[i]]) if c3 != 0 else np.array(
+            roots = _quadratic_roots(3 * c3, 2 * c2, m0[i]) if c3 != 0 else np.array(
                 [-m0[i] / (2 * c2)] if c2 != 0 else [])
             for r in roots:
                 if abs(r.imag) < 1e-14 and 0.0 < r.real < 1.0:
@@ -627,8 +703,10 @@ class Simulator:
         w.record()
         w.mode = newmode
         w.just = name
-        w.pr = self._probe(newmode, w.Y)
-        w.F = self._field(newmode, w.Y)
+        key = "ext" if newmode in EXTENDED else ("stick" if newmode == S4 else "free")
+        both = self.calls.probe_field[key].flat(w.Y)
+        npr = 6 if key == "ext" else 4
+        w.pr, w.F = both[:npr], both[npr:]
         if newmode in EXTENDED and name in ("H", "h"):
             # next flight lasts about 2u/|a| (constant acceleration)
             u, a = w.Y[self.c.N + 1], w.pr[2]
@@ -665,25 +743,40 @@ class Simulator:
         ``g(tau)`` is the watched function after one RK step of length ``tau`` from ``Y`` (under
         error control, since ``tau <= dt``); ``g'(tau)`` its exact time derivative there."""
         sens = self.o.sensitivities
-
-        def gval(tau: float) -> tuple[float, float, Any]:
-            out = self._step(mode, Y, tau, False)
-            Yt, prt, Ft = out[0].ravel(), out[3].ravel(), out[4].ravel()
-            if name == "section":
-                return Yt[idx] - section[1], Ft[idx], (Yt, prt, Ft)
-            return prt[idx], prt[idx + 1], (Yt, prt, Ft)
-
+        key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
+        m = Y.size
+        off = 0.0
+        if name == "section":
+            # the state and the field after the step
+            step = self.calls.steps[key][0].flat
+            ig, idg = idx, 3 * m + (6 if key == "ext" else 4) + idx
+            off = section[1]
+        else:
+            # the probe after the step: the watched function and its time derivative
+            step = self.calls.steps[key][2].flat
+            ig, idg = idx, idx + 1
         lo, hi = 0.0, dt
         tau = tau0
-        for _ in range(30):
-            g, dg, _ = gval(tau)
+        # the iteration is a function of tau alone: once an iterate repeats (Newton jittering
+        # on the round-off of g), the iterate the loop would end on is known from the cycle
+        seen: dict[float, int] = {}
+        taus: list[float] = []
+        for k in range(REFINE_ITERATIONS):
+            i = seen.get(tau)
+            if i is not None:
+                tau = taus[i + (REFINE_ITERATIONS - i) % (k - i)]
+                break
+            seen[tau] = k
+            taus.append(tau)
+            flat = step(Y, tau)
+            g, dg = (flat[ig] - off if name == "section" else flat[ig]), flat[idg]
             if g == 0.0:
                 break
-            step = -g / dg if dg != 0.0 else 0.0
-            new = tau + step
+            step_ = -g / dg if dg != 0.0 else 0.0
+            new = tau + step_
             # keep inside the step; bisect towards the Hermite root otherwise
-            if not (0.0 < new <= dt) or not np.isfinite(new):
-                new = 0.5 * (tau + (lo if step < 0 else hi))
+            if not (0.0 < new <= dt) or not math.isfinite(new):
+                new = 0.5 * (tau + (lo if step_ < 0 else hi))
             if abs(new - tau) <= 4e-16 * max(1.0, tau) + 1e-300:
                 tau = new
                 break
@@ -777,7 +870,8 @@ class Simulator:
         R, Rx, _v, _r = self.calls.impact(X)
         Xp = R.ravel()
         Jp = None if JX is None else Rx @ JX
-        vplus = self.calls.vgrad(Xp)[0].item()
+        v_plus, v_grad = self.calls.vgrad(Xp)
+        vplus = v_plus.item()
         if mode == S2:
             events.append(SimEvent("impact", t, X[: c.n].copy(),
                                    {"v": q["v"], "a": a,
@@ -797,7 +891,7 @@ class Simulator:
                 return S4, Xs, Js, Jt, t, info
             return S3, Xp, Jp, Jt, t, info
         if a < 0:                                                         # III, VII
-            v_row = self.calls.vgrad(Xp)[1].ravel()
+            v_row = v_grad.ravel()
             Ye = np.concatenate([Xp, [0.0, vplus]])
             Je = None
             if Jp is not None:
@@ -825,7 +919,8 @@ class Simulator:
         if sens:
             jac = np.vstack([Q1x @ JX, (Jt + q1x.ravel() @ JX)[None, :]])
             rj = rx.ravel() @ JX
-        seq.append((val, jac, r.item(), rj))
+        # the last slot memoises this impact's extrapolated values (_extrapolate)
+        seq.append([val, jac, r.item(), rj, {}])
         count = len(seq)
         if o.chatter == "cut":
             if count < o.cut_after:
@@ -844,8 +939,9 @@ class Simulator:
         value, vjac, prev, _ = _extrapolate(seq[-(m + 1):], m)
         rr = seq[-2][2]
         w = rr ** (m + 1)
-        scale = 1.0 + float(np.linalg.norm(value[:N], np.inf))
-        err = float(np.linalg.norm(value - prev, np.inf)) * w / (1.0 - w) / scale
+        # max norms (what np.linalg.norm(., inf) computes for a vector)
+        scale = 1.0 + float(np.abs(value[:N]).max())
+        err = float(np.abs(value - prev).max()) * w / (1.0 - w) / scale
         if count == m + 1:
             self._errs = []
         self._errs.append(err)
@@ -889,25 +985,34 @@ def _extrapolate(entries: list[Any], m: int) -> tuple[np.ndarray, Any, np.ndarra
 
     Returns the order-``m`` value at the last impact and at the one before (for the error
     estimate), with the Jacobian of the former (the weights' dependence on ``r(x)`` included).
-    """
-    vals = [e[0] for e in entries]
-    jacs = [e[1] for e in entries]
-    rs = [e[2] for e in entries]
-    rjs = [e[3] for e in entries]
-    for j in range(1, m):
-        nv, nj = [], []
-        for i in range(1, len(vals)):
-            r = rs[i - 1]
-            w = r ** (j + 1)
-            v = (vals[i] - w * vals[i - 1]) / (1.0 - w)
-            nv.append(v)
-            if jacs[i] is not None:
-                dw = (j + 1) * r ** j * rjs[i - 1]
-                jj = (jacs[i] - w * jacs[i - 1]) / (1.0 - w) + np.outer(
-                    (vals[i] - vals[i - 1]) / (1.0 - w) ** 2, dw)
-                nj.append(jj)
-            else:
-                nj.append(None)
-        vals, jacs = nv, nj
-        rs, rjs = rs[1:], rjs[1:]
-    return vals[-1], jacs[-1], vals[-2], None
+
+    Entry ``k`` is ``(value, Jacobian, r, dr/dX0[, memo])``. Level ``j`` at entry ``k``,
+    ``L_j(k) = (L_{j-1}(k) - w L_{j-1}(k-1)) / (1 - w)`` with ``w = r_{k-1}^(j+1)``, depends on
+    entries ``k - j ... k`` only, not on the window: an entry's ``memo`` dict keeps its levels,
+    so each impact of a sequence computes its own levels once (the same operations, the same
+    values as the whole tableau)."""
+
+    def level(i: int, j: int) -> tuple[np.ndarray, Any]:
+        e = entries[i]
+        if j == 0:
+            return e[0], e[1]
+        memo = e[4] if len(e) > 4 else None
+        if memo is not None and j in memo:
+            return memo[j]
+        v1, j1 = level(i, j - 1)
+        v0, j0 = level(i - 1, j - 1)
+        r, rj = entries[i - 1][2], entries[i - 1][3]
+        w = r ** (j + 1)
+        v = (v1 - w * v0) / (1.0 - w)
+        jj = None
+        if j1 is not None:
+            dw = (j + 1) * r ** j * rj
+            jj = (j1 - w * j0) / (1.0 - w) + np.outer((v1 - v0) / (1.0 - w) ** 2, dw)
+        if memo is not None:
+            memo[j] = (v, jj)
+        return v, jj
+
+    n = len(entries)
+    value, vjac = level(n - 1, m - 1)
+    prev, _ = level(n - 2, m - 1)
+    return value, vjac, prev, None

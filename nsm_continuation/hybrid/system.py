@@ -214,7 +214,8 @@ class HybridSystem:
         P = self._sticking_projection(X, H, v, W, r)
         probe = ca.vertcat(H, v, a, jerk)
         grads = ca.vertcat(ca.jacobian(H, X), ca.jacobian(v, X), ca.jacobian(a, X))
-        fF, fFs, fFe, probe_e, Xe, steps = _step_functions(X, F, Fs, v, probe, method)
+        fF, fFs, fFe, probe_e, Xe, steps, probe_field = _step_functions(X, F, Fs, v, probe,
+                                                                         method)
         return CompiledHybrid(
             system=self, n=self.n, N=int(X.numel()), free=list(free), method=method,
             order=TABLEAUS[method]()[5],
@@ -229,7 +230,8 @@ class HybridSystem:
             chatter=ca.Function("chatter", [X], [Q1, q1, ca.jacobian(Q1, X),
                                                  ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
             project=ca.Function("project", [X], [P, ca.jacobian(P, X)]),
-            steps=steps, values={k: float(v) for k, v in values.items()},
+            steps=steps, probe_field=probe_field,
+            values={k: float(v) for k, v in values.items()},
         )
 
     def _check_values(self, values: dict[str, float], free: Sequence[str], method: str) -> None:
@@ -273,7 +275,8 @@ def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, metho
                     ) -> tuple[Any, ...]:
     """The fields ``F``, ``F'`` and the scaled extended field of sec. 4.3, eq. (44)
     (``(X, h, u)``, ``h' = v/u``, ``u' = 0``), with one Runge-Kutta step of each and its exact
-    Jacobian: ``(fF, fFs, fFe, probe_e, Xe, steps)``."""
+    Jacobian: ``(fF, fFs, fFe, probe_e, Xe, steps, probe_field)``; ``probe_field[key]`` gives
+    the probe and the field of ``key`` at a state in one call."""
     hs, us = ca.SX.sym("h"), ca.SX.sym("u")
     Xe = ca.vertcat(X, hs, us)
     Fe = ca.vertcat(F, v / us, 0)
@@ -283,20 +286,27 @@ def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, metho
     fFe = ca.Function("Fe", [Xe], [Fe])
     dt = ca.SX.sym("dt")
     steps = {}
+    probe_field = {}
     for key, f, Y, pr in (("free", fF, X, probe), ("stick", fFs, X, probe),
                           ("ext", fFe, Xe, probe_e)):
+        probe_field[key] = ca.Function(f"probe_field_{key}", [Y], [ca.vertcat(pr, f(Y))])
         Yn, err, err3 = rk_step(f, Y, dt, method)
         fields = f(Yn)
         prn = ca.substitute([pr], [Y], [Yn])[0]
         J = ca.jacobian(Yn, Y)
         # one flat output per call (a single DM -> numpy conversion): Yn, err, err3, probe,
-        # field, vec(J) (column-major); split by Simulator._step
+        # field, vec(J) (column-major); split by Simulator._step. The third Function is the
+        # probe alone (the event iterations of Simulator._refine need nothing else; 15 % fewer
+        # instructions than the whole step). Common-subexpression elimination (``cse``) would
+        # save another 5-13 %, but it costs 0.3 s per build, as much as it saves in the
+        # 204-point continuation of benchmarks/bench_chatter.py
         steps[key] = (
             ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
             ca.Function(f"stepJ_{key}", [Y, dt],
                         [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
+            ca.Function(f"stepP_{key}", [Y, dt], [prn]),
         )
-    return fF, fFs, fFe, probe_e, Xe, steps
+    return fF, fFs, fFe, probe_e, Xe, steps, probe_field
 
 
 @dataclass(frozen=True)
@@ -310,11 +320,15 @@ class HybridCalls:
     probe: BufferedFunction
     probe_e: BufferedFunction
     grads: BufferedFunction
+    quantities: BufferedFunction
     impact: BufferedFunction
     vgrad: BufferedFunction
     chatter: BufferedFunction
     project: BufferedFunction
-    steps: dict[str, tuple[BufferedFunction, BufferedFunction]]
+    #: per field (free, stick, ext): the step, the step with its Jacobian, the probe after it
+    steps: dict[str, tuple[BufferedFunction, BufferedFunction, BufferedFunction]]
+    #: per field: the probe and the field at a state, in one vector
+    probe_field: dict[str, BufferedFunction]
 
 
 @dataclass
@@ -344,7 +358,9 @@ class CompiledHybrid:
     jump: ca.Function
     chatter: ca.Function
     project: ca.Function
-    steps: dict[str, tuple[ca.Function, ca.Function]]
+    steps: dict[str, tuple[ca.Function, ca.Function, ca.Function]]
+    #: per field (free, stick, ext): ``vertcat(probe, field)`` at a state
+    probe_field: dict[str, ca.Function] = field(default_factory=dict)
     values: dict[str, float] = field(default_factory=dict)
     _calls: HybridCalls | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -356,15 +372,17 @@ class CompiledHybrid:
                 f=BufferedFunction(self.f), fs=BufferedFunction(self.fs),
                 fe=BufferedFunction(self.fe), probe=BufferedFunction(self.probe),
                 probe_e=BufferedFunction(self.probe_e), grads=BufferedFunction(self.grads),
+                quantities=BufferedFunction(self.quantities),
                 impact=BufferedFunction(self.impact), vgrad=BufferedFunction(self.vgrad),
                 chatter=BufferedFunction(self.chatter), project=BufferedFunction(self.project),
-                steps={k: (BufferedFunction(a), BufferedFunction(b))
-                       for k, (a, b) in self.steps.items()})
+                steps={k: tuple(BufferedFunction(f) for f in fs)  # type: ignore[misc]
+                       for k, fs in self.steps.items()},
+                probe_field={k: BufferedFunction(f) for k, f in self.probe_field.items()})
         return self._calls
 
     def q(self, X: np.ndarray) -> dict[str, float]:
         """``H, v, a, r, lambda, L_W H`` at ``X`` as floats."""
-        vals = np.asarray(self.quantities(X), dtype=float).ravel()
+        vals = self.calls().quantities.flat(X)
         return dict(zip(("H", "v", "a", "r", "lam", "LWH"), vals.tolist(), strict=True))
 
     def validate_at(self, X: np.ndarray, where: str,
@@ -381,7 +399,7 @@ class CompiledHybrid:
                 f"{self.system.name}: restitution r = {qv['r']:.6g} {where}; the chatter map "
                 "needs 0 <= r < 1 (eq. 9, sec. 3)")
         # W tangent to {H = 0} where v = 0 (sec. 2.4): L_W H must vanish on the surface
-        scale = 1.0 + float(np.linalg.norm(np.asarray(self.f(X), dtype=float)))
+        scale = 1.0 + float(np.linalg.norm(self.calls().f.flat(X)))
         if abs(qv["LWH"]) > 1e-9 * scale:
             raise HybridDeclarationError(
                 f"{self.system.name}: W is not tangent to the impact surface (L_W H = "
