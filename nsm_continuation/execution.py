@@ -179,17 +179,6 @@ def seed_piece_task(raw_case: dict[str, Any], piece: Any) -> tuple[Any, float]:
 PIECES_PER_WORKER = 8
 
 
-def _end_a_reimport() -> None:
-    """In a worker process of a local cluster that is still importing the script that starts
-    the cluster (no ``if __name__ == "__main__":`` guard; multiprocessing's own test for it):
-    end it quietly (``SystemExit``), the script's own process says why its cluster did not
-    start. Called before anything is computed or started."""
-    import multiprocessing
-
-    if getattr(multiprocessing.current_process(), "_inheriting", False):
-        raise SystemExit(1)
-
-
 def start_client(execution: Execution) -> tuple[Any, Any]:
     """A ``dask.distributed`` client for ``execution`` and the local cluster it started
     (``None`` for an existing ``scheduler``): ``workers`` single-threaded worker processes,
@@ -226,7 +215,13 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
         except (OSError, TimeoutError) as exc:  # nothing listening, or not a scheduler
             raise CaseError(f"execution.scheduler (--scheduler): no Dask scheduler answers at "
                             f"{execution.scheduler} ({one_line(str(exc))})") from None
-    _end_a_reimport()
+    import multiprocessing
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # a worker process of the cluster this script is starting, still importing the
+        # script (no `if __name__ == "__main__":` guard; multiprocessing's own test for it):
+        # end it quietly, the script's own process says why its cluster did not start
+        raise SystemExit(1)
     # one thread per worker, BLAS included: N workers on N cores, not N x (BLAS threads)
     one = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
     pre_spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ",
@@ -369,7 +364,6 @@ class DaskSession:
         ``done_callback(index, future)`` is called as each task finishes."""
         out: list[Any] = []
         if self.execution.scheduler is None:
-            _end_a_reimport()
             self.begin()
             while len(out) < len(tasks) and not self.ready:
                 out.append(LocalResult(tasks[len(out)]))
@@ -378,10 +372,6 @@ class DaskSession:
                     done_callback(len(out) - 1, out[-1])
                 if poll is not None:
                     poll()
-        # the cluster must have started, even when this process computed every task: the
-        # run fails when it does not (e.g. a script without the main guard), whoever was
-        # faster
-        self.client  # noqa: B018 - waits for the start, raises why it failed
         first = len(out)
         out += [self.submit(t.fn, *t.args, key=t.key) for t in tasks[first:]]
         index = {id(f): i for i, f in enumerate(out)}

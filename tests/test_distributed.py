@@ -129,31 +129,6 @@ def test_the_master_computes_the_first_tasks_while_the_cluster_starts(
     assert 3 <= timings["dask_tasks_here"] == Counted.count < timings["dask_branch_tasks"]
 
 
-def test_a_cluster_that_fails_to_start_fails_the_run_even_if_the_master_did_all(
-        monkeypatch: Any) -> None:
-    """The local cluster's start fails after this process has computed every task itself:
-    the run still fails, with the start's reason (the outcome does not depend on which was
-    faster; e.g. a script without the main guard, whose workers end at import)."""
-    from nsm_continuation import execution
-
-    done: list[int] = []
-
-    class Counted(execution.LocalResult):
-        def __init__(self, task: Any) -> None:
-            super().__init__(task)
-            done.append(1)
-
-    def failing_start(ex: Any) -> Any:
-        _wait_for(lambda: len(done) >= 12)  # every branch of CASE computed here
-        raise RuntimeError("the local Dask cluster of 2 workers did not start (test)")
-
-    monkeypatch.setattr(execution, "start_client", failing_start)
-    monkeypatch.setattr(execution, "LocalResult", Counted)
-    with pytest.raises(RuntimeError, match="did not start"):
-        nsm.run(CASE, workers=2)
-    assert len(done) == 12
-
-
 def test_a_task_computed_here_fails_as_on_a_worker() -> None:
     """A task the master computes: its exception is kept and raised by ``result()`` (the
     merge records it on the branch, as a worker's); a signal (``BaseException``) is not a
