@@ -39,11 +39,10 @@ whose workers need this package (and any plugin problem) installed.
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from .records import Branch
@@ -126,25 +125,18 @@ def _numeric(counters: dict[str, Any]) -> dict[str, float]:
 
 def branch_task(raw_case: dict[str, Any], index: int, branch_id: int,
                 explicit: list[Any] | None, problem_class: type | None = None,
-                restart: tuple[Any, Any, Any] | None = None, piece: int | None = None,
-                tick: Callable[[int], None] | None = None
+                restart: tuple[Any, Any, Any] | None = None, piece: int | None = None
                 ) -> tuple[Any, float, dict[str, Any], Any]:
     """One task: the branch of seed ``index`` (of the case's starts, or of ``explicit`` start
     points), or its piece ``piece`` (:meth:`~nsm_continuation.algorithms.Algorithm.
     branch_pieces`), with its wall time, what it added to the algorithm's counters and the
-    algorithm's :meth:`~nsm_continuation.algorithms.Algorithm.task_state`. ``tick``: called
-    after every point (the master's signal poll when it runs the task itself,
-    :meth:`DaskSession.map`)."""
+    algorithm's :meth:`~nsm_continuation.algorithms.Algorithm.task_state`."""
     algorithm, seeds = _prepared(raw_case, explicit, problem_class, restart)
     before = _numeric(algorithm.counters())
     algorithm.begin_task()
     t0 = time.perf_counter()
-    algorithm.progress = tick
-    try:
-        branch = (algorithm.run_branch(seeds[index], branch_id=branch_id) if piece is None
-                  else algorithm.run_piece(seeds[index], piece))
-    finally:
-        algorithm.progress = None
+    branch = (algorithm.run_branch(seeds[index], branch_id=branch_id) if piece is None
+              else algorithm.run_piece(seeds[index], piece))
     dt = time.perf_counter() - t0
     state = algorithm.task_state()
     after = _numeric(algorithm.counters())
@@ -243,107 +235,33 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     return Client(cluster), cluster
 
 
-@dataclass
-class Task:
-    """One call of a distributed phase: ``fn(*args)`` on a worker, keyed ``key``; run by the
-    master itself (:meth:`DaskSession.map`), ``fn(*args, **local)``."""
-
-    fn: Callable[..., Any]
-    args: tuple[Any, ...]
-    key: str
-    local: dict[str, Any] = field(default_factory=dict)
-
-
-class LocalResult:
-    """A task the master computed itself, with the interface of a finished Dask future that
-    :func:`run_distributed` reads (``result``, ``done``, ``status``, ``cancel``): its value,
-    or the exception it raised (raised again by :meth:`result`)."""
-
-    def __init__(self, task: Task) -> None:
-        self._value: Any = None
-        self._error: Exception | None = None
-        try:
-            self._value = task.fn(*task.args, **task.local)
-        except Exception as exc:  # noqa: BLE001 - the task's failure, as a worker's would be
-            self._error = exc
-        self.status = "error" if self._error is not None else "finished"
-
-    def result(self) -> Any:
-        if self._error is not None:
-            raise self._error
-        return self._value
-
-    def done(self) -> bool:
-        return True
-
-    def cancel(self) -> None:
-        return None
-
-
 class DaskSession:
     """The Dask client of one run, started on first use (:func:`start_client`): the phases of
     a run that have parallel work (the seed search's pieces, the branches, each generation
     of a bifurcation diagram) share one cluster, and a run without any starts none.
-    ``futures`` collects what was submitted, for :meth:`cancel`.
-
-    A local cluster is started in a background thread by :meth:`map` (its worker processes
-    take ~1 s to import Python, NumPy, CasADi and this package): meanwhile this process
-    computes the phase's first tasks itself, the same calls with the same results."""
+    ``futures`` collects what was submitted, for :meth:`cancel`."""
 
     def __init__(self, execution: Execution) -> None:
         self.execution = execution
         self.futures: list[Any] = []
         #: seconds spent connecting, or starting the local cluster (0 until used)
         self.start_s = 0.0
-        #: tasks this process computed while the local cluster was starting
-        self.local_tasks = 0
         self._client: Any = None
         self._cluster: Any = None
-        self._starting: threading.Thread | None = None
-        self._start_error: BaseException | None = None
-
-    def _start(self) -> None:
-        t0 = time.perf_counter()
-        try:
-            self._client, self._cluster = start_client(self.execution)
-        except BaseException as exc:  # noqa: BLE001 - raised again by ``client``
-            self._start_error = exc
-        self.start_s = time.perf_counter() - t0
-
-    def begin(self) -> None:
-        """Start the client in a background thread (nothing if it is started or starting)."""
-        if self._client is None and self._starting is None:
-            self._starting = threading.Thread(target=self._start, name="nsm-dask-start",
-                                              daemon=True)
-            self._starting.start()
-
-    @property
-    def ready(self) -> bool:
-        """The client is started (or its start failed: :attr:`client` raises why)."""
-        return self._client is not None or (self._starting is not None
-                                            and not self._starting.is_alive())
 
     @property
     def client(self) -> Any:
-        if self._starting is not None:
-            self._starting.join()
-            self._starting = None
-        if self._start_error is not None:
-            error, self._start_error = self._start_error, None
-            raise error
         if self._client is None:
-            self._start()
-            return self.client
+            t0 = time.perf_counter()
+            self._client, self._cluster = start_client(self.execution)
+            self.start_s = time.perf_counter() - t0
         return self._client
 
     @property
     def started(self) -> bool:
-        return self._client is not None or self._starting is not None
+        return self._client is not None
 
     def n_workers(self) -> int:
-        """The local cluster's size, or the existing cluster's (connecting to it)."""
-        if self.execution.workers:
-            return int(self.execution.workers)
         return _n_workers(self.client, self.execution)
 
     def submit(self, fn: Callable[..., Any], *args: Any, key: str) -> Any:
@@ -354,39 +272,11 @@ class DaskSession:
         self.futures.append(future)
         return future
 
-    def map(self, tasks: list[Task], poll: Callable[[], None] | None,
-            done_callback: Callable[[int, Any], None] | None = None) -> list[Any]:
-        """Every task, in order, as a finished future (or :class:`LocalResult`): while a
-        local cluster is starting, this process computes the next task itself (an existing
-        cluster, ``scheduler``, gets them all: its workers' libraries may round differently
-        from this process's, and a result must not depend on who computed it); the others
-        are submitted once it has started, and waited for (:func:`wait_all`, with ``poll``).
-        ``done_callback(index, future)`` is called as each task finishes."""
-        out: list[Any] = []
-        if self.execution.scheduler is None:
-            self.begin()
-            while len(out) < len(tasks) and not self.ready:
-                out.append(LocalResult(tasks[len(out)]))
-                self.local_tasks += 1
-                if done_callback is not None:
-                    done_callback(len(out) - 1, out[-1])
-                if poll is not None:
-                    poll()
-        first = len(out)
-        out += [self.submit(t.fn, *t.args, key=t.key) for t in tasks[first:]]
-        index = {id(f): i for i, f in enumerate(out)}
-        wait_all(out[first:], poll, None if done_callback is None
-                 else lambda f: done_callback(index[id(f)], f))
-        return out
-
     def cancel(self) -> None:
         for f in self.futures:
             f.cancel()
 
     def close(self) -> None:
-        if self._starting is not None:  # a cluster still starting is closed once started
-            self._starting.join()
-            self._starting = None
         if self._client is not None:
             self._client.close()
         if self._cluster is not None:
@@ -478,40 +368,38 @@ def search_seeds_distributed(session: DaskSession, raw_case: dict[str, Any], alg
     raises here (as the serial search would: a ``ValueError`` is a failed start).
 
     Returns timings for ``report.json``: ``seed_pieces`` (how many), ``seed_pieces_s`` (each
-    on its worker), ``seed_pieces_here`` (how many this process computed while the local
-    cluster started, :meth:`DaskSession.map`), ``seed_cluster_start_s`` (connecting, or
-    starting the local cluster), ``seed_pieces_wall_s`` (from the first submission to the
-    last result adopted), ``seed_adopt_s`` (adopting the results here, in order, while the
-    later pieces compute) and ``seed_search_distributed_s`` (all of it)."""
+    on its worker), ``seed_cluster_start_s`` (connecting, or starting the local cluster),
+    ``seed_pieces_wall_s`` (from the first submission to the last result adopted),
+    ``seed_adopt_s`` (adopting the results here, in order, while the later pieces compute)
+    and ``seed_search_distributed_s`` (all of it)."""
     if not algorithm.seed_pieces(case_start, window, 1):
         return {}
     t0 = time.perf_counter()
     count = PIECES_PER_WORKER * session.n_workers()
+    t_start = session.start_s
     pieces = algorithm.seed_pieces(case_start, window, count)
     t1 = time.perf_counter()
-    finished: dict[int, Any] = {}
+    futures = [session.submit(seed_piece_task, raw_case, piece, key=f"nsm-seed-piece-{i}")
+               for i, piece in enumerate(pieces)]
     per_piece: list[float] = []
     t_adopt = 0.0
 
-    def adopt_in_order(index: int, future: Any) -> None:
+    def adopt_in_order(_: Any = None) -> None:
         # in piece order (the serial search's), each as soon as it and those before it are
         # done: adopting overlaps with the pieces still computing
         nonlocal t_adopt
-        finished[index] = future
-        while len(per_piece) in finished:
-            result, dt = finished[len(per_piece)].result()  # a piece's error raises here
+        while len(per_piece) < len(futures) and futures[len(per_piece)].done():
+            result, dt = futures[len(per_piece)].result()  # a piece's error raises here
             t2 = time.perf_counter()
             algorithm.adopt_seed_piece(result)
             t_adopt += time.perf_counter() - t2
             per_piece.append(dt)
 
-    local = session.local_tasks
-    session.map([Task(seed_piece_task, (raw_case, piece), f"nsm-seed-piece-{i}")
-                 for i, piece in enumerate(pieces)], poll, adopt_in_order)
+    wait_all(futures, poll, adopt_in_order)
+    adopt_in_order()
     t_wall = time.perf_counter() - t1
     return {"seed_pieces": len(per_piece), "seed_pieces_s": per_piece,
-            "seed_pieces_here": session.local_tasks - local,
-            "seed_cluster_start_s": session.start_s, "seed_pieces_wall_s": t_wall,
+            "seed_cluster_start_s": t_start, "seed_pieces_wall_s": t_wall,
             "seed_adopt_s": t_adopt, "seed_search_distributed_s": time.perf_counter() - t0}
 
 
@@ -527,18 +415,16 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
     counters. ``problem_class``: sent when the problem is not registered (the Python API);
     ``restart``: the case's restart, whose problem the workers build
     (:func:`rebuild_case`)."""
-    def advance(_: int, f: Any) -> None:
+    def advance(f: Any) -> None:
         if progress is not None and f.status == "finished" and isinstance(f.result()[0],
                                                                            Branch):
             progress(f.result()[0].n_points)
 
     pieces = [algorithm.branch_pieces(seed) for seed in seeds]
-    tick = None if poll is None else (lambda _n: poll())
-    tasks = [Task(branch_task, (raw_case, i, i, explicit, problem_class, restart,
-                                None if n == 1 else k), f"nsm-branch-{i}-{k}", {"tick": tick})
-             for i, n in enumerate(pieces) for k in range(n)]
-    done = iter(session.map(tasks, poll, advance))
-    futures = [[next(done) for _ in range(n)] for n in pieces]
+    futures = [[session.submit(branch_task, raw_case, i, i, explicit, problem_class, restart,
+                               None if n == 1 else k, key=f"nsm-branch-{i}-{k}")
+                for k in range(n)] for i, n in enumerate(pieces)]
+    wait_all([f for fs in futures for f in fs], poll, advance)
     results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
     for i, fs in enumerate(futures):
         try:

@@ -212,7 +212,6 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
         timings["total_s"] = time.perf_counter() - t0
     if session is not None and session.started:
         timings["dask_start_s"] = session.start_s
-        timings["dask_tasks_here"] = session.local_tasks
     return result
 
 
