@@ -7,9 +7,12 @@ case is run again with
 * ``max_multiplier_step: 0.1`` and ``1`` (the closing rule kept, as in the defaults),
 * ``max_multiplier_step: 1`` with the closing rule also removed (``palc.krein_closing``
   replaced by one that never refuses: not a setting, a test of the safety net alone),
+* the defaults with the step control before session 9: no cap from the motion ratio on the
+  growth of an accepted step (``palc._motion_capped_step`` replaced),
 
-and each run prints its points, compute time, how many of the reference's crossings it finds
-(same kind on the same branch within 1e-9 in the problem's parameter) and how many of its
+and each run prints its points, step attempts (predictor-corrector calls), compute time, how
+many of the reference's crossings it finds (same kind on the same branch within 1e-9 in the
+problem's parameter) and how many of its
 events were found inside a step (``hidden_in_step``). Cases: the bundled default case (the
 paper's 5-dof chain, branch 1) and Fig. 3.2 (``yaml_cases/ndof_fig3_2_fep.yaml``); with
 ``--n200`` also the 200-dof mode-1 branch of ``bench_chain_large.py`` (about 30 s per run).
@@ -40,11 +43,18 @@ import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation import palc  # noqa: E402
 
 CROSSINGS = ("fold", "period_doubling", "neimark_sacker")
-#: (label, analysis overrides, closing rule kept)
-VARIANTS = (("defaults (max_multiplier_step 0.02)", {}, True),
-            ("max_multiplier_step 0.1", {"max_multiplier_step": 0.1}, True),
-            ("max_multiplier_step 1", {"max_multiplier_step": 1.0}, True),
-            ("max_multiplier_step 1, no closing rule", {"max_multiplier_step": 1.0}, False))
+#: (label, analysis overrides, closing rule kept, steps sized by the motion ratio)
+VARIANTS = (("defaults (max_multiplier_step 0.02)", {}, True, True),
+            ("defaults, growth not capped (before)", {}, True, False),
+            ("max_multiplier_step 0.1", {"max_multiplier_step": 0.1}, True, True),
+            ("max_multiplier_step 1", {"max_multiplier_step": 1.0}, True, True),
+            ("max_multiplier_step 1, no closing rule", {"max_multiplier_step": 1.0}, False,
+             True))
+
+
+def _uncapped(h: float, ratio: float) -> float:
+    """The step control before session 9: no cap on the growth of an accepted step."""
+    return float("inf")
 
 
 def yaml_case(path: Path) -> Callable[[dict[str, Any]], Any]:
@@ -77,19 +87,32 @@ def measure(name: str, case: Callable[[dict[str, Any]], Any], warm: bool = True)
     print(f"\n{name}")
     if warm:
         case({})
-    print(f"  {'step control':42s} {'points':>7s} {'time [s]':>9s} {'crossings':>10s} "
-          f"{'found':>6s} {'hidden':>7s}")
+    print(f"  {'step control':42s} {'points':>7s} {'attempts':>9s} {'time [s]':>9s} "
+          f"{'crossings':>10s} {'found':>6s} {'hidden':>7s}")
     ref: list[tuple[int, str, float]] | None = None
-    for label, analysis, closing in VARIANTS:
-        saved = palc.krein_closing
+    engine = palc.ContinuationEngine
+    predict_correct = engine._predict_correct
+    attempts = [0]
+
+    def counted(self: Any, *args: Any) -> Any:
+        attempts[0] += 1
+        return predict_correct(self, *args)
+
+    for label, analysis, closing, sized in VARIANTS:
+        saved, scaled = palc.krein_closing, palc._motion_capped_step
         if not closing:
             palc.krein_closing = lambda *a, **k: False
+        if not sized:
+            palc._motion_capped_step = _uncapped
+        engine._predict_correct = counted  # type: ignore[method-assign]
+        attempts[0] = 0
         try:
             t0 = time.perf_counter()
             run = case(analysis)
             dt = time.perf_counter() - t0
         finally:
-            palc.krein_closing = saved
+            palc.krein_closing, palc._motion_capped_step = saved, scaled
+            engine._predict_correct = predict_correct  # type: ignore[method-assign]
         got = crossings(run)
         if ref is None:
             ref = got
@@ -99,8 +122,8 @@ def measure(name: str, case: Callable[[dict[str, Any]], Any], warm: bool = True)
         found = sum(any(abs(p - q) <= 1e-9 for q in by_key[(b, k)]) for b, k, p in ref)
         hidden = sum(bool(e.data.get("hidden_in_step")) for b in run.branches
                      for e in b.events if e.kind in CROSSINGS)
-        print(f"  {label:42s} {run.timings['n_points']:7d} {dt:9.2f} {len(got):10d} "
-              f"{found:>3d}/{len(ref):<3d} {hidden:6d}")
+        print(f"  {label:42s} {run.timings['n_points']:7d} {attempts[0]:9d} {dt:9.2f} "
+              f"{len(got):10d} {found:>3d}/{len(ref):<3d} {hidden:6d}")
 
 
 def main() -> None:

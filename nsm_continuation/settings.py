@@ -48,7 +48,7 @@ class ContinuationSettings:
     #: False: every multiplier near the circle is (:func:`palc.multiplier_motion`)
     krein_step_control: bool = True
     krein_fraction: float = 0.25
-    #: at most this many cuts of one step for multiplier motion (then the step is taken and
+    #: at most this many halvings of one step for multiplier motion (then the step is taken and
     #: counted in ``ContinuationEngine.motion_limited_steps``): multipliers that move fast for
     #: any step (near grazing, DF ~ 1/v; dense spectra at large N) must not stall the branch
     max_multiplier_halvings: int = 10

@@ -1,7 +1,7 @@
 """The multiplier-motion step control as a ratio (issue 13, "Krein-aware step control").
 
 A step is refused when its motion ratio exceeds 1 (:meth:`ContinuationEngine._multiplier_motion`);
-the ratio also sizes the next step (:func:`nsm_continuation.palc._motion_scaled_step`), since
+the ratio also caps the next step (:func:`nsm_continuation.palc._motion_capped_step`), since
 displacements grow linearly with a short step. Oracles:
 
 * closed forms of the closing rule (:func:`nsm_continuation.palc.krein_closing`) on sets of
@@ -110,16 +110,15 @@ def _events(result: api.Result) -> list[tuple[str, float]]:
                   key=lambda e: e[1])
 
 
-def test_steps_sized_by_the_ratio_keep_every_event_in_fewer_attempts(
+def test_steps_capped_by_the_ratio_keep_every_event_in_fewer_attempts(
         attempts: list[int], monkeypatch: pytest.MonkeyPatch) -> None:
-    """The default case with the step sized by the motion ratio against plain halving of a
-    refused step (no cap on the growth after an accepted one): the same events, located to
-    their tolerance, in at least 10 % fewer step attempts."""
+    """The default case with the growth of a step capped by the motion ratio against no cap
+    (the rule before): the same events, located to their tolerance, in at least 10 % fewer
+    step attempts."""
     sized = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_sized = attempts[0]
     attempts[0] = 0
-    monkeypatch.setattr(palc, "_motion_scaled_step",
-                        lambda h, ratio, refused: 0.5 * h if refused else np.inf)
+    monkeypatch.setattr(palc, "_motion_capped_step", lambda h, ratio: np.inf)
     halved = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_halved = attempts[0]
     ev_sized, ev_halved = _events(sized), _events(halved)
