@@ -415,10 +415,19 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
     counters. ``problem_class``: sent when the problem is not registered (the Python API);
     ``restart``: the case's restart, whose problem the workers build
     (:func:`rebuild_case`)."""
+    # each finished task's result, fetched once as it finishes (a branch of thousands of
+    # points costs the master its transfer and unpickling; the merge below reuses it)
+    fetched: dict[str, Any] = {}
+
     def advance(f: Any) -> None:
-        if progress is not None and f.status == "finished" and isinstance(f.result()[0],
-                                                                           Branch):
-            progress(f.result()[0].n_points)
+        if f.status != "finished":
+            return
+        try:
+            fetched[f.key] = out = f.result()
+        except Exception:  # noqa: BLE001 - fetched again by the merge, which records why
+            return
+        if progress is not None and isinstance(out[0], Branch):
+            progress(out[0].n_points)
 
     pieces = [algorithm.branch_pieces(seed) for seed in seeds]
     futures = [[session.submit(branch_task, raw_case, i, i, explicit, problem_class, restart,
@@ -428,7 +437,7 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
     results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
     for i, fs in enumerate(futures):
         try:
-            outs = [f.result() for f in fs]
+            outs = [fetched[f.key] if f.key in fetched else f.result() for f in fs]
             if len(outs) == 1:
                 branch, dt, counters, state = outs[0]
             else:  # the branch's pieces, joined as the serial run computes it

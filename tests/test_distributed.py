@@ -65,8 +65,21 @@ def serial() -> Any:
     return nsm.run(CASE)
 
 
-def test_local_cluster_gives_the_serial_result(serial: Any) -> None:
+def test_local_cluster_gives_the_serial_result(serial: Any, monkeypatch: Any) -> None:
+    from distributed import Future
+
+    fetches: dict[str, int] = {}
+    result = Future.result
+
+    def counted(self: Any, *args: Any, **kwargs: Any) -> Any:
+        fetches[self.key] = fetches.get(self.key, 0) + 1
+        return result(self, *args, **kwargs)
+
+    monkeypatch.setattr(Future, "result", counted)
     res = nsm.run(CASE, workers=2)
+    # each branch crosses from its worker to this process once (progress and merge share it)
+    assert len(fetches) == res.run_result.timings["dask_branch_tasks"]
+    assert set(fetches.values()) == {1}
     assert len(serial.run_result.branches) >= 10
     same_branches(serial.run_result.branches, res.run_result.branches)
     assert res.run_result.timings["dask_branch_tasks"] >= 10
