@@ -896,7 +896,7 @@ class ContinuationEngine:
         stops += test_stops
         found += self._event_function_events(a, b, history)
         if self.settings.detect_bifurcations:
-            found += self._bifurcation_events(a, b)
+            found += self._bifurcation_events(a, b, tests)
         found += self._signature_events(a, b)
         found = _merge_coincident_grazing(found, self.settings.event_tol)
         if stops:
@@ -1073,10 +1073,12 @@ class ContinuationEngine:
                                          "value_after": float(fhi)}, bracket=w))
         return found
 
-    def _bifurcation_events(self, a: Point, b: Point) -> list[Event]:
+    def _bifurcation_events(self, a: Point, b: Point,
+                            kinks: list[Event] | None = None) -> list[Event]:
         """Folds (the parameter component of the tangent changes sign), simple branch points
         (``det[G_y; t^T]`` changes sign, tangents oriented continuously) and multipliers
-        crossing the unit circle."""
+        crossing the unit circle. ``kinks``: the step's admissibility events, beyond which
+        an end may have no multipliers (:meth:`_multiplier_ends`)."""
         ip = self.ip
         found: list[Event] = []
         if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]) \
@@ -1096,12 +1098,37 @@ class ContinuationEngine:
                                    bracket=w))
             else:
                 self.unlocated_events += 1
-        if a.multipliers is not None and b.multipliers is not None:
-            if a.n_unstable != b.n_unstable:
-                found.extend(self._locate_multiplier_crossings(a, b))
+        ma, mb = self._multiplier_ends(a, b, kinks or [])
+        if ma.multipliers is not None and mb.multipliers is not None:
+            if ma.n_unstable != mb.n_unstable:
+                found.extend(self._locate_multiplier_crossings(ma, mb))
             else:
-                found.extend(self._krein_windows(a, b))
+                found.extend(self._krein_windows(ma, mb))
         return _merge_fold_crossings(found)
+
+    def _multiplier_ends(self, a: Point, b: Point, kinks: list[Event]) -> tuple[Point, Point]:
+        """The ends of the part of the step ``a -> b`` whose multipliers are compared: the
+        step itself, unless one end has none (an orbit past a grazing, whose return map the
+        problem does not linearise) and an admissibility event lies in the step. Then the
+        missing end is replaced by the point on the step's arc at the near side of the
+        event's bracket (the earliest event when ``b`` has none, the latest when ``a`` has
+        none): a multiplier that crossed the circle between ``a`` and the grazing is located
+        there, instead of being lost with the end that cannot show it."""
+        if (a.multipliers is None) == (b.multipliers is None) or not kinks:
+            return a, b
+        h = b.s - a.s
+        if b.multipliers is None:
+            ev = min(kinks, key=lambda e: e.point.s)
+            sig = min(max(ev.point.s - a.s - ev.bracket, 0.0), h)
+        else:
+            ev = max(kinks, key=lambda e: e.point.s)
+            sig = min(max(ev.point.s - a.s + ev.bracket, 0.0), h)
+        if sig in (0.0, h):
+            return a, b
+        q = self._point_at(a, b, sig, tests=False)
+        if q is None or q.multipliers is None:
+            return a, b
+        return (a, q) if b.multipliers is None else (q, b)
 
     def _signature_events(self, a: Point, b: Point) -> list[Event]:
         """A change of the problem's discrete signature (event sequence of a hybrid orbit)."""
@@ -1768,6 +1795,21 @@ def krein_motion_ratio(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray,
 #: factor, once it is below ``KREIN_NEAR``
 KREIN_CLOSING = 0.5
 KREIN_NEAR = 0.1
+#: :func:`krein_closing`: a multiplier outside the circle is the same one at both ends of a
+#: step if it moved by at most ``match`` or by this fraction of its distance to the circle
+OUTSIDE_TRAVEL = 0.5
+
+
+def _outside_travel(x: np.ndarray, y: np.ndarray, match: float) -> np.ndarray:
+    """How far a multiplier outside the unit circle may move between ``x`` and its match
+    ``y`` at the other end of a step and still be the same one, never on the circle in
+    between: ``max(match, OUTSIDE_TRAVEL (min(|x|, |y|) - 1))``. Every point ``z`` of the
+    segment from ``x`` to ``y`` has ``|z| >= |x| - |x - y|``, so a motion below
+    ``|x| - 1`` (and below ``|y| - 1``) cannot have reached the circle: no window closed and
+    opened again on the way, as the count at the two ends cannot show. Far from the circle
+    this lets a multiplier move by half its distance to it, instead of ``match``; near it
+    (within ``2 match``) the rule is ``match`` as before."""
+    return np.maximum(match, OUTSIDE_TRAVEL * (np.minimum(np.abs(x), np.abs(y)) - 1.0))
 
 
 def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np.ndarray,
@@ -1791,17 +1833,18 @@ def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np
     test: it is located by the count.
 
     Also refused: a step whose multipliers *outside* the circle (and inside ``|lambda| < 2``)
-    are not the same ones at both ends (one outside at one end has none outside within
-    ``match`` at the other end) beyond a single crossing: with the same count at both ends a
+    are not the same ones at both ends (one outside at one end has none outside within its
+    allowance at the other end: ``match``, or half its distance to the circle,
+    :func:`_outside_travel`) beyond a single crossing: with the same count at both ends a
     window closed and another opened within the step, two crossings the count cannot see;
     more than two such multipliers, more crossings than one (a conjugate pair, or a real
     multiplier, leaves or enters at a crossing) in the step.
 
     The ratio (linear in a short step, so it also predicts the next step): for a refusal of
     the second kind, the largest distance from a multiplier outside (inside ``|lambda| <
-    2``) to the nearest one outside at the other end over ``match`` (2 when one end has
+    2``) to the nearest one outside at the other end over its allowance (2 when one end has
     none outside: the step is halved); otherwise the larger of that ratio when every such
-    multiplier is matched within ``match``, and, once the smallest distance ``c_b`` at
+    multiplier is matched within its allowance, and, once the smallest distance ``c_b`` at
     ``b`` is below ``KREIN_NEAR``, of the fraction of the smallest distance ``c_a`` at
     ``a`` that the step closed over the fraction allowed, ``(1 - c_b / c_a) / (1 -
     KREIN_CLOSING)`` (``> 1`` exactly when ``c_b < KREIN_CLOSING c_a``)."""
@@ -1816,19 +1859,22 @@ def krein_closing(a: np.ndarray, krein_a: np.ndarray, b: np.ndarray, krein_b: np
     # multipliers outside the circle (and near it: only those can have come from it or gone
     # back to it) at one end with none outside within ``match`` at the other end
     near_a, near_b = np.abs(out_a) < 2.0, np.abs(out_b) < 2.0
-    moved = 0.0  # the largest motion of a multiplier outside, matched within ``match``
+    moved = 0.0  # the largest motion of a multiplier outside over the motion it may have
     if out_a.size and out_b.size:
         d = np.abs(out_a[:, None] - out_b[None, :])
-        da, db = d.min(axis=1), d.min(axis=0)
-        crossed = np.concatenate([out_a[(da > match) & near_a], out_b[(db > match) & near_b]])
-        moved = max(float(da[near_a].max(initial=0.0)), float(db[near_b].max(initial=0.0)))
+        ia, ib = d.argmin(axis=1), d.argmin(axis=0)
+        da, db = d[np.arange(out_a.size), ia], d[ib, np.arange(out_b.size)]
+        ra, rb = da / _outside_travel(out_a, out_b[ia], match), \
+            db / _outside_travel(out_b, out_a[ib], match)
+        crossed = np.concatenate([out_a[(ra > 1.0) & near_a], out_b[(rb > 1.0) & near_b]])
+        moved = max(float(ra[near_a].max(initial=0.0)), float(rb[near_b].max(initial=0.0)))
     else:
         crossed = np.concatenate([out_a[near_a], out_b[near_b]])
     if (same_count and crossed.size) or crossed.size > 2:
         # a window closed and another opened (same count), or more than one crossing (a
         # complex pair or a real multiplier) in the step: the count cannot show them all
-        return moved / match if moved > match else 2.0
-    matched = moved / match if not crossed.size and moved <= match else 0.0
+        return moved if moved > 1.0 else 2.0
+    matched = moved if not crossed.size and moved <= 1.0 else 0.0
     ca, cb = distances if distances is not None else (
         collision_distances(a, krein_a, circle_tol), collision_distances(b, krein_b, circle_tol))
     wa = (np.abs(a) > 0.5) & (np.abs(a) < 2.0)

@@ -21,7 +21,7 @@ import pytest
 
 from nsm_continuation import api, palc
 from nsm_continuation.floquet import collision_distances
-from nsm_continuation.palc import KREIN_CLOSING, KREIN_NEAR, krein_closing
+from nsm_continuation.palc import KREIN_CLOSING, KREIN_NEAR, OUTSIDE_TRAVEL, krein_closing
 
 TOL = 1e-9
 MATCH = 0.02
@@ -63,16 +63,45 @@ def _quadruple(r: float, theta: float) -> np.ndarray:
     return np.array([z, np.conj(z), 1.0 / z, 1.0 / np.conj(z)])
 
 
-@pytest.mark.parametrize("shift", [0.005, 0.012, 0.03, 0.07])
-def test_multipliers_outside_move_at_most_match_per_step(shift: float) -> None:
-    """A quadruple off the circle (the same count at both ends) moved radially by
-    ``shift``: the ratio is ``shift / match``, and the step is refused beyond 1 (the count
-    could not tell that window from a new one)."""
-    a, b = _quadruple(1.3, 0.7), _quadruple(1.3 + shift, 0.7)
+@pytest.mark.parametrize(("r", "shift"), [(1.3, 0.01), (1.3, 0.1), (1.3, 0.14), (1.3, 0.16),
+                                        (1.3, 0.3), (1.025, 0.005), (1.025, 0.019),
+                                        (1.025, 0.021), (1.025, 0.05)])
+def test_multipliers_outside_move_at_most_their_allowance(r: float, shift: float) -> None:
+    """A quadruple off the circle (the same count at both ends) moved radially outwards by
+    ``shift``: the ratio is ``shift`` over the allowance ``max(match, OUTSIDE_TRAVEL
+    (r - 1))`` (r the nearer end's modulus), ``shift / 0.15`` at ``r = 1.3``, ``shift /
+    match`` at ``r = 1.025``, and the step is refused beyond 1 (the count could not tell
+    that window from a new one)."""
+    a, b = _quadruple(r, 0.7), _quadruple(r + shift, 0.7)
     krein = np.zeros(4)  # off the circle: no signature
+    allowance = max(MATCH, OUTSIDE_TRAVEL * (r - 1.0))
     ratio = krein_closing(a, krein, b, krein, TOL, MATCH)
-    assert ratio == pytest.approx(shift / MATCH, rel=1e-9)
-    assert (ratio > 1.0) == (shift > MATCH)
+    assert ratio == pytest.approx(shift / allowance, rel=1e-9)
+    assert (ratio > 1.0) == (shift > allowance)
+
+
+def test_an_allowed_outside_motion_never_reaches_the_circle() -> None:
+    """The geometric fact the allowance rests on: a straight path between two multipliers
+    outside the circle that :func:`krein_closing` matches (within their allowance) stays
+    outside the circle, sampled densely, over random pairs; and a multiplier that went back
+    to the circle and out again (the window the count cannot see) is never matched."""
+    rng = np.random.default_rng(7)
+    for _ in range(2000):
+        x = (1.0 + rng.uniform(1e-3, 1.0)) * np.exp(1j * rng.uniform(-np.pi, np.pi))
+        y = x + rng.uniform(0.0, 1.0) * np.exp(1j * rng.uniform(-np.pi, np.pi))
+        if abs(y) <= 1.0 + 1e-3:
+            continue
+        allowance = max(MATCH, OUTSIDE_TRAVEL * (min(abs(x), abs(y)) - 1.0))
+        if abs(x - y) > allowance:
+            continue
+        path = x + np.linspace(0.0, 1.0, 401) * (y - x)
+        # within ``match`` of the circle only the old absolute rule holds: nothing to check
+        if min(abs(x), abs(y)) - 1.0 > 2 * MATCH:
+            assert np.abs(path).min() > 1.0
+    # out and back in one step: the multiplier at 1.2 e^{0.3i} reached the circle at 0.3i
+    # and left again at 1.15 e^{0.45i}; its motion 0.16 > 0.5 (1.15 - 1)
+    a, b = _quadruple(1.2, 0.3), _quadruple(1.15, 0.45)
+    assert krein_closing(a, np.zeros(4), b, np.zeros(4), TOL, MATCH) > 1.0
 
 
 def test_several_crossings_in_one_step_halve_it() -> None:
@@ -113,8 +142,10 @@ def _events(result: api.Result) -> list[tuple[str, float]]:
 def test_steps_capped_by_the_ratio_keep_every_event_in_fewer_attempts(
         attempts: list[int], monkeypatch: pytest.MonkeyPatch) -> None:
     """The default case with the growth of a step capped by the motion ratio against no cap
-    (the rule before): the same events, located to their tolerance, in at least 10 % fewer
-    step attempts."""
+    (the rule before): the same events, located to their tolerance, in at least 5 % fewer
+    step attempts (352 against 381 measured, since multipliers outside the circle may move
+    by half their distance to it: fewer refusals are left for the cap to save; 428 against
+    531 before that)."""
     sized = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_sized = attempts[0]
     attempts[0] = 0
@@ -126,4 +157,4 @@ def test_steps_capped_by_the_ratio_keep_every_event_in_fewer_attempts(
     assert len(ev_sized) >= 25
     np.testing.assert_allclose([t for _, t in ev_sized], [t for _, t in ev_halved],
                                rtol=0, atol=1e-9)
-    assert n_sized < 0.9 * n_halved
+    assert n_sized < 0.95 * n_halved
