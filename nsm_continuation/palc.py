@@ -847,7 +847,14 @@ class ContinuationEngine:
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,
                            hi: float | None = None, fhi: float | None = None,
-                           floquet: bool = False) -> tuple[Point, float]:
+                           floquet: bool = False, tests: bool = True) -> tuple[Point, float]:
+        """A zero of ``fun`` on the arc from ``a`` to ``b`` (Illinois, to ``event_tol`` in
+        arclength, between arclengths ``lo`` and ``hi`` from ``a``), as ``(point, bracket
+        width)``; the point is analysed in full. The trial points are analysed with the
+        multipliers only if ``floquet`` and with the admissibility tests and event functions
+        only if ``tests``: a function of the parameter, of a derived quantity, of the tangent
+        or of the bordered determinant reads neither (each trial point's tests cost the
+        chain's certified critical points of ``u_N``)."""
         h = b.s - a.s
         hi = h if hi is None else hi
         flo = fun(a) if flo is None else flo
@@ -856,13 +863,13 @@ class ContinuationEngine:
         seen = [abs(flo), abs(fhi)]
 
         def f(sig: float) -> tuple[float, Point | None]:
-            p = self._point_at(a, b, sig, tests=True, floquet=floquet)
+            p = self._point_at(a, b, sig, tests=tests, floquet=floquet)
             value = float("nan") if p is None else fun(p)
             if np.isfinite(value):
                 seen.append(abs(value))
             return value, p
 
-        sig, p, width = illinois(f, lo, flo, hi, fhi, self.settings.event_tol)
+        sig, p, width = illinois(f, lo, flo, hi, fhi, self.settings.event_tol, close=not tests)
         #: whether the sign change just located was through a pole, not a zero: the last
         #: values met, next to the sign change, exceed both ends in modulus (they shrink like
         #: the bracket at a zero, they grow like its inverse at a pole)
@@ -938,7 +945,7 @@ class ContinuationEngine:
                 if p is None and on_parameter:
                     p = self._point_at_parameter(a, b, fa / (fa - fb), value)
                 if p is None:
-                    p, w = self._locate_continuous(a, b, fun, flo=fa, fhi=fb)
+                    p, w = self._locate_continuous(a, b, fun, flo=fa, fhi=fb, tests=False)
                 if on_parameter and abs(p.y[ip] - value) > 1e-9 * (1.0 + abs(value)):
                     # not located on the bound: never record a point outside the window
                     if self._retry_allowed:
@@ -1083,11 +1090,11 @@ class ContinuationEngine:
         found: list[Event] = []
         if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]) \
                 and max(abs(a.tangent[ip]), abs(b.tangent[ip])) > TANGENT_NOISE:
-            p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip])
+            p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip], tests=False)
             found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
                                "along the branch", data={"test": "tangent"}, bracket=w))
         elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
-            p, w = self._locate_continuous(a, b, lambda q: q.bordered_det)
+            p, w = self._locate_continuous(a, b, lambda q: q.bordered_det, tests=False)
             if self.last_was_pole:
                 # through a pole, not a zero: the Jacobian blows up (e.g. like 1/|v| as an
                 # impact's velocity vanishes at a grazing), no second branch crosses here
