@@ -508,6 +508,28 @@ def test_single_mass_closed_form(m: float, k: float, g: float, frac: float) -> N
         assert tests["outgoing_velocity"] > 0 and tests["clearance"] < 0
 
 
+@pytest.mark.parametrize("formulation", ["half_angle", "shooting"])
+@pytest.mark.parametrize("j", range(5))
+def test_clearance_past_a_linear_grazing_is_quadratic_not_noise(j: int, formulation: str) -> None:
+    """Past the linear grazing orbit of mode ``j`` (``T = T_j (1 + d)``, the outgoing velocity
+    ``v = u_c'(0+)`` through zero into the wall) a maximum of ``u_c`` enters at ``t* = -v /
+    u_c''(0)``, ``v^2 / (2 |u_c''(0)|)`` above the wall: the clearance is ``v^2 / (2 u_c''(0)
+    |g|) < 0`` (Taylor at ``t = 0``, ``u_c''(0)`` in closed form), down to ``d = 1e-10``
+    (a clearance of ~1e-20). The difference ``g - u_c(t*)`` keeps only its rounding there
+    (~1e-16, either sign: a spurious zero of the clearance next to the grazing)."""
+    p = paper(formulation)
+    Tj = 2 * np.pi / p.omega[j]
+    for d in (1e-4, 1e-6, 1e-8, 1e-10):
+        y = point(p, Tj * (1 + d))
+        u0, du0, T = p.state(y)
+        v = du0[p.c]
+        f = p.displacement_sum(y)
+        taylor = v**2 / (2 * float(f.d2(np.array([0.0]))[0]) * abs(p.g))
+        tests = p.admissibility(y)
+        assert tests["outgoing_velocity"] < 0 and taylor < 0
+        assert tests["clearance"] == pytest.approx(taylor, rel=1e-3 + 10 * abs(v), abs=0.0)
+
+
 # ---------------------------------------------------------------------------------------------
 # h. continuation of branch 1 up to its nonlinear grazing orbit
 # ---------------------------------------------------------------------------------------------

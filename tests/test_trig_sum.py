@@ -264,3 +264,39 @@ def test_root_on_a_grid_edge_costs_no_bisection(seed: int) -> None:
     assert np.min(np.abs(found - T / 2)) <= 4 * EPS * T
     assert_roots_match(found, grid_roots(a, b, w, 0.0, T), 1e-9)
     assert len(calls) <= 8, calls  # the end point (1) plus a few Newton steps, no bisection
+
+
+def fthird(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: float) -> float:
+    """``f'''(t) = sum w^3 (a sin(w t) - b cos(w t))``, written independently of TrigSum."""
+    return float(np.sum(w**3 * (a * np.sin(w * t) - b * np.cos(w * t))))
+
+
+def fsecond(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: float) -> float:
+    return float(-np.sum(w**2 * (a * np.cos(w * t) + b * np.sin(w * t))))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_rise_keeps_its_relative_accuracy_next_to_the_reference(seed: int) -> None:
+    """``f(t) - f(r)`` (:meth:`TrigSum.rise`) against the Taylor polynomial of degree 3 at
+    ``r`` (``f'``, ``f''``, ``f'''`` in closed form) for ``|t - r|`` down to 1e-12: relative
+    error at the rounding level, where the difference of two values of ``f`` loses
+    ``eps |f| / |f(t) - f(r)|`` (1e-4 relative at ``h = 1e-12``); and the plain difference
+    where it is accurate (``h`` of order 1)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 30))
+    a, b = rng.normal(size=n), rng.normal(size=n)
+    w = np.sort(rng.uniform(0.3, 8.0, size=n))
+    f = TrigSum(a, b, w)
+    r = float(rng.uniform(0.0, 10.0))
+    d1, d2, d3 = float(fprime(a, b, w, r)), fsecond(a, b, w, r), fthird(a, b, w, r)
+    bound4 = float(np.sum(w**4 * np.hypot(a, b)))  # |f''''| <= this
+    for h in (1e-3, 1e-5, 1e-7, 1e-9, 1e-12):
+        for t in (r + h, r - h):
+            s = t - r  # exact (Sterbenz): the step the rounded ``t`` really is
+            taylor = d1 * s + d2 * s**2 / 2 + d3 * s**3 / 6
+            rise = float(f.rise(np.array([t]), r)[0])
+            assert abs(rise - taylor) <= bound4 * h**4 / 24 + 1e-13 * abs(taylor) + 1e-30
+    t = rng.uniform(0.0, 10.0, size=20)
+    direct = fvalue(a, b, w, t) - fvalue(a, b, w, r)
+    np.testing.assert_allclose(f.rise(t, r), direct, rtol=0,
+                               atol=1e-13 * float(np.sum(np.hypot(a, b))))

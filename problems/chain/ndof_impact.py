@@ -695,7 +695,15 @@ class NDofImpactProblem(Problem):
         * ``outgoing_velocity = -u_c'(0+) / (|g| w_1)`` > 0: the mass leaves the wall (H+);
         * ``clearance = (g - max u_c(t_k)) / |g|`` over the critical points ``t_k`` of ``u_c`` in
           ``(0, T)``, located exactly (:class:`~problems.chain.trig_sum.TrigSum`); it vanishes at a
-          nonlinear grazing orbit (an extra tangential contact, Fig. 5.2).
+          nonlinear grazing orbit (an extra tangential contact, Fig. 5.2). Computed as
+          ``-max (u_c(t_k) - u_c(t_ref)) / |g|``, the rise from the nearer impact ``t_ref = 0``
+          or ``T`` (:meth:`~problems.chain.trig_sum.TrigSum.rise`; ``u_c(0) = u_c(T) = g`` on
+          the branch, the residual's last row and the periodicity, so the value is the same to
+          the residual, ~1e-16). The difference ``g - u_c(t_k)`` would keep only its rounding
+          for a critical point next to an impact: past a linear grazing orbit (the outgoing
+          velocity through zero) a maximum enters at ``t = 0+`` above the wall by
+          ``O(v^2)``, and the clearance's sign there would be noise, its zero located up to
+          ~1e-9 in ``T`` away from the grazing as a second event.
 
         For ``g = 0`` (sec. 7.2) the gap gives no scale: the orbit's own amplitude
         ``A = max(|u(0)|_inf, |u_c'(0+)| / w_1)`` does (:meth:`_static_grazing_scale`), so both
@@ -710,8 +718,11 @@ class NDofImpactProblem(Problem):
         if scale == 0.0:
             return {}
         f = self.displacement_sum(y)
-        umax, _ = f.max_on(0.0, T)
-        clearance = (self.g - umax) / scale if np.isfinite(umax) else 1.0
+        tc = f.critical_points(0.0, T)
+        clearance = 1.0
+        if tc.size:
+            rise = f.rise(tc, np.where(tc < 0.5 * T, 0.0, T))
+            clearance = -float(rise.max()) / scale
         return {"outgoing_velocity": -du0[self.c] / (scale * self.omega[0]),
                 "clearance": float(clearance)}
 

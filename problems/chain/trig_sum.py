@@ -71,6 +71,18 @@ class TrigSum:
         wt = np.multiply.outer(np.asarray(t, dtype=float), self.w)
         return np.cos(wt) @ self.a + np.sin(wt) @ self.b
 
+    def rise(self, t: np.ndarray, ref: np.ndarray | float) -> np.ndarray:
+        """``f(t) - f(ref)`` without cancellation: ``sum_l 2 sin(w_l (t - ref) / 2)
+        (b_l cos(w_l (t + ref) / 2) - a_l sin(w_l (t + ref) / 2))``, every term proportional
+        to ``t - ref``. Next to ``ref`` the difference of two values of ``f`` would keep only
+        its rounding (``eps |f|``) where this keeps ``eps |f(t) - f(ref)|``."""
+        t = np.asarray(t, dtype=float)
+        ref = np.broadcast_to(np.asarray(ref, dtype=float), t.shape)
+        half_d = np.multiply.outer((t - ref) / 2, self.w)
+        half_s = np.multiply.outer((t + ref) / 2, self.w)
+        return (2 * np.sin(half_d) * (np.cos(half_s) * self.b - np.sin(half_s) * self.a)).sum(
+            axis=-1)
+
     def d1(self, t: np.ndarray) -> np.ndarray:
         wt = np.multiply.outer(np.asarray(t, dtype=float), self.w)
         return np.cos(wt) @ (self.b * self.w) - np.sin(wt) @ (self.a * self.w)
