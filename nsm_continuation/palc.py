@@ -1026,8 +1026,8 @@ class ContinuationEngine:
                 leaving = flo >= 0 > fhi
                 kind = self.problem.monitor_kind("test", name)
                 ev = Event(kind, p, f"test function '{name}' "
-                           + ("becomes negative: admissibility lost" if leaving
-                              else "becomes positive: admissibility regained"),
+                           + _admissibility_change(name, leaving, a.tests if leaving
+                                                   else b.tests),
                            data={"test": name, "admissible_before": bool(flo >= 0),
                                  "admissible_after": bool(fhi >= 0)}, bracket=w)
                 found.append(ev)
@@ -1678,6 +1678,20 @@ def _merge_fold_crossings(events: list[Event]) -> list[Event]:
             continue
         out.append(ev)
     return out
+
+
+def _admissibility_change(name: str, leaving: bool, others: dict[str, float]) -> str:
+    """What a test's sign change does to the orbit, for the event's detail: admissibility
+    lost (regained) only if every other test is non-negative on the side the orbit comes from
+    (goes to), ``others`` (the tests at that end of the step); otherwise the test changes sign
+    on an orbit another test already makes inadmissible (a linear grazing crossed where the
+    clearance stays negative on both sides, say), and the detail names those tests."""
+    blocking = sorted(k for k, v in others.items() if k != name and v < 0)
+    if not blocking:
+        return ("becomes negative: admissibility lost" if leaving
+                else "becomes positive: admissibility regained")
+    return (f"becomes negative (the orbit was already inadmissible: {blocking})" if leaving
+            else f"becomes positive (the orbit stays inadmissible: {blocking})")
 
 
 def _merge_coincident_grazing(events: list[Event], tol: float) -> list[Event]:

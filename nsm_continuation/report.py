@@ -96,6 +96,8 @@ def annotate_parameter_directions(rep: dict[str, Any], branches: list[Any],
 
 _SWAPPED_PHRASES = [("becomes negative: admissibility lost",
                      "becomes positive: admissibility regained"),
+                    ("becomes negative (the orbit was already inadmissible",
+                     "becomes positive (the orbit stays inadmissible"),
                     ("ceases to be defined", "becomes defined")]
 
 

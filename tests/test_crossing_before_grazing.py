@@ -22,7 +22,7 @@ import pytest
 from oracles.normal_forms import LogisticMap, LogisticParameters
 
 import nsm_continuation as nsm
-from nsm_continuation.protocol import FloquetData
+from nsm_continuation.protocol import FloquetData, StartPoint
 
 R_GRAZE = 3.02
 
@@ -71,3 +71,43 @@ def test_a_step_with_multipliers_at_both_ends_is_unchanged() -> None:
     res = _run(2.9, 0.1)
     pds = [ev for ev in res.events if ev.kind == "period_doubling"]
     assert len(pds) == 1 and pds[0].parameter == pytest.approx(3.0, abs=1e-6)
+
+
+class TwoTests(LogisticMap):
+    """The logistic fixed point with two admissibility tests, ``3.1 - r`` and ``3.2 - r``:
+    admissible below ``r = 3.1`` only."""
+
+    name: ClassVar[str] = "test_two_tests_logistic"
+
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        return {"first": 3.1 - float(y[1]), "second": 3.2 - float(y[1])}
+
+
+def test_a_test_changing_sign_on_an_inadmissible_orbit_says_so() -> None:
+    """Up in ``r``: 'first' loses admissibility at 3.1; 'second' changes sign at 3.2 on an
+    orbit 'first' already makes inadmissible, which its detail says (not "admissibility
+    lost"); read the other way (``report.reversed_detail``), 'second' becomes positive on an
+    orbit that stays inadmissible. Down in ``r`` the engine's own words are those."""
+    from nsm_continuation.report import reversed_detail
+
+    def run(r0: float, direction: int) -> nsm.Result:
+        start = StartPoint(np.array([1 - 1 / r0, r0]), "fixed point", direction)
+        return nsm.continuation(TwoTests(LogisticParameters(r=r0)), start, parameter="r",
+                                min=2.5, max=3.5, max_points=200,
+                                analysis={"stability": False})
+
+    up, down = run(2.9, 1), run(3.45, -1)
+    for res in (up, down):
+        graz = {ev.record["test"]: ev for ev in res.events if ev.kind == "grazing"}
+        assert graz["first"].parameter == pytest.approx(3.1, abs=1e-9)
+        assert graz["second"].parameter == pytest.approx(3.2, abs=1e-9)
+    up_graz = {ev.record["test"]: ev.detail for ev in up.events if ev.kind == "grazing"}
+    down_graz = {ev.record["test"]: ev.detail for ev in down.events if ev.kind == "grazing"}
+    assert up_graz["first"].endswith("becomes negative: admissibility lost")
+    assert up_graz["second"].endswith(
+        "becomes negative (the orbit was already inadmissible: ['first'])")
+    assert down_graz["second"].endswith(
+        "becomes positive (the orbit stays inadmissible: ['first'])")
+    assert down_graz["first"].endswith("becomes positive: admissibility regained")
+    assert reversed_detail(up_graz["second"]) == down_graz["second"]
+    assert reversed_detail(down_graz["first"]) == up_graz["first"]
