@@ -1,7 +1,8 @@
 """Zeros of functions that read neither the admissibility tests nor the multipliers (a bound
 on the parameter or on a derived quantity, a fold, the bordered determinant) are located on
-trial points analysed without them, by the Illinois iteration with Dekker's closing step
-(:meth:`nsm_continuation.palc.ContinuationEngine._locate_continuous`, ``tests=False``).
+trial points analysed without them (``tests=False``), and every zero by the Illinois
+iteration with Dekker's closing step
+(:meth:`nsm_continuation.palc.ContinuationEngine._locate_continuous`).
 
 Oracle: the fold normal form ``G(x, mu) = mu - x^2``, whose fold is at ``x = 0`` and whose
 derived quantity ``q = x`` reaches a bound ``q = Q`` at ``(Q, Q^2)``, closed forms. Each trial
@@ -110,3 +111,27 @@ def test_a_derived_bound_is_located_without_the_tests(
     # the fold and the bound: trial points without tests, the located point in full
     assert len(located) == 2 and all(not tests for tests, _, _ in located)
     assert all(n > 1 and calls == 1 for _, n, calls in located)
+
+
+class Clearance(Fold):
+    """The fold normal form with the admissibility ``margin = 0.3 - x``: lost at
+    ``(x, mu) = (0.3, 0.09)``."""
+
+    name: ClassVar[str] = "test_fold_clearance"
+
+    def admissibility(self, y: np.ndarray) -> dict[str, float]:
+        self.test_calls += 1
+        return {"margin": 0.3 - float(y[0])}
+
+
+def test_an_admissibility_zero_is_located_in_a_few_trial_points(
+        located: list[tuple[bool, int, int]]) -> None:
+    pb = Clearance(MuParameters())
+    st = ContinuationSettings(step_initial=0.05, step_max=0.3, param_min=-1.0, param_max=1.0,
+                              max_points=60, stability=False, direction=-1)
+    br = palc.ContinuationEngine(pb, st).run(StartPoint(np.array([-0.9, 0.81]), "fold", -1))
+    (graz,) = [ev for ev in br.events if ev.kind == "grazing"]
+    x, mu = graz.point.y
+    assert x == pytest.approx(0.3, abs=1e-10) and mu == pytest.approx(0.09, abs=1e-10)
+    with_tests = [n for tests, n, _ in located if tests]
+    assert len(with_tests) == 1 and with_tests[0] <= 12
