@@ -39,7 +39,9 @@ class ContinuationSettings:
     #: on ``|lambda_c| = 1`` to ``event_tol`` (the count's location, this accurate, is kept
     #: where ``|lambda_c| - 1`` has no usable sign change: a conservative collision)
     multiplier_event_tol: float = 1e-9
-    #: largest move of a multiplier near the unit circle in one step (see multiplier_motion)
+    #: largest move of a multiplier near the unit circle in one step (see multiplier_motion);
+    #: in a conservative family a multiplier outside the circle may also move by half its
+    #: distance to it (:func:`palc.krein_closing`, :func:`palc._outside_travel`)
     max_multiplier_step: float = 0.02
     #: Krein-aware step control for conservative problems (``problem.conservative`` and
     #: multipliers with their Krein definiteness): only a multiplier that moves by at least
