@@ -55,9 +55,9 @@ from nsm_continuation.problems.chain import ndof_impact  # noqa: E402
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
 import nsm_continuation as nsm  # noqa: E402
-from nsm_continuation.palc import ContinuationEngine  # noqa: E402
-from nsm_continuation.protocol import StartPoint  # noqa: E402
-from nsm_continuation.settings import ContinuationSettings  # noqa: E402
+from nsm_continuation.core.palc import ContinuationEngine  # noqa: E402
+from nsm_continuation.core.problem import StartPoint  # noqa: E402
+from nsm_continuation.core.settings import ContinuationSettings  # noqa: E402
 
 
 def best(fun: Callable[[], Any], repeat: int = 3) -> float:
@@ -222,7 +222,7 @@ def multiplier_solvers(path: str | None) -> Iterator[None]:
     """Within the block the chain's multipliers come from the solvers of the ``floquet.py``
     at ``path`` (loaded as a module of the package, so that its relative imports resolve);
     None: the current ones. A keyword the other version does not know (``off_circle`` of
-    :func:`~nsm_continuation.floquet.krein_definiteness`) is dropped."""
+    :func:`~nsm_continuation.core.floquet.krein_definiteness`) is dropped."""
     if path is None:
         yield
         return

@@ -608,9 +608,9 @@ def main() -> None:
         return orb, fl
 
     t_i, (orb_i, fl_i) = best_time(default_solve, args.repeat)
-    from nsm_continuation.palc import ContinuationEngine
-    from nsm_continuation.protocol import StartPoint
-    from nsm_continuation.settings import ContinuationSettings
+    from nsm_continuation.core.palc import ContinuationEngine
+    from nsm_continuation.core.problem import StartPoint
+    from nsm_continuation.core.settings import ContinuationSettings
 
     def engine_start() -> Any:
         pb.shooting._cache.clear()

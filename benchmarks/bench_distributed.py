@@ -43,7 +43,7 @@ def same(a: object, b: object) -> bool:
 
 
 def main() -> None:
-    from nsm_continuation.execution import Execution, start_client
+    from nsm_continuation.runs.execution import Execution, start_client
 
     fep = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
     default = ROOT / "nsm_continuation" / "default_case.yaml"

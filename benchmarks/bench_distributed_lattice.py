@@ -18,7 +18,7 @@ Prints
 Run: ``python benchmarks/bench_distributed_lattice.py [--cells 200] [--workers 2]
 [--target-cells 1000] [--cores 64] [--samples 6]`` (~2.5 min at the defaults on 2 cores).
 Needs ``pip install ".[dask]"``. The scan is split only if the problem implements the seed
-pieces of :class:`nsm_continuation.lattice.LatticeProblem`; otherwise the run is serial in
+pieces of :class:`nsm_continuation.core.lattice.LatticeProblem`; otherwise the run is serial in
 both cases and item 3 is skipped.
 """
 
@@ -43,8 +43,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import nsm_continuation as nsm  # noqa: E402
-from nsm_continuation.execution import PIECES_PER_WORKER, rebuild_case  # noqa: E402
-from nsm_continuation.results import branch_rows, build_report  # noqa: E402
+from nsm_continuation.output.files import branch_rows, build_report  # noqa: E402
+from nsm_continuation.runs.execution import PIECES_PER_WORKER, rebuild_case  # noqa: E402
 
 CASE = ROOT / "yaml_cases" / "wfem_fig12_fep.yaml"
 #: adopting a piece's nodes on the master overlaps with the later pieces on the workers;

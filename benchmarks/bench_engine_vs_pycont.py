@@ -9,7 +9,7 @@ step ``0.2``, same minimum step ``1e-6``).
 
 Methods (each one a marker series in the chart):
 
-* ``engine``: :class:`~nsm_continuation.palc.ContinuationEngine`, exact CasADi Jacobian,
+* ``engine``: :class:`~nsm_continuation.core.palc.ContinuationEngine`, exact CasADi Jacobian,
   ``detect_bifurcations`` off, for several ``newton_tol``. Every point still runs the problem's
   hooks (admissibility test functions, Floquet multipliers);
 * ``engine + detection``: the same with ``detect_bifurcations`` on (multiplier crossings and
@@ -62,9 +62,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
 from nsm_continuation.adapters.pycont import as_pycont_system, run_pycont  # noqa: E402
-from nsm_continuation.palc import ContinuationEngine  # noqa: E402
-from nsm_continuation.protocol import FloquetData, StartPoint  # noqa: E402
-from nsm_continuation.settings import ContinuationSettings  # noqa: E402
+from nsm_continuation.core.palc import ContinuationEngine  # noqa: E402
+from nsm_continuation.core.problem import FloquetData, StartPoint  # noqa: E402
+from nsm_continuation.core.settings import ContinuationSettings  # noqa: E402
 
 PAPER_CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 T_START, T_STOP = 0.99, 0.90  # in units of T_1

@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import nsm_continuation as nsm  # noqa: E402
-from nsm_continuation import palc  # noqa: E402
+from nsm_continuation.core import palc  # noqa: E402
 
 CROSSINGS = ("fold", "period_doubling", "neimark_sacker")
 #: (label, analysis overrides, closing rule kept, steps sized by the motion ratio)

@@ -28,7 +28,7 @@ Time: best of several repeats. Peak memory: ``tracemalloc`` peak above the basel
 call (Python and numpy allocations; CasADi's C++ heap and BLAS workspaces are not traced).
 Writes ``benchmarks/results/scaling.png`` (time per point vs N, log-log, with components) and
 times the full Fig. 3.2 frequency-energy plot case (``yaml_cases/ndof_fig3_2_fep.yaml`` through
-``nsm_continuation.runner.run_case``) unless ``--skip-fep``.
+``nsm_continuation.runs.runner.run_case``) unless ``--skip-fep``.
 
 BLAS threads: OpenBLAS is pinned to one thread (``OPENBLAS_NUM_THREADS=1`` unless already set).
 On this 2-core machine, shared with other jobs, two OpenBLAS threads made ``eigh``/``eigvals`` of
@@ -62,9 +62,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
-from nsm_continuation.palc import ContinuationEngine  # noqa: E402
-from nsm_continuation.protocol import StartPoint  # noqa: E402
-from nsm_continuation.settings import ContinuationSettings  # noqa: E402
+from nsm_continuation.core.palc import ContinuationEngine  # noqa: E402
+from nsm_continuation.core.problem import StartPoint  # noqa: E402
+from nsm_continuation.core.settings import ContinuationSettings  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = Path(__file__).resolve().parent / "results" / "scaling.png"
@@ -232,8 +232,8 @@ def chart(results: list[SizeResult], path: Path) -> None:
 def time_fep() -> str:
     """Full Fig. 3.2 FEP run through the case runner, if the runner exists."""
     try:
-        from nsm_continuation import cases
-        from nsm_continuation.runner import run_case
+        from nsm_continuation.cases import schema as cases
+        from nsm_continuation.runs.runner import run_case
     except ImportError as exc:
         return f"FEP: skipped (no case runner: {exc})"
     if not FEP_CASE.exists():

@@ -115,11 +115,12 @@ def main() -> None:
     rows = [("python -c pass (whole process)", startup(a.repeat)),
             ("import nsm_continuation.cli", import_time("nsm_continuation.cli", a.repeat)),
             ("+ what a chain run needs (cases, runner, results, ndof_impact)",
-             import_time("nsm_continuation.cli, nsm_continuation.cases, nsm_continuation.runner,"
-                         " nsm_continuation.results, "
+             import_time("nsm_continuation.cli, nsm_continuation.cases.schema, "
+                         "nsm_continuation.runs.runner,"
+                         " nsm_continuation.output.files, "
                          "nsm_continuation.problems.chain.ndof_impact", a.repeat)),
-            ("import nsm_continuation.plots (with matplotlib)",
-             import_time("nsm_continuation.plots", a.repeat))]
+            ("import nsm_continuation.figures.branches (with matplotlib)",
+             import_time("nsm_continuation.figures.branches", a.repeat))]
     for name, t in rows:
         print(f"   {name:66s} {t:6.3f}")
     heavy = loaded_by_cli()

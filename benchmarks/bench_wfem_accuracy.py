@@ -56,8 +56,8 @@ from nsm_continuation.problems.bar.continuum import (  # noqa: E402
 )
 from nsm_continuation.problems.bar.wfem_lattice import BarModel, solve_node  # noqa: E402
 
-from nsm_continuation.palc import ContinuationEngine  # noqa: E402
-from nsm_continuation.settings import ContinuationSettings  # noqa: E402
+from nsm_continuation.core.palc import ContinuationEngine  # noqa: E402
+from nsm_continuation.core.settings import ContinuationSettings  # noqa: E402
 
 try:  # all candidates at nodes with h > 1 (newer wfem_lattice)
     from nsm_continuation.problems.bar.wfem_lattice import node_solutions  # noqa: E402

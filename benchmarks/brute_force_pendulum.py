@@ -32,7 +32,7 @@ Charts (``benchmarks/results/``, git-ignored): ``brute_force_fig8b.png``,
 Dask tasks (issue 14), the same tasks whatever runs them: Fig. 8(b), Fig. 9(b) up, Fig. 9(b)
 down, Fig. 9(c) zoom and Fig. 10 (each a chain of values warm-started from the previous one,
 so not split further); ``--workers N`` (default 2) runs them on a local cluster of N
-single-threaded worker processes (:func:`nsm_continuation.execution.start_client`, as
+single-threaded worker processes (:func:`nsm_continuation.runs.execution.start_client`, as
 ``nsm-continuation run --workers``), ``--scheduler tcp://HOST:8786`` on an existing cluster,
 ``--workers 1`` in this process. The results are merged by name, so the numbers do not depend
 on where or in which order the tasks ran. ``--jobs N`` is a deprecated alias of ``--workers``.
@@ -67,8 +67,8 @@ from nsm_continuation.problems.impacting.brute_force import (  # noqa: E402
 )
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
-from nsm_continuation.execution import Execution, dask_session  # noqa: E402
 from nsm_continuation.hybrid.simulate import SimulationError  # noqa: E402
+from nsm_continuation.runs.execution import Execution, dask_session  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
 FIG8 = {"d": 0.5, "torque": -31.15}

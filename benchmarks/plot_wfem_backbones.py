@@ -18,8 +18,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from nsm_continuation import cases  # noqa: E402
-from nsm_continuation.runner import run_case  # noqa: E402
+from nsm_continuation.cases import schema as cases  # noqa: E402
+from nsm_continuation.runs.runner import run_case  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 COLORS = {"positive": "tab:blue", "zero": "k", "negative": "tab:red"}

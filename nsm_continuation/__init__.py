@@ -2,7 +2,7 @@
 
 The Python API (:mod:`nsm_continuation.api`): :func:`load_case`, :func:`run`, :func:`problem`,
 :func:`continuation` and the :class:`Result` they return; the problem protocol
-(:mod:`nsm_continuation.protocol`): :class:`Problem`, :class:`StartPoint`, :class:`FloquetData`,
+(:mod:`nsm_continuation.core.problem`): :class:`Problem`, :class:`StartPoint`, :class:`FloquetData`,
 :class:`EvaluationError`. Imported lazily, so the command line starts without loading CasADi
 and matplotlib for ``--version`` or ``list``.
 """
@@ -12,14 +12,18 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
+from nsm_continuation import _deprecated
+
+_deprecated.install()
+
 __version__ = "0.1.0"
 
 _LAZY = {
     "load_case": "api", "run": "api", "problem": "api", "continuation": "api",
     "Result": "api", "BranchData": "api", "EventRecord": "api",
-    "CaseError": "cases",
-    "Problem": "protocol", "StartPoint": "protocol", "FloquetData": "protocol",
-    "EvaluationError": "protocol",
+    "CaseError": "core.errors",
+    "Problem": "core.problem", "StartPoint": "core.problem", "FloquetData": "core.problem",
+    "EvaluationError": "core.problem",
 }
 
 __all__ = ["__version__", *_LAZY]

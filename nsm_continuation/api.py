@@ -18,8 +18,9 @@
     problem = nsm.problem("ndof_impact", {"chain": {"n": 3, "mass": 1, "stiffness": 1}})
     result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
 
-A case is validated exactly as on the command line (:func:`nsm_continuation.cases.validate`):
-bad input raises :class:`~nsm_continuation.cases.CaseError` whose message names the key, before
+A case is validated exactly as on the command line (:func:`nsm_continuation.cases.schema.validate`):
+bad input raises :class:`~nsm_continuation.cases.schema.CaseError` whose message names the key,
+before
 anything is computed.
 """
 
@@ -34,12 +35,19 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from . import cases, registry
-from .cases import Case, CaseError
-from .protocol import Problem, StartPoint
-from .records import Branch, OrbitTrace, Point
-from .results import branch_rows, build_report, event_record, termination_text, write_outputs
-from .runner import RunResult, run_case
+from nsm_continuation.cases import registry
+from nsm_continuation.cases import schema as cases
+from nsm_continuation.cases.schema import Case, CaseError
+from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.records import Branch, OrbitTrace, Point
+from nsm_continuation.output.files import (
+    branch_rows,
+    build_report,
+    event_record,
+    termination_text,
+    write_outputs,
+)
+from nsm_continuation.runs.runner import RunResult, run_case
 
 CaseSource = str | Path | Mapping[str, Any] | Case
 
@@ -89,7 +97,7 @@ def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
     """Run a case (file, mapping or :class:`Case`) and return its :class:`Result`. Nothing is
     written: call :meth:`Result.save`. ``workers`` (a local Dask cluster of that many
     processes) or ``scheduler`` (an existing cluster's address) compute the branches as Dask
-    tasks, with the same result (:mod:`nsm_continuation.execution`); they replace the case's
+    tasks, with the same result (:mod:`nsm_continuation.runs.execution`); they replace the case's
     ``execution:`` block (default: serial), and exclude each other."""
     case, problem = _validated(source, overrides)
     case = cases.with_execution(case, workers, scheduler)
@@ -119,7 +127,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
     """Continue ``problem`` from ``start`` with our pseudo-arclength engine.
 
     ``start`` is the YAML ``start:`` block of the problem (e.g. ``{"mode": 1}``), a
-    :class:`~nsm_continuation.protocol.StartPoint`, or a guess ``y`` (array of the problem's
+    :class:`~nsm_continuation.core.problem.StartPoint`, or a guess ``y`` (array of the problem's
     unknowns, corrected by Newton at fixed parameter). ``settings`` are the keys of the YAML
     ``continuation:`` block (``parameter``, ``min``, ``max``, ``step={...}``, ``max_points``,
     ...) and ``analysis`` those of ``analysis:``. ``workers`` / ``scheduler``: as for
@@ -155,7 +163,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
 
 def _orbit_periods(periods: Any, key: str) -> int:
     """``periods`` as a whole number from 1 to
-    :data:`~nsm_continuation.cases.MAX_ORBIT_PERIODS`, else a
+    :data:`~nsm_continuation.cases.schema.MAX_ORBIT_PERIODS`, else a
     :class:`CaseError` (a ``ValueError``) naming ``key``."""
     if isinstance(periods, bool) or not isinstance(periods, int | np.integer) \
             or not 1 <= periods <= cases.MAX_ORBIT_PERIODS:
@@ -249,7 +257,7 @@ class Result:
     @property
     def tree(self) -> list[dict[str, Any]]:
         """The tree of a bifurcation diagram (``analysis.branch_switching``,
-        :mod:`nsm_continuation.diagrams`): per event considered, its generation, parent
+        :mod:`nsm_continuation.runs.diagrams`): per event considered, its generation, parent
         branch, event ``{kind, index}``, parameter, child branch (None if not followed) and
         status; empty for a run without branch switching."""
         return [dict(n) for n in self.run_result.tree]
@@ -268,7 +276,7 @@ class Result:
         """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
         folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
         Returns the directory written."""
-        from .output import OutputError
+        from nsm_continuation.output.folders import OutputError
 
         try:
             return write_outputs(self.run_result, Path(directory), plots=plots,
@@ -284,25 +292,26 @@ class Result:
                 curve: str | None = None, free: str | None = None,
                 margin: float | None = None, method: str | None = None,
                 **settings: Any) -> Result:
-        """Continue again from a point of this result (:mod:`nsm_continuation.restart`), as a
+        """Continue again from a point of this result (:mod:`nsm_continuation.cases.restart`), as a
         case with ``start: {from: <this run>, ...}`` would from its saved folder.
 
         ``event``: a kind (the only event of that kind on the branch), ``{"kind": ...,
         "index": n}``, or one of :attr:`events` (its branch and place are taken from it);
         ``point``: a row of the branch (its CSV row); ``switch=True`` follows the branch that
-        bifurcates there (:mod:`nsm_continuation.switching`: the period-2 family at a period
+        bifurcates there (:mod:`nsm_continuation.algorithms.switching`: the period-2 family at a
+        period
         doubling, the other branch at a branch point); ``curve=<kind>`` continues the event in
         two parameters, ``free`` (the parameter this run continued) solved for and
         ``parameter=...`` continued: ``"grazing"`` by the augmented system
         (:mod:`nsm_continuation.hybrid.codim1`), ``"period_doubling"``, ``"fold"``,
         ``"neimark_sacker"`` and any kind the problem maps a monitor to (e.g. a hybrid
         orbit's ``"sticking_lost"``; ``"grazing"`` with ``method="located"``) as located
-        events (:func:`nsm_continuation.event_curves.curve_kinds`).
+        events (:func:`nsm_continuation.algorithms.curves.curve_kinds`).
         ``parameters`` override this run's,
         ``settings`` are keys of the ``continuation:`` block (``parameter`` may be any
         parameter of the problem; the rest of the block is inherited when it is the same),
         ``analysis`` keys of ``analysis:``. Nothing is written (:meth:`save`)."""
-        from .restart import record_from_result
+        from nsm_continuation.cases.restart import record_from_result
 
         if isinstance(event, EventRecord):
             same = [e for e in self.events if e.branch == event.branch and e.kind == event.kind]
@@ -332,12 +341,12 @@ class Result:
     def orbit(self, branch: int = 0, point: int = -1, periods: int = 1) -> OrbitTrace:
         """The periodic orbit at row ``point`` of branch ``branch`` (its id, as in
         ``branch_<id>.csv``; a negative row counts from the end) over ``periods`` periods
-        (1 to :data:`~nsm_continuation.cases.MAX_ORBIT_PERIODS`; :meth:`Problem.orbit
-        <nsm_continuation.protocol.Problem.orbit>`): time ``t``, named ``signals``, their
+        (1 to :data:`~nsm_continuation.cases.schema.MAX_ORBIT_PERIODS`; :meth:`Problem.orbit
+        <nsm_continuation.core.problem.Problem.orbit>`): time ``t``, named ``signals``, their
         ``labels``, impact ``marks``, sticking ``intervals`` and the family's ``views``.
         ``ValueError`` naming the argument for a branch, row or number of periods the run
         does not have, or if the problem does not draw its orbits."""
-        from .orbit_selection import problem_of
+        from nsm_continuation.figures.orbit_selection import problem_of
 
         n = _orbit_periods(periods, "periods")
         br = self._branch(branch)
@@ -370,15 +379,15 @@ class Result:
                     view: str = "time", ax: Any = None, periods: int = 1,
                     log: Sequence[str] = ()) -> Any:
         """An orbit figure as the case key ``output.orbits`` draws it
-        (:mod:`nsm_continuation.orbits`): the ``view`` (``time``, ``phase`` or ``manifold``,
+        (:mod:`nsm_continuation.figures.orbits`): the ``view`` (``time``, ``phase`` or ``manifold``,
         as the problem draws them: :meth:`Problem.orbit_view_names
-        <nsm_continuation.protocol.Problem.orbit_view_names>`) of the orbits at ``points``
+        <nsm_continuation.core.problem.Problem.orbit_view_names>`) of the orbits at ``points``
         (``first``, ``last``, ``events``, an event kind or a value of the continued
         parameter), on ``ax`` (a new figure if None; the time view then draws its first signal
         only). Returns the matplotlib Figure; :class:`CaseError` (a ``ValueError``) naming the
         argument for a view the problem does not draw, a point that selects nothing, a
         ``log`` signal the time view does not draw or a number of periods out of range."""
-        from . import orbits
+        from nsm_continuation.figures import orbits
 
         cases.check_orbit_view(view, self.problem, "plot_orbits.view")
         n = _orbit_periods(periods, "plot_orbits.periods")
@@ -388,7 +397,7 @@ class Result:
     def plot(self, ax: Any = None) -> Any:
         """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);
         returns the matplotlib Figure."""
-        from . import plots
+        from nsm_continuation.figures import branches as plots
 
         return plots.diagram(self.run_result, ax)
 

@@ -20,16 +20,16 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from . import __version__
+from nsm_continuation import __version__
 
 if TYPE_CHECKING:
-    from .cases import Case
-    from .output import OutputTarget
+    from nsm_continuation.cases.schema import Case
+    from nsm_continuation.output.folders import OutputTarget
 
 # Everything else is imported where it is used: ``--version``, ``--help`` and ``list`` start
 # without pydantic, CasADi or NumPy, and no path imports matplotlib or Dask unless it plots
-# (:mod:`nsm_continuation.plots`, from ``results.write_files``) or distributes
-# (:mod:`nsm_continuation.execution`); ``tests/test_startup.py`` checks it.
+# (:mod:`nsm_continuation.figures.branches`, from ``results.write_files``) or distributes
+# (:mod:`nsm_continuation.runs.execution`); ``tests/test_startup.py`` checks it.
 
 DEFAULT_CASE = "default_case.yaml"
 
@@ -149,17 +149,17 @@ def _positive_int(text: str) -> int:
 
 
 def _target(args: argparse.Namespace, case: Case) -> OutputTarget:
-    from .output import OutputTarget
+    from nsm_continuation.output.folders import OutputTarget
 
     out = Path(args.out or case.output.dir or Path("runs") / case.name)
     return OutputTarget(out, "overwrite" if args.overwrite else case.output.if_exists)
 
 
 def _run(args: argparse.Namespace, path: str) -> int:
-    from . import cases
-    from .figure_process import FigureProcess
-    from .results import build_report, termination_text, write_files
-    from .runner import run_case
+    from nsm_continuation.cases import schema as cases
+    from nsm_continuation.figures.process import FigureProcess
+    from nsm_continuation.output.files import build_report, termination_text, write_files
+    from nsm_continuation.runs.runner import run_case
 
     global _current
     case, problem = cases.load(path, args.overrides)
@@ -188,7 +188,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
         return 130 if _received[0] == signal.SIGINT else 143
     failed = [b for b in res.branches if not b.points]
     if case.output.orbits is not None:
-        from .orbit_selection import spec_warnings
+        from nsm_continuation.figures.orbit_selection import spec_warnings
 
         for w in spec_warnings(res):  # also in report.md; stderr even with --quiet
             print(f"warning: {w}", file=sys.stderr)
@@ -206,14 +206,14 @@ def _run(args: argparse.Namespace, path: str) -> int:
 
 def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "list":
-        from . import registry
+        from nsm_continuation.cases import registry
 
         for name, target in registry.available().items():
             print(f"{name}\t{target}")
         return 0
     path = args.case or str(_default_case_path())
     if args.command == "validate":
-        from . import cases
+        from nsm_continuation.cases import schema as cases
 
         case, problem = cases.load(path, args.overrides)
         _target(args, case).check()  # where the run would write (nothing is created)
@@ -225,11 +225,10 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 
 def _is_case_error(exc: Exception) -> bool:
-    """Bad input (:class:`~nsm_continuation.cases.CaseError`, exit status 2). Without importing
-    :mod:`nsm_continuation.cases` (pydantic, CasADi) when nothing did: then no CaseError can
-    have been raised."""
-    cases = sys.modules.get(f"{__package__}.cases")
-    return cases is not None and isinstance(exc, cases.CaseError)
+    """Bad input (:class:`~nsm_continuation.core.errors.CaseError`, exit status 2). Without
+    importing the module when nothing did: then no CaseError can have been raised."""
+    errors = sys.modules.get(f"{__package__}.core.errors")
+    return errors is not None and isinstance(exc, errors.CaseError)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -22,9 +22,9 @@ from nsm_continuation.problems.bar.continuum import (
 )
 from nsm_continuation.problems.bar.wfem_lattice import BarModel, classify, solve_node
 
-from nsm_continuation.cases import load
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.cases.schema import load
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.settings import ContinuationSettings
 
 CASES = Path(__file__).resolve().parents[1] / "yaml_cases"
 
@@ -307,7 +307,7 @@ def test_internal_resonance_branch_leaves_main_backbone() -> None:
 def test_cases_run(case: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """The YAML cases validate and run; each branch ends at its phase end (grazing event) and at
     the energy bound just before its asymptote; energies follow the closed form."""
-    from nsm_continuation.runner import run_case
+    from nsm_continuation.runs.runner import run_case
 
     c, pr = load(CASES / case)
     res = run_case(c, pr, progress=False)

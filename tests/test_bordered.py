@@ -1,5 +1,5 @@
 """The engine's linear algebra (issue 13): CasADi results read through function buffers, and the
-chain's bordered systems solved from their structure (:mod:`nsm_continuation.bordered`).
+chain's bordered systems solved from their structure (:mod:`nsm_continuation.core.bordered`).
 
 Oracles: CasADi's own evaluation (``Function.__call__``, a ``DM`` converted by numpy) for the
 buffers; dense LAPACK (``numpy.linalg.solve`` / ``slogdet`` of the assembled bordered matrix
@@ -15,10 +15,10 @@ import pytest
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from oracles.scaled_chain import closed_form_y, scaled_chain
 
-from nsm_continuation.bordered import DenseBorderedFactor, DiagonalBorderedFactor
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.protocol import StartPoint
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.bordered import DenseBorderedFactor, DiagonalBorderedFactor
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.problem import StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 
 
 @pytest.mark.parametrize("n", [5, 60])  # SX and MX

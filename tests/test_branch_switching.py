@@ -30,8 +30,8 @@ from scipy.integrate import solve_ivp
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
-from nsm_continuation.protocol import Problem
-from nsm_continuation.switching import other_direction
+from nsm_continuation.algorithms.switching import other_direction
+from nsm_continuation.core.problem import Problem
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -217,7 +217,7 @@ def test_period_doubling_cascade_of_a_map_with_declared_hooks(tmp_path: Path,
     assert abs(pd1.parameter - 3.0) < 1e-10
     one.save(tmp_path / "one", plots=False)
 
-    from nsm_continuation import registry
+    from nsm_continuation.cases import registry
 
     real_get = registry.get  # the saved runs name the problem: make it known by name
     monkeypatch.setattr(registry, "get",

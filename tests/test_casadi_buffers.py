@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from nsm_continuation.casadi_buffers import BufferedFunction
+from nsm_continuation.core.casadi_buffers import BufferedFunction
 
 
 def _function() -> ca.Function:

@@ -29,8 +29,8 @@ from nsm_continuation.problems.chain.ndof_impact import simulate_first_return
 from scipy.optimize import brentq, minimize_scalar
 
 import nsm_continuation as nsm
-from nsm_continuation.orbits import Chosen, bounds_admissible_part, colour_quantity, traces
-from nsm_continuation.records import Event, Point
+from nsm_continuation.core.records import Event, Point
+from nsm_continuation.figures.orbits import Chosen, bounds_admissible_part, colour_quantity, traces
 
 ROOT = Path(__file__).resolve().parents[1]
 FIG72 = ROOT / "yaml_cases" / "ndof_fig7_2_prestress_manifolds.yaml"

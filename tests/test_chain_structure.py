@@ -2,7 +2,7 @@
 
 ``DF`` (eq. 3.5 / A.8) in energy coordinates is a block rotation plus a rank-two term
 (:meth:`NDofImpactProblem.return_map_structure`); its non-trivial multipliers are the roots of
-a secular equation (:func:`nsm_continuation.floquet.low_rank_update_eigen`) and their Krein
+a secular equation (:func:`nsm_continuation.core.floquet.low_rank_update_eigen`) and their Krein
 definiteness comes from the secular null vectors (:func:`krein_definiteness`).
 
 Oracles (independent of the structure):
@@ -22,7 +22,7 @@ import pytest
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from scipy.optimize import linear_sum_assignment
 
-from nsm_continuation.floquet import KREIN_DEFINITE, krein_of
+from nsm_continuation.core.floquet import KREIN_DEFINITE, krein_of
 
 
 def msd(x: np.ndarray, y: np.ndarray) -> float:

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from nsm_continuation import cli, results
+from nsm_continuation import cli
+from nsm_continuation.output import files as results
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -145,7 +146,7 @@ def test_missing_file_and_invalid_yaml(tmp_path, capsys):
 
 
 def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys):
-    from nsm_continuation import plots
+    from nsm_continuation.figures import branches as plots
 
     def boom(*a, **k):
         raise RuntimeError("plotting failed")
@@ -165,7 +166,7 @@ def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys)
 
 
 def test_every_bundled_case_validates():
-    from nsm_continuation import cases
+    from nsm_continuation.cases import schema as cases
 
     files = sorted((ROOT / "yaml_cases").glob("*.yaml"))
     assert len(files) >= 6

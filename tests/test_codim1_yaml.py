@@ -196,7 +196,7 @@ def test_bad_curve_one_line_exit_2_nothing_written(undamped: tuple[float, Any, P
 def test_a_chain_curve_from_a_point_that_is_no_grazing_is_refused(tmp_path: Path,
                                                                   capsys: Any) -> None:
     """The chain (``ndof_impact``, not a hybrid system) has located grazing curves
-    (:mod:`nsm_continuation.event_curves`); one asked from the branch's end point (no grazing
+    (:mod:`nsm_continuation.algorithms.curves`); one asked from the branch's end point (no grazing
     there) is refused before computing, naming start.curve."""
     res = nsm.run(Path(__file__).resolve().parents[1] / "yaml_cases" / "ndof_default.yaml",
                   {"continuation.min": 1.42, "continuation.max": 1.49,

@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 from pydantic import BaseModel, ConfigDict
 
-from nsm_continuation import protocol
-from nsm_continuation.cases import Case
-from nsm_continuation.protocol import Problem, StartPoint
-from nsm_continuation.report import continue_hints
-from nsm_continuation.results import hint_context, write_outputs
-from nsm_continuation.runner import run_case
+from nsm_continuation.cases.schema import Case
+from nsm_continuation.core import problem as protocol
+from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.output.files import hint_context, write_outputs
+from nsm_continuation.output.report import continue_hints
+from nsm_continuation.runs.runner import run_case
 
 CORE = Path(__file__).resolve().parents[1] / "nsm_continuation"
 
@@ -80,12 +80,12 @@ def test_base_defaults_are_the_documented_ones() -> None:
 def test_core_reads_no_undeclared_hybrid_member() -> None:
     """results / restart / report name neither the hybrid class nor its ``values``, and do not
     probe for attributes through AttributeError."""
-    for mod in ("results.py", "restart.py", "report.py"):
+    for mod in ("output/files.py", "cases/restart.py", "output/report.py"):
         text = (CORE / mod).read_text()
         assert "HybridCaseProblem" not in text, mod
         assert "except AttributeError" not in text, mod
         assert "problem.values" not in text and "pr.values" not in text, mod
-    assert "CURVE_PREFERENCE" not in (CORE / "report.py").read_text()
+    assert "CURVE_PREFERENCE" not in (CORE / "output" / "report.py").read_text()
 
 
 # ---------------------------------------------------------------------- (b) the hints

@@ -1,5 +1,5 @@
 """A multiplier crossing inside a step that also crosses a grazing point
-(:meth:`nsm_continuation.palc.ContinuationEngine._multiplier_ends`).
+(:meth:`nsm_continuation.core.palc.ContinuationEngine._multiplier_ends`).
 
 Past a grazing point a problem may have no multipliers (its return map is not linearised
 there): the end of such a step cannot show a crossing between the last point and the grazing.
@@ -22,7 +22,7 @@ import pytest
 from oracles.normal_forms import LogisticMap, LogisticParameters
 
 import nsm_continuation as nsm
-from nsm_continuation.protocol import FloquetData, StartPoint
+from nsm_continuation.core.problem import FloquetData, StartPoint
 
 R_GRAZE = 3.02
 
@@ -88,7 +88,7 @@ def test_a_test_changing_sign_on_an_inadmissible_orbit_says_so() -> None:
     orbit 'first' already makes inadmissible, which its detail says (not "admissibility
     lost"); read the other way (``report.reversed_detail``), 'second' becomes positive on an
     orbit that stays inadmissible. Down in ``r`` the engine's own words are those."""
-    from nsm_continuation.report import reversed_detail
+    from nsm_continuation.output.report import reversed_detail
 
     def run(r0: float, direction: int) -> nsm.Result:
         start = StartPoint(np.array([1 - 1 / r0, r0]), "fixed point", direction)

@@ -25,7 +25,8 @@ from oracles.normal_forms import LogisticParameters, MuParameters, Transcritical
 from scipy.optimize import fsolve
 
 import nsm_continuation as nsm
-from nsm_continuation import cli, registry
+from nsm_continuation import cli
+from nsm_continuation.cases import registry
 
 ROOT = Path(__file__).resolve().parents[1]
 

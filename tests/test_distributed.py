@@ -25,8 +25,8 @@ pytest.importorskip("distributed")
 
 import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation import cli  # noqa: E402
-from nsm_continuation.execution import merge_in_seed_order  # noqa: E402
-from nsm_continuation.records import Branch  # noqa: E402
+from nsm_continuation.core.records import Branch  # noqa: E402
+from nsm_continuation.runs.execution import merge_in_seed_order  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -91,7 +91,7 @@ def test_local_cluster_gives_the_serial_result(serial: Any, monkeypatch: Any) ->
 def test_a_single_branch_starts_no_local_cluster(monkeypatch: Any) -> None:
     """``workers=2`` on a case of one branch (the default case): computed in this process,
     the serial result, no cluster started (nothing to spread; ~1 s saved)."""
-    from nsm_continuation import execution
+    from nsm_continuation.runs import execution
 
     def no_cluster(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("a local cluster was started for a single branch")
@@ -121,7 +121,7 @@ def test_diagram_generation_as_tasks_gives_the_serial_tree(monkeypatch: Any) -> 
     serial run's, and the switched branches are the closed forms ``x = mu``, ``x = 1 - mu``
     (the second generation's branch point at (1/2, 1/2), switched from branch 1, gives
     branch 2 again: not followed)."""
-    from nsm_continuation import execution
+    from nsm_continuation.runs import execution
 
     ser = two_transcriticals()
     started: list[Any] = []

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from pydantic import BaseModel
 
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.protocol import FloquetData, Problem, StartPoint
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 
 
 class _Params(BaseModel):
@@ -211,7 +211,7 @@ class KreinPair(Problem):
         return y[0] - y[1]
 
     def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
-        from nsm_continuation.floquet import KreinFloquetData
+        from nsm_continuation.core.floquet import KreinFloquetData
 
         d = float(y[1]) - 1.0
         if not self.opposite:
@@ -269,8 +269,8 @@ def test_a_crossing_without_a_kind_is_one_stability_change() -> None:
     """A crossing the multipliers do not classify (kind ``stability_change``) is one event with
     the change in its detail; a classified one (a flip) is the crossing plus its stability
     change (the report listed such a change twice at one point)."""
-    from nsm_continuation.palc import _crossing_events
-    from nsm_continuation.records import Point
+    from nsm_continuation.core.palc import _crossing_events
+    from nsm_continuation.core.records import Point
 
     p = Point(y=np.zeros(2), s=0.0, tangent=np.array([0.0, 1.0]), tests={}, multipliers=None,
               trivial_error=0.0, n_unstable=0, derived={}, bordered_det=1.0)

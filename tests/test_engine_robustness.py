@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from pydantic import BaseModel
 
-from nsm_continuation.events import pole_estimate
-from nsm_continuation.lattice import LatticeContinuation, LatticeProblem, LatticeSeed
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.protocol import EvaluationError, Problem, StartPoint
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.lattice import LatticeContinuation, LatticeProblem, LatticeSeed
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.problem import EvaluationError, Problem, StartPoint
+from nsm_continuation.core.roots import pole_estimate
+from nsm_continuation.core.settings import ContinuationSettings
 
 SIM_MESSAGE = "simulation: time limit: no end condition reached by t = 1000 (state s6)"
 

@@ -21,15 +21,15 @@ from scipy.optimize import brentq, minimize_scalar
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
-from nsm_continuation.event_curves import (
+from nsm_continuation.algorithms.curves import (
     DEFAULT_MONITOR_KIND,
     MULTIPLIER_KINDS,
     LocatedCurve,
     curve_kinds,
     monitor_kinds,
 )
-from nsm_continuation.protocol import Problem
-from nsm_continuation.records import Point
+from nsm_continuation.core.problem import Problem
+from nsm_continuation.core.records import Point
 
 R = 0.8
 #: the closed-form slope of (O2) in omega is ~3: 1e-7 in (O2) is ~3e-8 in omega
@@ -187,7 +187,7 @@ def test_a_curve_kind_the_problem_does_not_offer_is_refused(saved: Path, tmp_pat
     """Any kind name passes the schema; one that is neither a multiplier kind nor a kind the
     problem maps a test or event function to is refused before computing, in one line naming
     start.curve and the kinds this problem offers."""
-    from nsm_continuation.registry import get
+    from nsm_continuation.cases.registry import get
 
     start = {"from": str(saved), "event": "period_doubling", "curve": "endpoint"}
     assert _yaml(tmp_path, "bad3", start) == 2

@@ -31,10 +31,10 @@ import numpy as np
 import pytest
 from pydantic import BaseModel
 
-from nsm_continuation.palc import ContinuationEngine, multiplier_motion
-from nsm_continuation.protocol import FloquetData, Problem, StartPoint
-from nsm_continuation.records import Branch, Event
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.palc import ContinuationEngine, multiplier_motion
+from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
+from nsm_continuation.core.records import Branch, Event
+from nsm_continuation.core.settings import ContinuationSettings
 
 
 class _Params(BaseModel):
@@ -380,8 +380,8 @@ def test_narrow_neimark_sacker_window_of_fig_6_1_is_found() -> None:
     limit 0.02 finds it, at the omega a 4x finer limit (0.005) gives (README table)."""
     from pathlib import Path
 
-    from nsm_continuation import cases
-    from nsm_continuation.runner import run_case
+    from nsm_continuation.cases import schema as cases
+    from nsm_continuation.runs.runner import run_case
 
     path = Path(__file__).resolve().parents[1] / "yaml_cases" / "ndof_fig6_1_stability.yaml"
     case, problem = cases.load(path)

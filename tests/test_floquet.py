@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment
 
-from nsm_continuation.floquet import (
+from nsm_continuation.core.floquet import (
     CROSSING_COMPLEX,
     CROSSING_MINUS_ONE,
     CROSSING_PLUS_ONE,
@@ -161,7 +161,7 @@ def test_classify_crossing_without_leaving_multiplier() -> None:
 # ---------------------------------------------------------------------------------------------
 # Structured spectra (issue 13 item 1): diagonal plus low rank, Krein definiteness
 # ---------------------------------------------------------------------------------------------
-from nsm_continuation.floquet import (  # noqa: E402
+from nsm_continuation.core.floquet import (  # noqa: E402
     KREIN_DEFINITE,
     collision_distances,
     krein_definiteness,

@@ -1,7 +1,7 @@
 """Multipliers of real maps by conjugate pairs (issue 13, "N = 1000: < 0.1 s per continuation
-point with multipliers"): :func:`nsm_continuation.floquet.low_rank_update_eigen` iterates one
+point with multipliers"): :func:`nsm_continuation.core.floquet.low_rank_update_eigen` iterates one
 member of each conjugate pair and the real roots, and returns an exactly conjugate-closed
-spectrum; :func:`nsm_continuation.floquet.krein_definiteness` computes one member of each pair.
+spectrum; :func:`nsm_continuation.core.floquet.krein_definiteness` computes one member of each pair.
 
 Oracles, independent of the code under test: ``numpy.linalg.eigvals`` of the real matrix
 ``(I + U V^T) D`` (LAPACK returns its real eigenvalues with a zero imaginary part and its
@@ -17,8 +17,8 @@ import pytest
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from scipy.optimize import linear_sum_assignment
 
-from nsm_continuation import floquet
-from nsm_continuation.floquet import krein_definiteness, low_rank_update_eigen
+from nsm_continuation.core import floquet
+from nsm_continuation.core.floquet import krein_definiteness, low_rank_update_eigen
 
 
 def msd(x: np.ndarray, y: np.ndarray) -> float:

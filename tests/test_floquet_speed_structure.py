@@ -5,9 +5,9 @@ Oracles, independent of the code under test:
 
 * the dense ``O(n m)`` formulas the fast paths replace, kept here as private references:
   :func:`_krein_motion_reference` (the full distance matrix of
-  :func:`nsm_continuation.palc.krein_motion`), :func:`_collision_distances_reference` and
+  :func:`nsm_continuation.core.palc.krein_motion`), :func:`_collision_distances_reference` and
   :func:`_krein_definiteness_reference` (the two-pass formula of
-  :func:`nsm_continuation.floquet.krein_definiteness`);
+  :func:`nsm_continuation.core.floquet.krein_definiteness`);
 * the dense eigenvalues of ``diag(mu) + X Y^T`` (``numpy.linalg.eigvals``) and of the chain's
   return map (:meth:`NDofImpactProblem.floquet_dense`);
 * the nearest pole by the minimum over all poles.
@@ -20,7 +20,7 @@ import pytest
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from scipy.optimize import linear_sum_assignment
 
-from nsm_continuation.floquet import (
+from nsm_continuation.core.floquet import (
     _Poles,
     collision_distances,
     definite_sign,
@@ -29,7 +29,7 @@ from nsm_continuation.floquet import (
     low_rank_update_eigen,
     nearest_distances,
 )
-from nsm_continuation.palc import krein_motion, krein_motion_ratio
+from nsm_continuation.core.palc import krein_motion, krein_motion_ratio
 
 
 # ---------------------------------------------------------------- references (dense, old)
@@ -110,7 +110,7 @@ def _krein_definiteness_reference(mu: np.ndarray, X: np.ndarray, Y: np.ndarray,
                                   lam: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Direct formula: ``v = -(diag(mu) - lam)^-1 X w`` scaled by ``mu_* - lam``, ``w`` the
     largest column of ``adj(M)``, ``M = (mu_* - lam) S(lam)``, all sums formed densely."""
-    from nsm_continuation.floquet import _adj
+    from nsm_continuation.core.floquet import _adj
 
     k = X.shape[1]
     D = mu[None, :] - lam[:, None]

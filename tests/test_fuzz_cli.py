@@ -43,7 +43,8 @@ import yaml
 from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
-from nsm_continuation import cli, registry
+from nsm_continuation import cli
+from nsm_continuation.cases import registry
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "yaml_cases"
@@ -580,7 +581,7 @@ def schema_cases(problem: str) -> st.SearchStrategy:
     params = _schema_of(cls.Parameters)
     adapter = getattr(cls, "start_adapter", None)
     start = _schema_of(adapter) if adapter is not None else st.just(base["start"])
-    from nsm_continuation import cases
+    from nsm_continuation.cases import schema as cases
 
     defs = cases.Case.model_json_schema()["$defs"]
     cont = from_schema(defs["ContinuationSpec"], defs)

@@ -245,8 +245,8 @@ def test_grazing_curve_is_the_closed_form(zeta: float) -> None:
     from scipy.optimize import brentq
 
     import nsm_continuation as nsm
+    from nsm_continuation.core.problem import StartPoint
     from nsm_continuation.hybrid.codim1 import GrazingCurve
-    from nsm_continuation.protocol import StartPoint
 
     curve = GrazingCurve(problem(zeta), "omega", "gap")
     wg = brentq(lambda w: amplitude(w, zeta) + GAP, 1.2, 3.0, xtol=1e-15)

@@ -33,7 +33,7 @@ import pytest
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
 import nsm_continuation as nsm
-from nsm_continuation.floquet import count_outside
+from nsm_continuation.core.floquet import count_outside
 from nsm_continuation.hybrid.shooting import PERIOD, PeriodShooting, period_reach
 
 CASE = "yaml_cases/pendulum_sec6_3_homoclinic.yaml"

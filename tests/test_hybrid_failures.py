@@ -215,8 +215,8 @@ def test_newton_near_homoclinic_orbit_ends_with_a_reason():
     event (the period bound) or a termination reason, never an exception."""
     from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
-    from nsm_continuation.palc import ContinuationEngine
-    from nsm_continuation.settings import ContinuationSettings
+    from nsm_continuation.core.palc import ContinuationEngine
+    from nsm_continuation.core.settings import ContinuationSettings
 
     pb = DoublePendulumProblem({"restitution": 0.9, "d": 0.5, "torque": -31.09,
                                 "integrator": {"wall_time": 2.0}})
@@ -255,9 +255,9 @@ def test_homoclinic_torque_from_the_period_continuation():
     the bundled case): all within 1e-9 of the paper's torque."""
     from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
+    from nsm_continuation.core.palc import ContinuationEngine
+    from nsm_continuation.core.settings import ContinuationSettings
     from nsm_continuation.hybrid.presentation import homoclinic_fit
-    from nsm_continuation.palc import ContinuationEngine
-    from nsm_continuation.settings import ContinuationSettings
 
     pb = DoublePendulumProblem({"restitution": 0.9, "d": 0.5, "torque": -31.09})
     pb.parameter_bounds("period", 7.0, 50.0)

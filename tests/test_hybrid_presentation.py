@@ -26,10 +26,11 @@ import numpy as np
 import pytest
 
 import nsm_continuation as nsm
-from nsm_continuation import plots, report
+from nsm_continuation.core.records import Branch, Event, Point
+from nsm_continuation.figures import branches as plots
 from nsm_continuation.hybrid.presentation import homoclinic_fit
-from nsm_continuation.records import Branch, Event, Point
-from nsm_continuation.results import build_report, event_record
+from nsm_continuation.output import report
+from nsm_continuation.output.files import build_report, event_record
 
 ROOT = Path(__file__).resolve().parents[1]
 FIG2 = ROOT / "yaml_cases" / "impact_oscillator_fig2_sticking.yaml"
@@ -374,7 +375,7 @@ def test_events_at_a_limit_point_read_in_the_continuation_order() -> None:
     the parameter component of its own point's tangent (that read the other way round: "no ->
     yes" next to the fold's "yes -> no"). A fold of the multipliers (a pair at +1, the tangent
     not involved) leaves the others alone."""
-    from nsm_continuation.records import Branch, Event, Point
+    from nsm_continuation.core.records import Branch, Event, Point
 
     def point(s: float, tp: float) -> Point:
         return Point(y=np.array([0.0, 1.0]), s=s, tangent=np.array([np.sqrt(1 - tp * tp), tp]),

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from oracles.scaled_chain import closed_form_y, scaled_chain
 
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.protocol import StartPoint
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.problem import StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 
 
 @pytest.mark.parametrize("n", [60, 200])
@@ -81,10 +81,10 @@ def test_collisions_on_the_discriminant_are_the_counts_events() -> None:
 
 @pytest.mark.parametrize("root", [1e-7, 0.3, 1 - 3e-8])
 def test_illinois_closes_the_bracket_with_dekker_steps(root: float) -> None:
-    """:func:`nsm_continuation.events.illinois` with ``close``: the zero of a smooth function
+    """:func:`nsm_continuation.core.roots.illinois` with ``close``: the zero of a smooth function
     (here with curvature, so that the secant approaches from one side) bracketed to ``tol``
     in a handful of evaluations, where the plain method creeps by halvings."""
-    from nsm_continuation.events import illinois
+    from nsm_continuation.core.roots import illinois
 
     def counted(calls: list[float]):  # noqa: ANN202 - a test helper
         def f(x: float) -> tuple[float, None]:

@@ -26,8 +26,9 @@ from oracles.krein_normal_form import (
 from oracles.scaled_chain import closed_form_y
 
 import nsm_continuation as nsm
-from nsm_continuation import cli, palc
-from nsm_continuation.krein import SEVERAL, discriminant, signature_word, swap_paths
+from nsm_continuation import cli
+from nsm_continuation.core import palc
+from nsm_continuation.core.krein import SEVERAL, discriminant, signature_word, swap_paths
 
 #: steps free to jump over a window: no closing rule, no motion limit
 LOOSE = {"max_multiplier_step": 10.0}

@@ -2,7 +2,7 @@
 on the parameter or on a derived quantity, a fold, the bordered determinant) are located on
 trial points analysed without them (``tests=False``), and every zero by the Illinois
 iteration with Dekker's closing step
-(:meth:`nsm_continuation.palc.ContinuationEngine._locate_continuous`).
+(:meth:`nsm_continuation.core.palc.ContinuationEngine._locate_continuous`).
 
 Oracle: the fold normal form ``G(x, mu) = mu - x^2``, whose fold is at ``x = 0`` and whose
 derived quantity ``q = x`` reaches a bound ``q = Q`` at ``(Q, Q^2)``, closed forms. Each trial
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from oracles.normal_forms import MuParameters, Transcritical
 
-from nsm_continuation import palc
-from nsm_continuation.protocol import StartPoint
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core import palc
+from nsm_continuation.core.problem import StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 
 Q = 0.5
 

@@ -1,10 +1,10 @@
 """The multiplier-motion step control as a ratio (issue 13, "Krein-aware step control").
 
 A step is refused when its motion ratio exceeds 1 (:meth:`ContinuationEngine._multiplier_motion`);
-the ratio also caps the next step (:func:`nsm_continuation.palc._motion_capped_step`), since
+the ratio also caps the next step (:func:`nsm_continuation.core.palc._motion_capped_step`), since
 displacements grow linearly with a short step. Oracles:
 
-* closed forms of the closing rule (:func:`nsm_continuation.palc.krein_closing`) on sets of
+* closed forms of the closing rule (:func:`nsm_continuation.core.palc.krein_closing`) on sets of
   multipliers built by hand: chords between points of the unit circle, displacements of a
   quadruple off it;
 * the engine with the step control of plain halving (the rule before the ratio): the same
@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from nsm_continuation import api, palc
-from nsm_continuation.floquet import collision_distances
-from nsm_continuation.palc import KREIN_CLOSING, KREIN_NEAR, OUTSIDE_TRAVEL, krein_closing
+from nsm_continuation import api
+from nsm_continuation.core import palc
+from nsm_continuation.core.floquet import collision_distances
+from nsm_continuation.core.palc import KREIN_CLOSING, KREIN_NEAR, OUTSIDE_TRAVEL, krein_closing
 
 TOL = 1e-9
 MATCH = 0.02

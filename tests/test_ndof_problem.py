@@ -21,9 +21,9 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 from scipy.optimize import fsolve, linear_sum_assignment, minimize_scalar
 
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.records import Branch
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.records import Branch
+from nsm_continuation.core.settings import ContinuationSettings
 
 PAPER_CHAIN = {"dofs": 5, "mass": 0.2, "stiffness": 5.0}
 FORMULATIONS = ("half_angle", "shooting")

@@ -1,4 +1,5 @@
-"""Orbit figures (``output.orbits``, ``Problem.orbit``, :mod:`nsm_continuation.orbits`), each
+"""Orbit figures (``output.orbits``, ``Problem.orbit``, :mod:`nsm_continuation.figures.orbits`),
+each
 against an oracle independent of what it checks:
 
 * the chain's closed-form orbit (free flight from the post-impact state, eqs. 2.9-2.10/5.4)

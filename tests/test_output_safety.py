@@ -1,4 +1,5 @@
-"""The output policy (nsm_continuation.output): a run never deletes or overwrites a file it did
+"""The output policy (nsm_continuation.output.folders): a run never deletes or overwrites a file it
+did
 not write, refuses an unusable location before computing, and leaves nothing partial behind
 when it fails or is interrupted."""
 
@@ -17,8 +18,8 @@ import pytest
 import yaml
 
 from nsm_continuation import cli
-from nsm_continuation import runner as run_module
-from nsm_continuation.output import MARKER
+from nsm_continuation.output.folders import MARKER
+from nsm_continuation.runs import runner as run_module
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -268,7 +269,7 @@ def test_overwrite_never_removes_what_the_user_changed_or_added(tmp_path, capsys
 
 def test_signal_during_the_final_move_is_held_until_it_is_complete(tmp_path, capsys,
                                                                    monkeypatch):
-    import nsm_continuation.output as output
+    import nsm_continuation.output.folders as output
 
     case, out = _two_runs(tmp_path, capsys)
     real = os.replace
@@ -305,7 +306,8 @@ def test_folders_created_for_a_run_are_removed_when_it_fails(tmp_path, capsys, m
     """Interrupted while the figures are drawn, by this process (``here``) or by the child
     forked before the computation (``child``: the interrupt arrives while this process waits
     for it): exit 130, and the folders the run created are gone."""
-    from nsm_continuation import figure_process, plots
+    from nsm_continuation.figures import branches as plots
+    from nsm_continuation.figures import process as figure_process
 
     def boom(*a, **k):
         raise KeyboardInterrupt

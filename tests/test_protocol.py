@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 from pydantic import BaseModel, ConfigDict
 
-from nsm_continuation import plots, records
-from nsm_continuation.cases import Case, CaseError, validate
-from nsm_continuation.protocol import FloquetData, Problem, StartPoint
-from nsm_continuation.results import write_outputs
-from nsm_continuation.runner import RunResult, run_case
+from nsm_continuation.cases.schema import Case, CaseError, validate
+from nsm_continuation.core import records
+from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
+from nsm_continuation.figures import branches as plots
+from nsm_continuation.output.files import write_outputs
+from nsm_continuation.runs.runner import RunResult, run_case
 
 CORE = Path(__file__).resolve().parents[1] / "nsm_continuation"
 
@@ -232,8 +233,8 @@ def test_family_kinds_are_not_core_kinds() -> None:
     core = set(records.CORE_EVENT_KINDS)
     assert core == {"fold", "branch_point", "period_doubling", "neimark_sacker",
                     "stability_change", "grazing", "endpoint", "asymptote"}
+    from nsm_continuation.core.lattice import LatticeProblem
     from nsm_continuation.hybrid.shooting import HybridShootingProblem
-    from nsm_continuation.lattice import LatticeProblem
 
     assert set(HybridShootingProblem.event_kinds) == {
         "sticking_lost", "impact_sequence_change", "homoclinic_approach"}

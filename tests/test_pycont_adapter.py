@@ -21,9 +21,9 @@ from nsm_continuation.adapters.pycont import (
     correct_at_fixed_parameter,
     run_pycont,
 )
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.protocol import Problem, StartPoint
-from nsm_continuation.settings import ContinuationSettings
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 
 PAPER_CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 #: branch 1 window: from 0.99 T_1 down to 0.93 T_1 (smooth, no pole or zero of w_N inside)

@@ -21,7 +21,7 @@ import yaml
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
-from nsm_continuation.restart import RESTART_FORMAT, RESTART_VERSION
+from nsm_continuation.cases.restart import RESTART_FORMAT, RESTART_VERSION
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the default chain case (Fig. 5.1, branch 1) cut to omega in [1.42, 1.49]: the linear grazing
@@ -300,9 +300,9 @@ def test_hybrid_restart_in_another_parameter(flip_run: tuple[Any, Path]) -> None
 
 def test_start_curve_takes_any_kind_name_checked_with_the_problem() -> None:
     """``start.curve`` is any kind name in the schema (the kinds a problem's curves can follow
-    come from the problem, :func:`nsm_continuation.event_curves.curve_kinds`, checked once it
+    come from the problem, :func:`nsm_continuation.algorithms.curves.curve_kinds`, checked once it
     is loaded); an empty name is refused naming the key."""
-    from nsm_continuation.restart import parse_spec
+    from nsm_continuation.cases.restart import parse_spec
 
     spec = parse_spec({"from": "runs/x", "event": "some_family_kind", "curve": "some_family_kind"})
     assert spec.curve == "some_family_kind"

@@ -24,10 +24,10 @@ from pydantic import BaseModel
 from scipy.integrate import solve_ivp
 
 import nsm_continuation as nsm
+from nsm_continuation.core.palc import ContinuationEngine
+from nsm_continuation.core.problem import KinkCrossing, Problem, Rechart, StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 from nsm_continuation.hybrid.shooting import HybridShootingProblem
-from nsm_continuation.palc import ContinuationEngine
-from nsm_continuation.protocol import KinkCrossing, Problem, Rechart, StartPoint
-from nsm_continuation.settings import ContinuationSettings
 
 R = 0.8
 

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from nsm_continuation.casadi_buffers import SMALL_RESULTS, BufferedFunction
+from nsm_continuation.core.casadi_buffers import SMALL_RESULTS, BufferedFunction
 
 
 def _step_like() -> ca.Function:

@@ -22,8 +22,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nsm_continuation import floquet
-from nsm_continuation.floquet import (
+from nsm_continuation.core import floquet
+from nsm_continuation.core.floquet import (
     KREIN_DEFINITE,
     collision_distances,
     definite_sign,

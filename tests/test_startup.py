@@ -55,7 +55,7 @@ def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path):
         "from nsm_continuation.cli import main\n"
         f"out['code'] = main(['run', {str(path)!r}, '--out', {str(run)!r}, '--quiet'])\n"
         "out['before'] = sorted({m.partition('.')[0] for m in sys.modules})\n"
-        "import nsm_continuation.plots  # the control: plotting does load matplotlib\n"
+        "import nsm_continuation.figures.branches  # the control: plotting does load matplotlib\n"
         "out['plots'] = 'matplotlib' in sys.modules")
     assert out["code"] == 0
     assert "casadi" in out["before"]  # it did compute (the check is not vacuous)

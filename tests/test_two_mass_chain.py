@@ -12,7 +12,7 @@ import pytest
 from nsm_continuation.problems.impacting.two_mass_chain import TwoMassChainProblem
 from pydantic import ValidationError
 
-from nsm_continuation import registry
+from nsm_continuation.cases import registry
 
 BASE = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "gap": 0.5,
         "restitution": 0.8}

@@ -1,4 +1,5 @@
-"""One vocabulary across the problem families (``nsm_continuation.vocabulary``): an old key gives
+"""One vocabulary across the problem families (``nsm_continuation.core.vocabulary``): an old key
+gives
 the same problem with a deprecation warning naming both keys, an old key with its new one is one
 error naming both, the command line shows a deprecation once, and every registered problem is
 the same built from a dict or from its ``Parameters`` model."""
@@ -17,10 +18,12 @@ import pytest
 import yaml
 from pydantic import ValidationError
 
-from nsm_continuation import cases, cli, registry
+from nsm_continuation import cli
 from nsm_continuation.api import problem as api_problem
-from nsm_continuation.cases import CaseError
-from nsm_continuation.vocabulary import ParameterDeprecationWarning, as_parameters
+from nsm_continuation.cases import registry
+from nsm_continuation.cases import schema as cases
+from nsm_continuation.cases.schema import CaseError
+from nsm_continuation.core.vocabulary import ParameterDeprecationWarning, as_parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "yaml_cases"

@@ -18,7 +18,7 @@ from nsm_continuation.problems.chain.ndof_impact import (
 )
 from scipy.optimize import brentq, minimize_scalar
 
-from nsm_continuation.scalar_search import bounded_minimum
+from nsm_continuation.core.scalar_search import bounded_minimum
 
 FUNCTIONS = {
     "quartic": (lambda x: (x - 0.3) ** 4 - 0.1 * x, -1.0, 2.0, 1e-9, 500),

@@ -1,4 +1,5 @@
-"""Adapters that hand an :class:`~nsm_continuation.protocol.Problem` to other continuation toolkits.
+"""Adapters that hand an :class:`~nsm_continuation.core.problem.Problem` to other continuation
+toolkits.
 
 Each adapter lives in its own module and imports its toolkit lazily, so that ``nsm_continuation``
 itself never depends on it:

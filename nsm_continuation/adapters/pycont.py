@@ -1,4 +1,4 @@
-"""Hand any :class:`~nsm_continuation.protocol.Problem` to pycont-lite.
+"""Hand any :class:`~nsm_continuation.core.problem.Problem` to pycont-lite.
 
 `pycont-lite <https://pypi.org/project/pycont-lite/>`_ (``import pycont``) continues the solutions
 of ``G(u, p) = 0`` with ``u`` in ``R^M`` and a scalar parameter ``p``, matrix-free (Newton-Krylov
@@ -52,7 +52,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from nsm_continuation.protocol import Problem
+from nsm_continuation.core.problem import Problem
 
 #: message of the ImportError raised when pycont-lite is missing
 PYCONT_MISSING = (
@@ -211,7 +211,7 @@ def run_pycont(problem: Problem, y0: np.ndarray, *, ds_min: float = 1e-6, ds_max
     Parameters
     ----------
     problem:
-        Any :class:`~nsm_continuation.protocol.Problem`.
+        Any :class:`~nsm_continuation.core.problem.Problem`.
     y0:
         A point of the branch (length ``problem.dim``); polished first by Newton at fixed
         parameter with the exact Jacobian when ``correct_start`` (pycont-lite assumes a

@@ -8,6 +8,6 @@
 * :mod:`.shooting` — periodic orbits on a Poincaré section as a continuation Problem.
 """
 
-from .system import CompiledHybrid, HybridDeclarationError, HybridSystem
+from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationError, HybridSystem
 
 __all__ = ["CompiledHybrid", "HybridDeclarationError", "HybridSystem"]

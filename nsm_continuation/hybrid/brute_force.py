@@ -38,13 +38,13 @@ from weakref import WeakKeyDictionary
 
 import numpy as np
 
-from ..algorithms import sweep_point_record
-from ..protocol import SweepSeed
-from ..records import Point
-from .simulate import SimOptions, SimResult, SimulationError, Simulator
+from nsm_continuation.algorithms.base import sweep_point_record
+from nsm_continuation.core.problem import SweepSeed
+from nsm_continuation.core.records import Point
+from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .shooting import HybridCaseProblem
+    from nsm_continuation.hybrid.shooting import HybridCaseProblem
 
 TWO_PI = 2.0 * np.pi
 

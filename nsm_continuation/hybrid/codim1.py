@@ -30,7 +30,7 @@ The unknowns are ``y = (z, p, q)``; ``q`` is the continuation parameter and ``p`
 for. Like TC-HAT's and COCO's grazing curves (``coco`` ``'hspo'`` demos), but on the automatic
 event sequence of the simulator rather than a prescribed segment sequence. From YAML:
 ``start: {from: <run>, event: grazing, curve: grazing, free: <p>}`` with
-``continuation.parameter: <q>`` (:mod:`nsm_continuation.restart`).
+``continuation.parameter: <q>`` (:mod:`nsm_continuation.cases.restart`).
 """
 
 from __future__ import annotations
@@ -42,10 +42,15 @@ import casadi as ca
 import numpy as np
 from pydantic import BaseModel
 
-from ..event_curves import CodimOneCurve
-from ..protocol import EvaluationError
-from .grazing import margin_gradient
-from .shooting import HybridCaseProblem, HybridShooting, Section, ShootingFailure
+from nsm_continuation.algorithms.curves import CodimOneCurve
+from nsm_continuation.core.problem import EvaluationError
+from nsm_continuation.hybrid.grazing import margin_gradient
+from nsm_continuation.hybrid.shooting import (
+    HybridCaseProblem,
+    HybridShooting,
+    Section,
+    ShootingFailure,
+)
 
 #: the lifted parameter of the virtual system (the surface moved to ``H + s = 0``)
 SHIFT = "_grazing_curve_shift"

@@ -16,7 +16,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .system import CompiledHybrid
+from nsm_continuation.hybrid.system import CompiledHybrid
 
 
 def sticking_equilibrium(c: CompiledHybrid, guess: np.ndarray, tol: float = 1e-13,

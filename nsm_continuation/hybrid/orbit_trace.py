@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ..protocol import EvaluationError
-from ..records import OrbitTrace
-from .simulate import SimResult, SimulationError, Simulator
-from .system import HybridDeclarationError
+from nsm_continuation.core.problem import EvaluationError
+from nsm_continuation.core.records import OrbitTrace
+from nsm_continuation.hybrid.simulate import SimResult, SimulationError, Simulator
+from nsm_continuation.hybrid.system import HybridDeclarationError
 
 if TYPE_CHECKING:
-    from .shooting import HybridShootingProblem
+    from nsm_continuation.hybrid.shooting import HybridShootingProblem
 
 #: largest integration step of the recorded orbit: its period over this
 SAMPLES_PER_PERIOD = 1500
@@ -48,7 +48,7 @@ MARKED_EVENTS = {"chatter": "chattering completed", "release": "release"}
 class OrbitDeclarations:
     """What a hybrid family's orbit figures show (declared in the family's problem module)."""
 
-    #: the views of :class:`~nsm_continuation.records.OrbitTrace` (``time``, ``phase``,
+    #: the views of :class:`~nsm_continuation.core.records.OrbitTrace` (``time``, ``phase``,
     #: ``manifold``); None: the impacting coordinate against time and its phase portrait
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = None
     #: axis labels of the signals (state names and ``orbit_outputs``); default their names
@@ -99,7 +99,7 @@ def impact_times(run: SimResult) -> list[float]:
 
 def orbit_trace(problem: HybridShootingProblem, y: np.ndarray, periods: int = 1) -> OrbitTrace:
     """The periodic orbit at ``y`` over ``periods`` periods (see the module docstring).
-    Raises :class:`~nsm_continuation.protocol.EvaluationError` if it cannot be simulated."""
+    Raises :class:`~nsm_continuation.core.problem.EvaluationError` if it cannot be simulated."""
     sh = problem.shooting
     y = np.asarray(y, dtype=float)
     c, sec = sh.c, sh.section

@@ -1,7 +1,7 @@
 """Presentation of hybrid orbits: diagram axes, CSV columns, figures and report extras.
 
 Pure functions of the results (the Problem contract's *presentation* group,
-:mod:`nsm_continuation.protocol`), mixed into
+:mod:`nsm_continuation.core.problem`), mixed into
 :class:`~nsm_continuation.hybrid.shooting.HybridShootingProblem`. What is presented follows the
 system (:class:`~nsm_continuation.hybrid.system.HybridSystem`):
 
@@ -45,10 +45,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..scalar_search import bounded_minimum
+from nsm_continuation.core.scalar_search import bounded_minimum
 
 if TYPE_CHECKING:
-    from .system import HybridSystem
+    from nsm_continuation.hybrid.system import HybridSystem
 
 #: the event kind of a branch ended by its period bound (``HybridShootingProblem.bound_kinds``)
 HOMOCLINIC_KIND = "homoclinic_approach"
@@ -187,7 +187,7 @@ class HybridPresentation:
         against the continued parameter (styled as the branch diagram)."""
         if self.response_key is None or not any(br.points for br in branches):
             return []
-        from ..plots import quantity_panels
+        from nsm_continuation.figures.branches import quantity_panels
 
         c = self.response_coordinate
         name = f"impacts_vs_{self.parameter}.png"

@@ -63,14 +63,20 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 
-from ..preflight import one_or_many
-from ..protocol import EvaluationError, FloquetData, KinkCrossing, Problem, Rechart
-from ..records import OrbitTrace
-from .grazing import locate_grazing, step_beyond, tangent_beyond
-from .orbit_trace import OrbitDeclarations, orbit_trace, views_of
-from .presentation import HybridPresentation
-from .simulate import SimOptions, SimResult, SimulationError, Simulator
-from .system import CompiledHybrid
+from nsm_continuation.core.preflight import one_or_many
+from nsm_continuation.core.problem import (
+    EvaluationError,
+    FloquetData,
+    KinkCrossing,
+    Problem,
+    Rechart,
+)
+from nsm_continuation.core.records import OrbitTrace
+from nsm_continuation.hybrid.grazing import locate_grazing, step_beyond, tangent_beyond
+from nsm_continuation.hybrid.orbit_trace import OrbitDeclarations, orbit_trace, views_of
+from nsm_continuation.hybrid.presentation import HybridPresentation
+from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
+from nsm_continuation.hybrid.system import CompiledHybrid
 
 
 @dataclass
@@ -538,7 +544,7 @@ class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
 
     def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residual and Jacobian from one (cached) simulation. A simulation that fails raises
-        :class:`~nsm_continuation.protocol.EvaluationError` with the simulator's reason (e.g.
+        :class:`~nsm_continuation.core.problem.EvaluationError` with the simulator's reason (e.g.
         ``simulation: time limit: ...``): the engine retries the step smaller and, if the branch
         has to end, records that reason, not a NaN residual."""
         try:
@@ -696,9 +702,9 @@ from typing import Literal  # noqa: E402
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter  # noqa: E402
 
-from ..protocol import StartPoint  # noqa: E402
-from ..vocabulary import canonical_name  # noqa: E402
-from .system import HybridDeclarationError, HybridSystem  # noqa: E402
+from nsm_continuation.core.problem import StartPoint  # noqa: E402
+from nsm_continuation.core.vocabulary import canonical_name  # noqa: E402
+from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem  # noqa: E402
 
 
 class IntegratorSpec(BaseModel):
@@ -771,7 +777,7 @@ class HybridCaseProblem(HybridShootingProblem):
     BRUTE_FORCE_RECORD: ClassVar[int] = 10
 
     def __init__(self, params: BaseModel | dict[str, Any]) -> None:
-        from ..vocabulary import as_parameters
+        from nsm_continuation.core.vocabulary import as_parameters
 
         params = as_parameters(self.Parameters, params)
         super().__init__(params)
@@ -925,7 +931,7 @@ class HybridCaseProblem(HybridShootingProblem):
         * time: ``transient x returns`` returns plus ``2 max_points x returns`` points
           (``TRANSIENT_SECONDS_PER_RETURN``, ``SECONDS_PER_POINT``) within the limit.
         """
-        from ..preflight import as_list, check_budget
+        from nsm_continuation.core.preflight import as_list, check_budget
 
         for i, s in as_list(START_ADAPTER.validate_python(start if start is not None else {})):
             if s.record is not None:
@@ -1002,7 +1008,7 @@ class HybridCaseProblem(HybridShootingProblem):
         ``free_parameter``), the start states checked as :meth:`preflight` does (``transient``
         is the per-value transient, allowed with ``guess``), and the time of
         ``(transient + record)`` returns per grid value within the limit."""
-        from ..preflight import as_list, check_budget
+        from nsm_continuation.core.preflight import as_list, check_budget
 
         if self.parameter == PERIOD:
             raise ValueError(f"continuation.parameter: {PERIOD}: a brute-force sweep varies a "
@@ -1042,8 +1048,8 @@ class HybridCaseProblem(HybridShootingProblem):
                     ) -> list[Any]:
         """The brute-force sweeps of the start block
         (:func:`~nsm_continuation.hybrid.brute_force.sweep_seeds`)."""
-        from ..preflight import as_list
-        from . import brute_force
+        from nsm_continuation.core.preflight import as_list
+        from nsm_continuation.hybrid import brute_force
 
         items = as_list(START_ADAPTER.validate_python(start if start is not None else {}))
         return brute_force.sweep_seeds(self, [s.model_copy(update={
@@ -1052,7 +1058,7 @@ class HybridCaseProblem(HybridShootingProblem):
     def sweep_point(self, seed: Any, value: float, state: Any) -> tuple[Any, Any]:
         """The recorded section returns at ``value``
         (:func:`~nsm_continuation.hybrid.brute_force.sweep_point`)."""
-        from . import brute_force
+        from nsm_continuation.hybrid import brute_force
 
         return brute_force.sweep_point(self, seed, value, state)
 
@@ -1173,7 +1179,7 @@ class HybridCaseProblem(HybridShootingProblem):
     def _period_partner_of(self, start: Any) -> str:
         """The free parameter of a period continuation named by the start block (every start
         the same), or the problem's ``period_partner``."""
-        from ..preflight import as_list
+        from nsm_continuation.core.preflight import as_list
 
         items = as_list(START_ADAPTER.validate_python(start if start is not None else {}))
         named = {s.free_parameter for _, s in items if s.free_parameter is not None}
@@ -1200,7 +1206,7 @@ class HybridCaseProblem(HybridShootingProblem):
             if bound is not None and not bound > 0:
                 raise ValueError(f"continuation.{side}: the period must be positive "
                                  f"(got {bound:g})")
-        from ..preflight import as_list
+        from nsm_continuation.core.preflight import as_list
 
         partner = self._period_partner_of(start)
         p0 = self.values[partner]
@@ -1344,7 +1350,7 @@ class HybridCaseProblem(HybridShootingProblem):
                                                 "n_state": c.n}))
         return out
 
-    # -- restart & branch switching (nsm_continuation.restart) -------------------------------
+    # -- restart & branch switching (nsm_continuation.cases.restart) -------------------------------
     def period_multiple(self) -> int:
         """The returns to the section per period (``start.returns``)."""
         return int(self.returns)

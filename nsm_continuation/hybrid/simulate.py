@@ -62,7 +62,7 @@ whole (nearly every such step ends at an event). An interpolant whose Bernstein 
 are all of one sign (beyond its rounding) has no crossing, and a step in which no component's
 slope changes sign has no interior extremum: neither is searched. Each impact computes its own
 extrapolation levels once (they do not depend on the window, :func:`_extrapolate`). The
-Functions are called through buffers bound once (:mod:`nsm_continuation.casadi_buffers`).
+Functions are called through buffers bound once (:mod:`nsm_continuation.core.casadi_buffers`).
 Together: the 204-point continuation in ``e`` of ``benchmarks/bench_chatter.py`` 27.2 -> 13.4 s,
 its CSV and report bit for bit the same.
 """
@@ -77,7 +77,7 @@ from typing import Any
 
 import numpy as np
 
-from .system import CompiledHybrid
+from nsm_continuation.hybrid.system import CompiledHybrid
 
 S1, S2, S3, S4, S5, S6 = "s1", "s2", "s3", "s4", "s5", "s6"
 EXTENDED = (S5, S6)

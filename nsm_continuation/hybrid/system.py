@@ -32,8 +32,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..casadi_buffers import BufferedFunction
-from . import tableaus
+from nsm_continuation.core.casadi_buffers import BufferedFunction
+from nsm_continuation.hybrid import tableaus
 
 
 class HybridDeclarationError(ValueError):
@@ -312,7 +312,7 @@ def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, metho
 @dataclass(frozen=True)
 class HybridCalls:
     """The simulator's Functions of a :class:`CompiledHybrid` as
-    :class:`~nsm_continuation.casadi_buffers.BufferedFunction` (numpy in, numpy out)."""
+    :class:`~nsm_continuation.core.casadi_buffers.BufferedFunction` (numpy in, numpy out)."""
 
     f: BufferedFunction
     fs: BufferedFunction

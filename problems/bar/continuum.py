@@ -78,6 +78,7 @@ from typing import Annotated, Any, ClassVar, Literal, NamedTuple
 
 import casadi as ca
 import numpy as np
+from nsm_continuation.problems.bar.presentation import BarFrequencyEnergy
 from pydantic import (
     BaseModel,
     Discriminator,
@@ -87,7 +88,7 @@ from pydantic import (
     field_validator,
 )
 
-from nsm_continuation.preflight import (
+from nsm_continuation.core.preflight import (
     STRICT,
     as_list,
     check_budget,
@@ -95,10 +96,8 @@ from nsm_continuation.preflight import (
     one_or_many,
     start_key,
 )
-from nsm_continuation.protocol import Problem, StartPoint
-from nsm_continuation.vocabulary import CanonicalNames, as_parameters
-
-from .presentation import BarFrequencyEnergy
+from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 #: coincidence tolerance on the ring (jump points closer than this cancel) and grazing tolerance

@@ -9,7 +9,7 @@ several dampings (Figs. 20-22 (a): moving wall, (b): distributed force; Fig. 20:
 21: g0 = 0, 22: g0 < 0). The steady state at each frequency is found by time stepping
 (Algorithm 2, :func:`problems.bar.wfem_simulation.forced_response_point`), warm-started from
 the steady state at the previous frequency, by the ``sweep`` algorithm
-(:class:`nsm_continuation.algorithms.Sweep`), one sweep (branch) per damping ratio.
+(:class:`nsm_continuation.algorithms.base.Sweep`), one sweep (branch) per damping ratio.
 
 YAML::
 
@@ -45,15 +45,8 @@ import math
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
-
-from nsm_continuation.algorithms import SweepProblem, SweepSeed, sweep_point_record
-from nsm_continuation.preflight import STRICT, as_list, check_budget, check_gap, one_or_many
-from nsm_continuation.records import Point
-from nsm_continuation.vocabulary import CanonicalNames, as_parameters
-
-from .continuum import main_signature
-from .wfem_simulation import (
+from nsm_continuation.problems.bar.continuum import main_signature
+from nsm_continuation.problems.bar.wfem_simulation import (
     BarParams,
     ForcedPoint,
     Loading,
@@ -65,6 +58,12 @@ from .wfem_simulation import (
     rest_state,
     steady_state_rule,
 )
+from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
+
+from nsm_continuation.algorithms.base import SweepProblem, SweepSeed, sweep_point_record
+from nsm_continuation.core.preflight import STRICT, as_list, check_budget, check_gap, one_or_many
+from nsm_continuation.core.records import Point
+from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -385,7 +384,10 @@ class WfemForcedBarProblem(SweepProblem):
                          branches: list[Any]) -> None:
         """The linear references (dashed, one per damping ratio), the main NSM backbones and
         the linear resonances omega_k (fixed-free) and Omega_k (fixed-fixed)."""
-        from .plots_forced import draw_backbones, draw_linear_resonances
+        from nsm_continuation.problems.bar.plots_forced import (
+            draw_backbones,
+            draw_linear_resonances,
+        )
 
         for zeta in self.params.damping_ratios:
             x, e, _ = self.reference_curve(self.eta(zeta), x_range)
@@ -412,7 +414,10 @@ class WfemForcedBarProblem(SweepProblem):
         one curve per sweep (steady filled, not steady hollow), linear references, backbones."""
         from pathlib import Path
 
-        from .plots_forced import frequency_response_figure, response_curves
+        from nsm_continuation.problems.bar.plots_forced import (
+            frequency_response_figure,
+            response_curves,
+        )
 
         curves = response_curves(branches)
         if not curves:

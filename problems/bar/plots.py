@@ -40,9 +40,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from .wfem_lattice import BarModel, LatticeSolution, grazing_representative
-from .wfem_operators import CONTACT, ring_step
+from nsm_continuation.problems.bar.wfem_lattice import (
+    BarModel,
+    LatticeSolution,
+    grazing_representative,
+)
+from nsm_continuation.problems.bar.wfem_operators import CONTACT, ring_step
 
 # -- reconstructions ------------------------------------------------------------------------------
 

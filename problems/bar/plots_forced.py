@@ -20,8 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from .wfem_simulation import ForcedSweep
+from nsm_continuation.problems.bar.wfem_simulation import ForcedSweep
 
 Backbone = tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, str]
 #: a linear reference: ``(omega / omega_1, E / E_ref, end amplitude, label)``

@@ -9,7 +9,7 @@ from typing import ClassVar
 
 
 class BarFrequencyEnergy:
-    """Mixin placed before :class:`~nsm_continuation.protocol.Problem` in a bar problem's
+    """Mixin placed before :class:`~nsm_continuation.core.problem.Problem` in a bar problem's
     bases: it overrides the protocol's presentation defaults."""
 
     energy_quantity: ClassVar[str | None] = "energy_ratio"

@@ -3,7 +3,7 @@
 Yoong, Thorin, Legrand (2017). The bar (E, rho, L, N cells) is clamped at x = 0 and meets a rigid
 obstacle at x = L across the signed gap ``g0``. Periodic orbits of the WFEM discretisation solve
 ``(A_c^p A_f^m - I) Q = 0`` (12) with COND1-COND3; they exist only at lattice periods
-``T = (m + p) dt``. The lattice engine (:mod:`nsm_continuation.lattice`) continues them: the
+``T = (m + p) dt``. The lattice engine (:mod:`nsm_continuation.core.lattice`) continues them: the
 predictor extrapolates the phase lengths linearly along the branch (exact for these branches:
 the free time is an affine function of the period, see :mod:`problems.bar.continuum`), the
 corrector picks, among the admissible *physical* solutions (filter of
@@ -28,22 +28,8 @@ from math import ceil
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, Discriminator, Field, Tag, field_validator
-
-from nsm_continuation.lattice import LatticeProblem, LatticeSeed
-from nsm_continuation.preflight import (
-    STRICT,
-    as_list,
-    check_budget,
-    check_gap,
-    exactly,
-    one_or_many,
-    start_key,
-)
-from nsm_continuation.vocabulary import CanonicalNames, as_parameters
-
-from .presentation import BarFrequencyEnergy
-from .wfem_lattice import (
+from nsm_continuation.problems.bar.presentation import BarFrequencyEnergy
+from nsm_continuation.problems.bar.wfem_lattice import (
     BarModel,
     LatticeSolution,
     classify,
@@ -52,7 +38,20 @@ from .wfem_lattice import (
     profile_jumps,
     scan_screen,
 )
-from .wfem_operators import kernel_dimensions_at_period
+from nsm_continuation.problems.bar.wfem_operators import kernel_dimensions_at_period
+from pydantic import BaseModel, Discriminator, Field, Tag, field_validator
+
+from nsm_continuation.core.lattice import LatticeProblem, LatticeSeed
+from nsm_continuation.core.preflight import (
+    STRICT,
+    as_list,
+    check_budget,
+    check_gap,
+    exactly,
+    one_or_many,
+    start_key,
+)
+from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -532,7 +531,7 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
             out += self._scan_period(M)
         return out
 
-    # -- on a Dask cluster (nsm_continuation.execution, LatticeProblem's protocol) -------------
+    # -- on a Dask cluster (nsm_continuation.runs.execution, LatticeProblem's protocol) --
     def lattice_seed_pieces(self, start: Any, window: tuple[float | None, float | None],
                             count: int) -> list[Any]:
         """A scan (the only costly seed search) by contiguous ranges of periods ``(M_a, M_b)``
@@ -874,7 +873,7 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
         """Space-time fields (Fig. 8a, 10a, 13, 17), contact-end series, manifold (Fig. 9)."""
-        from . import plots
+        from nsm_continuation.problems.bar import plots
 
         return plots.extra_plots(out_dir, branches, self)
 

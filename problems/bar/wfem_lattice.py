@@ -34,8 +34,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
-from .wfem_operators import (
+from nsm_continuation.problems.bar.wfem_operators import (
     BarConstants,
     Pattern,
     SignedRotation,

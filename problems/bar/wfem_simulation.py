@@ -76,8 +76,12 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
-
-from .wfem_operators import BarConstants, floating_bc_contact, from_ring, to_ring
+from nsm_continuation.problems.bar.wfem_operators import (
+    BarConstants,
+    floating_bc_contact,
+    from_ring,
+    to_ring,
+)
 
 ForceField = Callable[[np.ndarray, float], np.ndarray]
 

@@ -109,10 +109,15 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
-
-from .continuum import Signature, continuum_orbit, main_signature
-from .wfem_lattice import BarModel, LatticeSolution
-from .wfem_operators import CONTACT, FREE, floating_bc_contact, ring_energy, ring_step
+from nsm_continuation.problems.bar.continuum import Signature, continuum_orbit, main_signature
+from nsm_continuation.problems.bar.wfem_lattice import BarModel, LatticeSolution
+from nsm_continuation.problems.bar.wfem_operators import (
+    CONTACT,
+    FREE,
+    floating_bc_contact,
+    ring_energy,
+    ring_step,
+)
 
 NORMS = ("l1", "energy")
 KINDS = ("shift", "delay", "smooth", "scale")

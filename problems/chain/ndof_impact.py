@@ -37,7 +37,7 @@ Conventions (differences from the paper, documented and tested):
 * the gap only sets the scale: the residual is linear in ``(u(0), v)`` and in ``g``, so for
   ``g != 0`` every orbit is ``|g|`` times the orbit for ``g = sign(g)`` (same periods,
   multipliers and events; energy times ``g^2``; tested). Gaps with ``0 < |g| < 1e-100`` or
-  ``|g| > 1e100`` are refused (:func:`nsm_continuation.preflight.check_gap`): there the
+  ``|g| > 1e100`` are refused (:func:`nsm_continuation.core.preflight.check_gap`): there the
   energies leave the range double precision resolves (with ``g = 1e-300`` the first branch
   ended after 14 points at a spurious branch point instead of its nonlinear grazing orbit);
   solve at a gap in range and scale the results.
@@ -56,6 +56,7 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import casadi as ca
 import numpy as np
+from nsm_continuation.problems.chain.trig_sum import TrigSum
 from pydantic import (
     BaseModel,
     Discriminator,
@@ -66,9 +67,8 @@ from pydantic import (
     model_validator,
 )
 
-from nsm_continuation.bordered import BorderedFactor, DiagonalBorderedFactor
-from nsm_continuation.events import illinois
-from nsm_continuation.floquet import (
+from nsm_continuation.core.bordered import BorderedFactor, DiagonalBorderedFactor
+from nsm_continuation.core.floquet import (
     KreinFloquetData,
     deflate_known_eigenvector,
     krein_definiteness,
@@ -76,7 +76,7 @@ from nsm_continuation.floquet import (
     refine_roots,
     restrict_to_section,
 )
-from nsm_continuation.preflight import (
+from nsm_continuation.core.preflight import (
     STRICT,
     as_list,
     check_budget,
@@ -85,11 +85,10 @@ from nsm_continuation.preflight import (
     one_or_many,
     start_key,
 )
-from nsm_continuation.protocol import FloquetData, Problem, StartPoint
-from nsm_continuation.records import OrbitTrace
-from nsm_continuation.vocabulary import CanonicalNames, as_parameters
-
-from .trig_sum import TrigSum
+from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
+from nsm_continuation.core.records import OrbitTrace
+from nsm_continuation.core.roots import illinois
+from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
@@ -378,7 +377,7 @@ class NDofImpactProblem(Problem):
           ``k T_j`` in the window, ``k <= max_subharmonic``) enters the time estimate.
 
         The gap range (``0`` or ``1e-100 <= |g| <= 1e100``) is checked with the parameters
-        (:func:`nsm_continuation.preflight.check_gap`).
+        (:func:`nsm_continuation.core.preflight.check_gap`).
         """
         lo, hi = window
         for T in (lo, hi):
@@ -549,7 +548,7 @@ class NDofImpactProblem(Problem):
         ``z = P^-1 du`` the Jacobian is a diagonal, ``diag(sin h)``, bordered by two columns
         (``d/dv = -cos(h) P^-1 e_c / w``, ``d/dT = (w/2) cos(h) q + sin(h) p / 2``) and two
         rows (``e_c^T P`` and the border ``r_u^T P``):
-        :class:`~nsm_continuation.bordered.DiagonalBorderedFactor`, O(N^2) per solve. The zeros
+        :class:`~nsm_continuation.core.bordered.DiagonalBorderedFactor`, O(N^2) per solve. The zeros
         of ``sin(w_j T / 2)`` at the poles ``T = 2 pi l / w_j`` stay in its small dense system,
         so the factor is exact through them (where the Jacobian keeps full rank). Up to
         ``DENSE_SOLVES_UP_TO`` dofs, and for the ``shooting`` formulation, the dense default."""
@@ -759,7 +758,8 @@ class NDofImpactProblem(Problem):
 
         In the eigenbasis ``Q`` of ``D`` this is ``diag(mu) + X Y^T`` with ``mu_(j,+-) =
         exp(+-i w_j T)``, ``X = Q^H U``, ``Y = diag(mu) Q^T V`` (n x 2): the input of
-        :func:`~nsm_continuation.floquet.low_rank_update_eigen`. The symplectic form's Hermitian
+        :func:`~nsm_continuation.core.floquet.low_rank_update_eigen`. The symplectic form's
+        Hermitian
         form ``-i omega(conj v, v)`` is diagonal there, with weights ``+-1/w_j``
         (``krein_weights``). Also returned: ``D``'s angles, ``U``, ``V`` (for
         :meth:`return_map_apply`) and ``z0``.
@@ -824,7 +824,7 @@ class NDofImpactProblem(Problem):
     def conservative(self) -> bool:
         """Whether the return map is symplectic (Krein signatures apply: :mod:`palc` step
         control): the impact conserves energy iff ``M_ck = 0`` for ``k != c`` (Prop. 6.1)
-        (:attr:`nsm_continuation.protocol.Problem.conservative`)."""
+        (:attr:`nsm_continuation.core.problem.Problem.conservative`)."""
         return self.g != 0.0 and not np.any(np.delete(self.M[self.c, :], self.c) != 0.0)
 
     def floquet(self, y: np.ndarray, tangent: np.ndarray) -> FloquetData | None:
@@ -835,10 +835,10 @@ class NDofImpactProblem(Problem):
         (:meth:`_deflated_update`: right eigenvector the branch tangent ``t``, eq. 6.5, left
         one ``grad E``), less the double root ``0`` (that one and the section normal's,
         sec. 6.1), divided out of the characteristic polynomial exactly
-        (:func:`~nsm_continuation.floquet.low_rank_update_eigen`). Up to
+        (:func:`~nsm_continuation.core.floquet.low_rank_update_eigen`). Up to
         ``DENSE_MULTIPLIERS_UP_TO`` dofs the dense eigenvalues (:meth:`floquet_dense`) are
         used instead. With them the Krein definiteness of each multiplier, computed when
-        first asked (:class:`~nsm_continuation.floquet.KreinFloquetData`; its sign is the Krein
+        first asked (:class:`~nsm_continuation.core.floquet.KreinFloquetData`; its sign is the Krein
         signature on the unit circle). ``trivial_error`` is ``|DF t - t| / |t|`` plus
         ``|h^T DF|`` (the section row, eq. A.10), both O(N). The iteration starts from the
         multipliers computed at the nearest points among the last calls, extrapolated
@@ -903,7 +903,7 @@ class NDofImpactProblem(Problem):
     def multipliers_near(self, y: np.ndarray, tangent: np.ndarray, guesses: np.ndarray
                          ) -> np.ndarray | None:
         """The multipliers nearest to ``guesses`` (distinct) from the secular equation of
-        :meth:`floquet` (:func:`~nsm_continuation.floquet.refine_roots`: O(N) per multiplier
+        :meth:`floquet` (:func:`~nsm_continuation.core.floquet.refine_roots`: O(N) per multiplier
         and sweep); up to ``DENSE_MULTIPLIERS_UP_TO`` dofs, where LAPACK is cheaper, the dense
         eigenvalues (:meth:`floquet_dense`) nearest to them."""
         if self.N <= self.DENSE_MULTIPLIERS_UP_TO:
@@ -928,7 +928,7 @@ class NDofImpactProblem(Problem):
     def _krein_dense(self, y: np.ndarray, mult: np.ndarray) -> np.ndarray:
         """Krein definiteness of the multipliers ``mult`` from the dense eigenvectors of
         ``DF = (I + U V^T) D`` in energy coordinates (small chains: one LAPACK call beats the
-        per-root work of :func:`~nsm_continuation.floquet.krein_definiteness`):
+        per-root work of :func:`~nsm_continuation.core.floquet.krein_definiteness`):
         ``kappa = g(v) / |v|^2``, ``g(v) = -i omega(conj v, v) = 2 sum_j Im(conj xi_j eta_j)
         / w_j``, ``|v|^2 = sum_j (|xi_j|^2 + |eta_j|^2) / w_j``; each multiplier takes the
         eigenvector of the nearest eigenvalue. ``D``, ``U``, ``V`` from :meth:`_saltation`
@@ -954,7 +954,7 @@ class NDofImpactProblem(Problem):
 
     #: :meth:`floquet` of a conservative chain: multipliers farther than this from the unit
     #: circle (their accuracy is ~1e-10) are off it, with Krein definiteness 0 exactly
-    #: (:func:`~nsm_continuation.floquet.krein_definiteness`, ``off_circle``)
+    #: (:func:`~nsm_continuation.core.floquet.krein_definiteness`, ``off_circle``)
     KREIN_OFF_CIRCLE: ClassVar[float] = 1e-6
     #: how many multiplier sets :meth:`floquet` remembers as starts
     MULTIPLIER_MEMORY: ClassVar[int] = 8

@@ -43,11 +43,11 @@ import casadi as ca
 import numpy as np
 from pydantic import BaseModel, Field
 
+from nsm_continuation.core.preflight import STRICT
+from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.vocabulary import CanonicalNames, CanonicalParameter, as_parameters
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridSystem
-from nsm_continuation.preflight import STRICT
-from nsm_continuation.protocol import Problem, StartPoint
-from nsm_continuation.vocabulary import CanonicalNames, CanonicalParameter, as_parameters
 
 
 class BouncingBallParameters(CanonicalNames):

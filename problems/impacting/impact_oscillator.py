@@ -22,10 +22,10 @@ import casadi as ca
 import numpy as np
 from pydantic import BaseModel, Field
 
+from nsm_continuation.core.preflight import STRICT
+from nsm_continuation.core.vocabulary import CanonicalNames, CanonicalParameter
 from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
-from nsm_continuation.preflight import STRICT
-from nsm_continuation.vocabulary import CanonicalNames, CanonicalParameter
 
 
 class ImpactOscillatorParameters(CanonicalNames):

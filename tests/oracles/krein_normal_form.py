@@ -18,9 +18,9 @@ from pydantic import BaseModel
 from scipy.linalg import expm
 from scipy.optimize import brentq
 
-from nsm_continuation.floquet import KreinFloquetData
-from nsm_continuation.preflight import STRICT
-from nsm_continuation.protocol import Problem, StartPoint
+from nsm_continuation.core.floquet import KreinFloquetData
+from nsm_continuation.core.preflight import STRICT
+from nsm_continuation.core.problem import Problem, StartPoint
 
 J4 = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.eye(2), np.zeros((2, 2))]])
 

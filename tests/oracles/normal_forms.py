@@ -9,8 +9,8 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import BaseModel
 
-from nsm_continuation.preflight import STRICT
-from nsm_continuation.protocol import FloquetData, Problem, StartPoint
+from nsm_continuation.core.preflight import STRICT
+from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 
 
 class MuParameters(BaseModel):

@@ -1,0 +1,696 @@
+"""YAML cases: schema, validation and ``--set`` overrides.
+
+Every error is a :class:`CaseError` whose message is one line naming the offending key
+(``continuation.step.min: ...``); the command line prints it and exits with status 2 before
+anything is written.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+import stat
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    model_validator,
+)
+
+from nsm_continuation.cases import registry
+from nsm_continuation.core.errors import CaseError
+from nsm_continuation.core.problem import Problem
+from nsm_continuation.core.vocabulary import canonical_keys
+
+# strict: ``true`` is not a number and ``"3"`` is not an integer (an int is a valid float)
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False, strict=True)]
+Finite = Annotated[float, Field(allow_inf_nan=False, strict=True)]
+PosInt = Annotated[int, Field(ge=1, strict=True)]
+Bool = Annotated[bool, Field(strict=True)]
+#: smallest step a case may ask for: below it a step does not move a point of size 1 (|y| eps)
+STEP_FLOOR = 1e-14
+#: largest number of points per direction (each point keeps y, tangent and multipliers)
+MAX_POINTS = 1_000_000
+#: a case file larger than this is refused unread (cases are a few hundred bytes)
+MAX_CASE_BYTES = 1_000_000
+#: a case that expands (YAML aliases included) to more values than this is refused
+MAX_CASE_NODES = 200_000
+#: a case name is a folder name, never a path
+NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9._+-]{0,99}$"
+
+
+def _plain_name(name: str) -> str:
+    """A case name names the output folder ``runs/<name>``: a plain folder name, not a path."""
+    if not re.match(NAME_PATTERN, name) or name in {".", ".."}:
+        raise ValueError(f"{name!r} is not a plain folder name (letters, digits, '_', '-', '.', "
+                         "'+', at most 100 characters, no '/'); use --out or output.dir for a "
+                         "path")
+    return name
+
+
+class StepSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    initial: PosFloat = 1e-2
+    min: PosFloat = 1e-9
+    max: PosFloat = 0.2
+
+    @model_validator(mode="after")
+    def _order(self) -> StepSpec:
+        if self.min < STEP_FLOOR:
+            raise ValueError(f"min: {self.min:g} is below {STEP_FLOOR:g}, where a step no "
+                             "longer moves a point in floating point")
+        if not self.min <= self.initial <= self.max:
+            raise ValueError(f"need min <= initial <= max (got {self.min}, {self.initial}, "
+                             f"{self.max})")
+        return self
+
+
+class ContinuationSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    #: the continued parameter; None (not given): the problem's
+    #: (``Problem.case_parameter``, else ``Problem.parameter``), resolved by :func:`validate`
+    #: once the problem is built
+    parameter: str | None = None
+    min: Finite | None = None
+    max: Finite | None = None
+    step: StepSpec = StepSpec()
+    max_points: Annotated[int, Field(ge=2, le=MAX_POINTS, strict=True)] = 400
+    max_energy: PosFloat | None = None
+    direction: Literal["both", "increase", "decrease"] = "both"
+    newton_tol: PosFloat = 1e-11
+    max_angle: PosFloat = 0.25
+    #: bounds on derived quantities ``{name: [min, max]}`` (null for none), e.g.
+    #: ``period: [null, 60]``; the branch stops where one is reached (an event of the kind the
+    #: problem maps the quantity to, e.g. ``homoclinic_approach`` for the period)
+    bounds: dict[str, tuple[Finite | None, Finite | None]] = {}
+    #: the continuation algorithm (:mod:`nsm_continuation.algorithms.base`): one of the problem's
+    #: ``algorithms`` (default: its first, ``palc`` for most, ``lattice`` for ``wfem_bar``)
+    algorithm: Literal["palc", "lattice", "pycont", "sweep"] | None = None
+
+    @model_validator(mode="after")
+    def _bounds(self) -> ContinuationSpec:
+        if self.min is not None and self.max is not None and self.min >= self.max:
+            raise ValueError(f"need min < max (got min = {self.min}, max = {self.max})")
+        for name, (lo, hi) in self.bounds.items():
+            if lo is not None and hi is not None and lo >= hi:
+                raise ValueError(f"bounds: {name}: need [min, max] with min < max (got "
+                                 f"[{lo}, {hi}])")
+        return self
+
+
+#: event kinds at which ``analysis.branch_switching`` follows the branch born there
+DIAGRAM_KINDS = ("period_doubling", "branch_point")
+#: largest ``analysis.branch_switching.depth`` (generations of switched branches)
+MAX_DIAGRAM_DEPTH = 8
+
+
+def _unique(kinds: list[str]) -> list[str]:
+    if len(set(kinds)) != len(kinds):
+        raise ValueError(f"{kinds} names a kind twice")
+    return kinds
+
+
+class BranchSwitchingSpec(BaseModel):
+    """``analysis.branch_switching``: a bifurcation diagram (:mod:`nsm_continuation.runs.diagrams`):
+    every branch born at an event of ``kinds`` is followed, recursively, ``depth`` generations
+    deep, into the same run."""
+
+    model_config = ConfigDict(extra="forbid")
+    depth: Annotated[int, Field(ge=1, le=MAX_DIAGRAM_DEPTH, strict=True)] = 1
+    kinds: Annotated[list[Literal["period_doubling", "branch_point"]], Field(min_length=1),
+                     AfterValidator(_unique)] = list(DIAGRAM_KINDS)
+    #: at most this many branches in the run (root branches included); the events beyond it
+    #: are listed in the tree as not followed
+    max_branches: Annotated[int, Field(ge=1, le=1000, strict=True)] = 64
+    #: ``continuation.max_points`` of the switched branches (default: the case's)
+    max_points: Annotated[int, Field(ge=2, le=MAX_POINTS, strict=True)] | None = None
+
+
+class AnalysisSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    #: follow the branches born at detected points, recursively (a bifurcation diagram)
+    branch_switching: BranchSwitchingSpec | None = None
+    stability: Bool = True
+    bifurcations: Bool = True
+    stop_on_inadmissible: Bool = False
+    stability_on_phantom: Bool = False
+    unit_circle_tol: PosFloat = 1e-7
+    event_tol: PosFloat = 1e-12
+    multiplier_event_tol: PosFloat = 1e-9
+    max_multiplier_step: PosFloat = 0.02
+
+
+#: the views of ``output.orbits`` (:mod:`nsm_continuation.figures.orbits`): signals against t / T, a
+#: phase portrait, a 3-D projection of orbits along the first branch
+ORBIT_VIEWS = ("time", "phase", "manifold")
+#: the words of ``output.orbits.points`` besides event kinds and numbers
+ORBIT_POINT_WORDS = ("first", "last", "events")
+#: most points ``output.orbits.points`` may select (one line per point in a figure)
+MAX_ORBIT_POINTS = 12
+#: most periods drawn per orbit (``output.orbits.periods``, ``Result.orbit``)
+MAX_ORBIT_PERIODS = 50
+OrbitView = Literal["time", "phase", "manifold"]
+Name = Annotated[str, Field(min_length=1, max_length=100, strict=True)]
+
+
+class OrbitsSpec(BaseModel):
+    """``output.orbits``: figures of the periodic orbits at chosen points
+    (:mod:`nsm_continuation.figures.orbits`, from :meth:`Problem.orbit
+    <nsm_continuation.core.problem.Problem.orbit>`). ``points``: ``first`` / ``last`` (of each
+    branch), ``events`` (every located event but the branch ends), an event kind (every event
+    of that kind) or a number (the point nearest that value of ``continuation.parameter``);
+    ``views``: ``time`` (``orbits_time.png``), ``phase`` (``orbits_phase.png``), ``manifold``
+    (``manifold.png``: orbits spread along the first branch); ``periods``: periods drawn per
+    orbit; ``log``: signals of the time view drawn as ``|value|`` on a log scale;
+    ``branches``: the branch ids drawn (default all); ``figures``: a caption per view (e.g.
+    the paper figure it reproduces), put in its title."""
+
+    model_config = ConfigDict(extra="forbid")
+    points: Annotated[list[Name | Finite], Field(min_length=1, max_length=MAX_ORBIT_POINTS)
+                      ] = ["first", "last"]
+    views: Annotated[list[OrbitView], Field(min_length=1), AfterValidator(_unique)] = [
+        "time", "phase"]
+    periods: Annotated[int, Field(ge=1, le=MAX_ORBIT_PERIODS, strict=True)] = 1
+    log: list[Name] = []
+    #: the branches (ids, as in ``branch_<id>.csv``) the points and the manifold are taken
+    #: from; default every branch (the manifold: the first with points)
+    branches: Annotated[list[Annotated[int, Field(ge=0, strict=True)]], Field(min_length=1),
+                        AfterValidator(_unique)] | None = None
+    figures: dict[OrbitView, Annotated[str, Field(max_length=200, strict=True)]] = {}
+
+
+class OutputSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    dir: Annotated[str, Field(min_length=1, strict=True)] | None = None
+    plots: Bool = True
+    progress: Bool = True
+    #: an existing output folder holding a previous run: refuse (error), replace the files that
+    #: run wrote (overwrite, as ``--overwrite``), or write to a numbered sibling (new)
+    if_exists: Literal["error", "overwrite", "new"] = "error"
+    #: the quantities (unknowns or derived quantities) on the axes of ``diagram.png``, e.g.
+    #: ``[d, q2]`` (default: the problem's diagram axes)
+    axes: Annotated[list[Annotated[str, Field(min_length=1, strict=True)]],
+                    Field(min_length=2, max_length=2)] | None = None
+    #: figures of the periodic orbits at chosen points (default None: none)
+    orbits: OrbitsSpec | None = None
+
+
+#: the protocols of a Dask scheduler's address
+SCHEDULER_PROTOCOLS = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
+
+
+def _scheduler_address(value: str) -> str:
+    if value.split("://", 1)[0] not in SCHEDULER_PROTOCOLS or "://" not in value:
+        raise ValueError(f"an address such as tcp://HOST:8786 ({', '.join(SCHEDULER_PROTOCOLS)}"
+                         f"), got {value!r}")
+    return value
+
+
+class ExecutionSpec(BaseModel):
+    """``execution:``: where the branches are computed (:mod:`nsm_continuation.runs.execution`):
+    serially in this process (default), on a local cluster of ``workers`` processes, or on
+    the Dask cluster at ``scheduler`` (``tcp://HOST:8786``)."""
+
+    model_config = ConfigDict(extra="forbid")
+    workers: Annotated[int, Field(ge=1, le=1024, strict=True)] | None = None
+    scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True),
+                         AfterValidator(_scheduler_address)] | None = None
+
+    @model_validator(mode="after")
+    def _one_cluster(self) -> ExecutionSpec:
+        if self.workers is not None and self.scheduler is not None:
+            raise ValueError("workers and scheduler exclude each other: a local cluster of "
+                             "that many workers, or the existing cluster at that address")
+        return self
+
+
+def with_execution(case: Case, workers: int | None, scheduler: str | None,
+                   names: tuple[str, str] = ("workers", "scheduler")) -> Case:
+    """``case`` with ``workers`` / ``scheduler`` (command-line flags or API arguments, named
+    ``names`` in messages) as its ``execution:`` block, which they replace (so that
+    ``report.json`` records where the run was computed); unchanged if both are None.
+    :class:`CaseError` naming the argument when they are invalid or given together."""
+    if workers is None and scheduler is None:
+        return case
+    if workers is not None and scheduler is not None:
+        raise CaseError(f"{names[0]} and {names[1]} exclude each other: a local cluster of "
+                        "that many workers, or the existing cluster at that address")
+    try:
+        spec = ExecutionSpec(workers=workers, scheduler=scheduler)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        name = names[0] if err["loc"] and err["loc"][0] == "workers" else names[1]
+        raise CaseError(f"{name}: {str(err['msg']).removeprefix('Value error, ')}") from None
+    return case.model_copy(update={"execution": spec})
+
+
+class Case(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: Annotated[str, Field(strict=True), AfterValidator(_plain_name)] = "case"
+    description: Annotated[str, Field(max_length=10_000, strict=True)] = ""
+    #: required, except in a restart (``start: {from: <run>}``), which inherits it
+    problem: Annotated[str, Field(strict=True)] | None = None
+    #: required, except in a restart, which inherits the run's (these override them)
+    parameters: dict[str, Any] | None = None
+    start: Any
+    continuation: ContinuationSpec = ContinuationSpec()
+    analysis: AnalysisSpec = AnalysisSpec()
+    output: OutputSpec = OutputSpec()
+    execution: ExecutionSpec = ExecutionSpec()
+    #: the resolved restart (:class:`nsm_continuation.cases.restart.Restart`) of a ``start: {from:
+    #: ...}`` case, set by :func:`validate`
+    _restart: Any = PrivateAttr(default=None)
+
+    @property
+    def restart(self) -> Any:
+        """The resolved restart of a ``start: {from: <run>}`` case (None otherwise)."""
+        return self._restart
+
+
+def _keyed(prefix: str, msg: str) -> str:
+    """``prefix: msg`` unless ``msg`` already starts with the prefix (``parameters.e: ...``)."""
+    if re.match(rf"^({re.escape(prefix)}|{'|'.join(Case.model_fields)})[.:\[]", msg):
+        return msg
+    return f"{prefix}: {msg}"
+
+
+def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
+    """One line from the first pydantic error: the dotted key as the user wrote it (pydantic's
+    union tags such as ``constrained-float`` or ``ModeStart`` are dropped by walking ``raw``)."""
+    e = err.errors()[0]
+    parts: list[str] = []
+    node = raw
+    loc = list(e["loc"])
+    for i, part in enumerate(loc):
+        if isinstance(node, dict) and part in node:
+            parts.append(str(part))
+            node = node[part]
+        elif isinstance(node, list | tuple) and isinstance(part, int) and part < len(node):
+            parts[-1:] = [f"{parts[-1]}[{part}]" if parts else f"[{part}]"]
+            node = node[part]
+        elif e["type"] == "missing" and i == len(loc) - 1:
+            parts.append(str(part))
+    where = ".".join(([prefix] if prefix else []) + parts)
+    msg = e["msg"].removeprefix("Value error, ")
+    if e["type"] == "extra_forbidden":
+        msg = "unknown key"
+    elif e["type"] == "missing":
+        msg = "required key is missing"
+    elif e["type"] in ("float_type", "int_type", "bool_type", "string_type") \
+            and not isinstance(node, dict | list):
+        msg = f"{msg} (got {node!r})"
+    msg = msg.splitlines()[0] if msg else "invalid value"
+    sub = re.match(r"^([a-z_][a-z0-9_]*): ", msg)
+    if where and sub:  # a model validator naming one of its own fields
+        return f"{where}.{msg}"
+    return _keyed(where, msg) if where else f"case: {msg}"
+
+
+def _reject_nan(obj: Any, where: str) -> None:
+    if isinstance(obj, float) and not math.isfinite(obj):
+        raise CaseError(f"{where}: {obj} is not a finite number")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            _reject_nan(v, f"{where}.{k}" if where else str(k))
+    if isinstance(obj, list):
+        for i, v in enumerate(obj):
+            _reject_nan(v, f"{where}[{i}]")
+
+
+class _CaseLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses duplicate keys (YAML says they are an error; PyYAML
+    keeps the last one silently)."""
+
+
+def _mapping_without_duplicates(loader: _CaseLoader, node: yaml.MappingNode,
+                                deep: bool = False) -> dict[Any, Any]:
+    loader.flatten_mapping(node)
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        try:
+            duplicate = key in seen
+        except TypeError:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"unhashable key {key!r}", key_node.start_mark) from None
+        if duplicate:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark)
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_CaseLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
+                            _mapping_without_duplicates)
+# YAML 1.2 floats: PyYAML (YAML 1.1) reads ``1e-9`` and ``1.0e3`` as strings
+_CaseLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                |[-+]?\.(?:inf|Inf|INF)
+                |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
+
+
+def _check_size(obj: Any, where: str) -> None:
+    """Refuse a document that expands to more than :data:`MAX_CASE_NODES` values (a YAML
+    alias bomb is a few hundred bytes and billions of values once expanded)."""
+    stack, count = [obj], 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > MAX_CASE_NODES:
+            raise CaseError(f"{where}: expands to more than {MAX_CASE_NODES} values (YAML "
+                            "aliases?); a case is a few dozen keys")
+        if isinstance(node, dict):
+            stack.extend(node.keys())
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+
+
+def parse_yaml(text: str, where: str) -> Any:
+    """YAML text -> Python objects, with duplicate keys and oversized documents refused."""
+    try:
+        data = yaml.load(text, Loader=_CaseLoader)  # noqa: S506 (a SafeLoader subclass)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" (line {mark.line + 1})" if mark is not None else ""
+        problem = getattr(exc, "problem", None)
+        why = f": {problem}" if problem else ""
+        raise CaseError(f"{where}: not valid YAML{at}{why}") from None
+    except RecursionError:
+        raise CaseError(f"{where}: nested too deeply") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise CaseError(f"{where}: {str(exc).splitlines()[0]}") from None
+    _check_size(data, where)
+    return data
+
+
+def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
+    """Apply ``dotted.key=value`` overrides (values parsed as YAML)."""
+    out = copy.deepcopy(raw)
+    for item in overrides:
+        if "=" not in item:
+            raise CaseError(f"--set {item!r}: expected dotted.key=value")
+        key, value = item.split("=", 1)
+        parts = key.strip().split(".")
+        if not all(parts):
+            raise CaseError(f"--set {item!r}: empty key")
+        node = out
+        for p in parts[:-1]:
+            if not isinstance(node.get(p, {}), dict):
+                raise CaseError(f"--set {key}: {p} is not a mapping")
+            node = node.setdefault(p, {})
+        node[parts[-1]] = parse_yaml(value, f"--set {key}")
+    return out
+
+
+def short_text(text: str, limit: int = 120) -> str:
+    """A path or value shortened for a one-line message."""
+    return text if len(text) <= limit else f"{text[:50]}...{text[-50:]} ({len(text)} characters)"
+
+
+def load_raw(path: str | Path) -> dict[str, Any]:
+    """The case file as a mapping; every problem with the file is one :class:`CaseError`."""
+    shown = short_text(str(path))
+    try:
+        p = Path(path)
+        if not p.exists():
+            raise CaseError(f"case file: {shown} does not exist")
+        if p.is_dir():
+            raise CaseError(f"case file: {shown} is a directory, not a YAML file")
+        mode = p.stat().st_mode
+        if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):  # reading would block
+            raise CaseError(f"case file: {shown} is a pipe or socket, not a YAML file")
+        with open(p, "rb") as fh:
+            data = fh.read(MAX_CASE_BYTES + 1)
+    except (OSError, ValueError) as exc:
+        if isinstance(exc, CaseError):
+            raise
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise CaseError(f"case file: cannot read {shown} ({why})") from None
+    if len(data) > MAX_CASE_BYTES:
+        raise CaseError(f"case file: {shown} is larger than {MAX_CASE_BYTES // 1000} kB; a case "
+                        "is a short YAML file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise CaseError(f"case file: {shown} is not UTF-8 text (byte {exc.start})") from None
+    if not text.strip():
+        raise CaseError(f"case file: {shown} is empty")
+    raw = parse_yaml(text, f"case file {shown}")
+    if not isinstance(raw, dict):
+        raise CaseError(f"case file: {shown} must contain a mapping of keys")
+    bad = [k for k in raw if not isinstance(k, str)]
+    if bad:
+        raise CaseError(f"case file: key {bad[0]!r} is not a name")
+    return raw
+
+
+def validate(raw: dict[str, Any], *, restart_record: Any = None,
+             problem_class: type[Problem] | None = None) -> tuple[Case, Problem]:
+    """Validate a raw case, build its problem and run its preflight (:meth:`Problem.preflight`):
+    everything that can be checked without computing. Raises :class:`CaseError` (one line
+    naming the key). ``nsm-continuation validate`` is exactly this, and ``run`` starts with it,
+    so the two agree on every input.
+
+    A restart (``start: {from: <run folder>, ...}``, :mod:`nsm_continuation.cases.restart`) reads
+    the run's restart record here (``restart_record``: a run in memory instead), inherits its
+    problem, parameters, ``continuation`` and ``analysis``, and is checked like any start.
+    ``problem_class``: the problem's class when it is not registered (the Python API)."""
+    if not isinstance(raw, dict):
+        raise CaseError("case: must be a mapping of keys")
+    _check_size(raw, "case")
+    _reject_nan(raw, "")
+    from nsm_continuation.cases import restart as rs
+
+    resolved = None
+    if isinstance(raw.get("start"), list) and any(rs.is_restart(s) for s in raw["start"]):
+        raise CaseError("start: a restart (start.from) is one start mapping, not a list item")
+    if rs.is_restart(raw.get("start")):
+        resolved = rs.resolve(raw["start"], raw, restart_record)
+        raw = resolved[3]
+    try:
+        case = Case.model_validate(raw)
+    except ValidationError as err:
+        raise CaseError(_format(err, raw)) from None
+    if case.problem is None:
+        raise CaseError("problem: required key is missing")
+    if case.parameters is None:
+        raise CaseError("parameters: required key is missing")
+    try:
+        cls = problem_class if problem_class is not None else registry.get(case.problem)
+    except registry.UnknownProblemError as exc:
+        raise CaseError(f"problem: {exc}") from None
+    if not isinstance(case.parameters, dict):
+        raise CaseError("parameters: must be a mapping of keys")
+    if isinstance(case.start, list) and not case.start:
+        raise CaseError("start: an empty list starts no branch")
+    try:  # deprecated keys renamed first, so that an error names the key as it now reads
+        raw_params = canonical_keys(cls.Parameters, case.parameters)
+    except ValueError as exc:  # an old key together with its new one
+        raise CaseError(str(exc)) from None
+    user_params = raw_params
+    if resolved is not None:  # the run's parameters, the case's on top
+        raw_params = rs.merged_parameters(resolved[1], resolved[2], user_params)
+        case.parameters = raw_params
+    try:
+        params = cls.Parameters.model_validate(raw_params)
+    except ValidationError as err:
+        raise CaseError(_format(err, raw_params, "parameters")) from None
+    try:
+        problem = cls(params)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("parameters", str(exc))) from None
+    if case.continuation.parameter is None:  # not given: the problem's own parameter
+        case.continuation.parameter = problem.case_parameter or problem.parameter
+    adapter = cls.start_adapter
+    if adapter is not None and resolved is None:
+        try:
+            adapter.validate_python(case.start)
+        except ValidationError as err:
+            raise CaseError(_format(err, case.start, "start")) from None
+    c = case.continuation
+    if c.algorithm is not None:
+        from nsm_continuation.algorithms.base import unsupported
+
+        why = unsupported(c.algorithm, problem)
+        if why is not None:
+            raise CaseError(f"continuation.algorithm: {why}")
+    # a two-parameter curve continues its own parameter (checked with the curve, in
+    # _validate_restart), which the base problem may not be able to continue
+    curve = resolved is not None and rs.curve_of(resolved[0], resolved[1]) is not None
+    try:
+        window = ((c.min, c.max) if curve
+                  else problem.parameter_bounds(c.parameter, c.min, c.max))
+    except ValueError as exc:
+        raise CaseError(_keyed("continuation.parameter", str(exc))) from None
+    monitors = problem.monitor_names()
+    for name in c.bounds:
+        if name not in monitors:
+            known = ", ".join(monitors) if monitors else "none declared"
+            raise CaseError(f"continuation.bounds.{name}: not a quantity of problem "
+                            f"{case.problem!r} (one of: {known})")
+    if c.max_energy is not None and problem.energy_quantity is None:
+        raise CaseError(f"continuation.max_energy: problem {case.problem!r} has no energy; "
+                        "bound one of its quantities with continuation.bounds instead")
+    if resolved is not None:
+        problem = _validate_restart(case, problem, resolved, user_params, window)
+        _check_diagram(case, problem)
+        return case, problem
+    _check_diagram(case, problem)
+    preflight(problem, case, case.start, window)
+    return case, problem
+
+
+def preflight(problem: Problem, case: Case, start: Any,
+              window: tuple[float | None, float | None]) -> None:
+    """The problem's checks of ``start`` before computing: :meth:`Problem.sweep_preflight`
+    for a run of the sweep algorithm, else :meth:`Problem.preflight`; a failure is a
+    :class:`CaseError` naming the key."""
+    c = case.continuation
+    check = (problem.sweep_preflight if (c.algorithm or problem.algorithms[0]) == "sweep"
+             else problem.preflight)
+    try:
+        check(start, window, c.max_points)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("start", str(exc))) from None
+
+
+def diagram_quantities(problem: Problem) -> list[str]:
+    """The names ``output.axes`` may give: the problem's unknowns, its declared derived
+    quantities (``monitor_names``) and the columns of its diagram and CSV head."""
+    names = [*problem.variables, *problem.monitor_names(), *problem.fep_axes,
+             *problem.csv_head]
+    return list(dict.fromkeys(names))
+
+
+def _check_diagram(case: Case, problem: Problem) -> None:
+    """``output.axes`` names quantities of the problem; ``analysis.branch_switching`` needs
+    an algorithm that starts from points, and a problem that can represent what it asks for
+    (orbits of twice the period at a period doubling: ``Problem.iterated``)."""
+    axes = case.output.axes
+    if axes is not None:
+        known = diagram_quantities(problem)
+        for i, name in enumerate(axes):
+            if name not in known:
+                raise CaseError(f"output.axes[{i}]: {name!r} is not a quantity of problem "
+                                f"{case.problem!r} (one of: {', '.join(known)})")
+    if case.output.orbits is not None:
+        check_orbits(case.output.orbits.points, problem, "output.orbits",
+                     case.output.orbits.views)
+    spec = case.analysis.branch_switching
+    if spec is None:
+        return
+    from nsm_continuation.algorithms.curves import CodimOneCurve
+
+    if isinstance(problem, CodimOneCurve):
+        raise CaseError("analysis.branch_switching: a two-parameter curve (start.curve) has no "
+                        "branches born on it to follow; switch on the orbits' runs instead")
+    from nsm_continuation.algorithms.base import ALGORITHMS
+
+    name = case.continuation.algorithm or problem.algorithms[0]
+    algorithm = ALGORITHMS.get(name)
+    if algorithm is not None and not algorithm.takes_start_points:
+        raise CaseError(f"analysis.branch_switching: problem {case.problem!r} is continued by "
+                        f"the {name} algorithm, which cannot start a branch at a detected "
+                        "point")
+    if "period_doubling" in spec.kinds and type(problem).iterated is Problem.iterated:
+        raise CaseError(f"analysis.branch_switching.kinds: problem {case.problem!r} cannot "
+                        "represent orbits of twice the period (Problem.iterated), so no branch "
+                        "is born at its period doublings; list branch_point only")
+    if not case.analysis.bifurcations:
+        raise CaseError("analysis.branch_switching: needs analysis.bifurcations: true (the "
+                        "branches start at the detected points)")
+
+
+def check_orbits(points: list[str | float], problem: Problem, key: str,
+                 views: Sequence[str] = ()) -> None:
+    """Orbit figures (``output.orbits``, ``Result.plot_orbits``) need a problem that draws its
+    orbits (:meth:`Problem.orbit` overridden), each named point is ``first``, ``last``,
+    ``events`` or an event kind of the problem, and each of ``views`` is one the problem
+    draws (:func:`check_orbit_view`): else a :class:`CaseError` naming ``key``."""
+    if type(problem).orbit is Problem.orbit:
+        raise CaseError(f"{key}: problem {problem.name!r} does not draw its orbits "
+                        "(Problem.orbit is not implemented)")
+    kinds = [k for k in problem.all_event_kinds() if k != "endpoint"]
+    for i, entry in enumerate(points):
+        if isinstance(entry, str) and entry not in ORBIT_POINT_WORDS and entry not in kinds:
+            raise CaseError(f"{key}.points[{i}]: {entry!r} is not first, last, events, a "
+                            f"number or an event kind of problem {problem.name!r} (one of: "
+                            f"{', '.join(kinds)})")
+    for i, view in enumerate(views):
+        check_orbit_view(view, problem, f"{key}.views[{i}]")
+
+
+def check_orbit_view(view: str, problem: Problem, key: str) -> None:
+    """``view`` is one of :data:`ORBIT_VIEWS` that ``problem``'s orbits have
+    (:meth:`Problem.orbit_view_names`): else a :class:`CaseError` naming ``key`` and the views
+    it draws."""
+    drawn = problem.orbit_view_names()
+    if view not in ORBIT_VIEWS:
+        raise CaseError(f"{key}: {view!r} is not one of {', '.join(ORBIT_VIEWS)}")
+    if view not in drawn:
+        raise CaseError(f"{key}: problem {problem.name!r} does not draw the {view!r} view of "
+                        f"its orbits (it draws: {', '.join(drawn) or 'none'})")
+
+
+def _validate_restart(case: Case, problem: Problem, resolved: tuple[Any, ...],
+                      user_params: dict[str, Any],
+                      window: tuple[float | None, float | None]) -> Problem:
+    """The rest of :func:`validate` for a restart: the problem with the run's period multiple
+    (twice it for a switch at a period doubling), the point in its unknowns, the checks of an
+    ordinary start there; the :class:`~nsm_continuation.cases.restart.Restart` is attached to
+    ``case``. Returns the problem to continue."""
+    from nsm_continuation.algorithms.base import ALGORITHMS
+    from nsm_continuation.algorithms.curves import CodimOneCurve
+    from nsm_continuation.cases import restart as rs
+
+    spec, record, sel, _ = resolved
+    c = case.continuation
+    algorithm = ALGORITHMS.get(c.algorithm or problem.algorithms[0])
+    if algorithm is not None and not algorithm.takes_start_points:
+        raise CaseError(f"start.from: problem {problem.name!r} is continued by the "
+                        f"{algorithm.name} algorithm, which cannot start from a saved point")
+    try:
+        target, base = rs.configure(problem, sel, spec, record, c.parameter)
+        base.parameter_bounds(c.parameter, c.min, c.max)
+        window = target.parameter_bounds(c.parameter, c.min, c.max)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("start", str(exc))) from None
+    assert case.parameters is not None
+    y = rs.map_unknowns(base, sel, user_params, case.parameters)
+    if spec.switch is not False and spec.event_kind == "branch_point" \
+            and base.parameter != sel.parameter:
+        raise CaseError(f"start.switch: a branch point is switched in the parameter it was "
+                        f"found in ({sel.parameter}), not in {base.parameter}")
+    try:
+        rs.check_start(target, y, window, c.max_points)
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(_keyed("start", str(exc))) from None
+    case._restart = rs.Restart(
+        spec, record, sel, y, base,
+        switch=spec.event_kind if spec.switch is not False else None,
+        direction=rs.direction_of(spec, target, c.parameter),
+        overridden=any(record.restart.get("parameters", {}).get(k) != v
+                       for k, v in user_params.items()),
+        curve=target.curve_kind if isinstance(target, CodimOneCurve) else None,
+        free=target.free if isinstance(target, CodimOneCurve) else None)
+    return target
+
+
+def load(path: str | Path, overrides: list[str] | None = None) -> tuple[Case, Problem]:
+    """Read, override and validate a case file (see :func:`validate`)."""
+    raw = apply_overrides(load_raw(path), overrides or [])
+    return validate(raw)

@@ -1,0 +1,7 @@
+"""The errors every layer raises: :class:`CaseError` for bad input (exit status 2, one line naming
+the key, before any computation). Kept free of heavy imports so that the command line can tell a
+bad input from a bug without loading pydantic or CasADi."""
+
+
+class CaseError(ValueError):
+    """Bad input: the message names the key and what is wrong."""
