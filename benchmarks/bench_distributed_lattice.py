@@ -44,7 +44,8 @@ sys.path.insert(0, str(ROOT))
 
 import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation.output.files import branch_rows, build_report  # noqa: E402
-from nsm_continuation.runs.execution import PIECES_PER_WORKER, rebuild_case  # noqa: E402
+from nsm_continuation.runs.execution import PIECES_PER_WORKER  # noqa: E402
+from nsm_continuation.runs.setup import rebuild_case  # noqa: E402
 
 CASE = ROOT / "yaml_cases" / "wfem_fig12_fep.yaml"
 #: adopting a piece's nodes on the master overlaps with the later pieces on the workers;

@@ -232,7 +232,7 @@ def chart(results: list[SizeResult], path: Path) -> None:
 def time_fep() -> str:
     """Full Fig. 3.2 FEP run through the case runner, if the runner exists."""
     try:
-        from nsm_continuation.cases import schema as cases
+        from nsm_continuation import cases
         from nsm_continuation.runs.runner import run_case
     except ImportError as exc:
         return f"FEP: skipped (no case runner: {exc})"

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import nsm_continuation as nsm
-from nsm_continuation.runs.execution import rebuild_case
+from nsm_continuation.runs.setup import rebuild_case
 
 CASE = Path(__file__).resolve().parents[1] / "yaml_cases" / "wfem_fig12_fep.yaml"
 

@@ -122,7 +122,7 @@ def load_backbones(path: Path) -> dict[str, list[tuple[np.ndarray, np.ndarray, s
 def continuum_backbones() -> dict[str, list[tuple[np.ndarray, np.ndarray, str]]]:
     """Backbones to overlay: the exact continuum-limit branches (``bar_continuum`` cases) for
     g0 = +-1e-3 and the vertical g0 = 0 lines at the asymptotes (section 6.1, eq. 16)."""
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases
     from nsm_continuation.runs.runner import run_case
 
     root = Path(__file__).resolve().parents[1] / "yaml_cases"

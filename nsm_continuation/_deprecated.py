@@ -3,9 +3,9 @@
 Before the package was layered into ``core/``, ``algorithms/``, ``cases/``, ``runs/``, ``output/``
 and ``figures/``, every module sat directly in ``nsm_continuation/``. A plugin written against
 those paths (``from nsm_continuation.protocol import Problem``) still imports: the old module is a
-thin alias whose attributes are read from the new modules, and importing it emits one
-``DeprecationWarning`` naming the new path. The objects are the same (``isinstance`` and
-``issubclass`` hold across old and new paths).
+thin alias whose attributes are read from the new modules, and reading a name from it emits a
+``DeprecationWarning`` naming the module that holds the name now. The objects are the same
+(``isinstance`` and ``issubclass`` hold across old and new paths).
 """
 
 from __future__ import annotations
@@ -19,42 +19,51 @@ from importlib import import_module
 from types import ModuleType
 from typing import Any
 
-#: old module -> the modules (first is the one to import now) that hold its public names
-OLD_PATHS: dict[str, tuple[str, ...]] = {
-    "nsm_continuation.protocol": ("nsm_continuation.core.problem",),
-    "nsm_continuation.records": ("nsm_continuation.core.records",),
-    "nsm_continuation.settings": ("nsm_continuation.core.settings",),
-    "nsm_continuation.bordered": ("nsm_continuation.core.bordered",),
-    "nsm_continuation.casadi_buffers": ("nsm_continuation.core.casadi_buffers",),
-    "nsm_continuation.events": ("nsm_continuation.core.roots",),
-    "nsm_continuation.scalar_search": ("nsm_continuation.core.scalar_search",),
-    "nsm_continuation.floquet": ("nsm_continuation.core.floquet",),
-    "nsm_continuation.krein": ("nsm_continuation.core.krein",),
-    "nsm_continuation.palc": ("nsm_continuation.core.palc",),
-    "nsm_continuation.lattice": ("nsm_continuation.core.lattice",),
-    "nsm_continuation.preflight": ("nsm_continuation.core.preflight",),
-    "nsm_continuation.vocabulary": ("nsm_continuation.core.vocabulary",),
-    "nsm_continuation.algorithms": ("nsm_continuation.algorithms.base",),
-    "nsm_continuation.event_curves": ("nsm_continuation.algorithms.curves",),
-    "nsm_continuation.switching": ("nsm_continuation.algorithms.switching",),
-    "nsm_continuation.restart": ("nsm_continuation.cases.restart",),
-    "nsm_continuation.registry": ("nsm_continuation.cases.registry",),
-    "nsm_continuation.runner": ("nsm_continuation.runs.runner",),
-    "nsm_continuation.execution": ("nsm_continuation.runs.execution",),
-    "nsm_continuation.diagrams": ("nsm_continuation.runs.diagrams",),
-    "nsm_continuation.results": ("nsm_continuation.output.files",),
-    "nsm_continuation.report": ("nsm_continuation.output.report",),
-    "nsm_continuation.plots": ("nsm_continuation.figures.branches",),
-    "nsm_continuation.orbits": ("nsm_continuation.figures.orbits",),
-    "nsm_continuation.orbit_selection": ("nsm_continuation.figures.orbit_selection",),
-    "nsm_continuation.figure_process": ("nsm_continuation.figures.process",),
+#: old module -> the modules that hold its names now (relative to ``nsm_continuation``)
+_MOVED: dict[str, tuple[str, ...]] = {
+    "protocol": ("core.problem",),
+    "records": ("core.records",),
+    "settings": ("core.settings",),
+    "bordered": ("core.bordered",),
+    "casadi_buffers": ("core.casadi_buffers",),
+    "events": ("core.roots",),
+    "scalar_search": ("core.scalar_search",),
+    "floquet": ("core.floquet",),
+    "krein": ("core.krein",),
+    "palc": ("core.palc",),
+    "lattice": ("core.lattice",),
+    "preflight": ("core.preflight",),
+    "vocabulary": ("core.vocabulary",),
+    "event_curves": ("algorithms.curves",),
+    "switching": ("algorithms.switching",),
+    "restart": ("cases.restart", "cases.saved_runs", "runs.restart_record"),
+    "registry": ("cases.registry",),
+    "runner": ("runs.runner", "runs.result", "runs.setup", "runs.branches"),
+    "execution": ("runs.execution", "runs.setup"),
+    "diagrams": ("runs.diagrams", "figures.trees"),
+    "results": ("output.files",),
+    "report": ("output.report",),
+    "plots": ("figures.branches", "figures.kit", "figures.multipliers", "figures.make"),
+    "orbits": ("figures.orbits",),
+    "orbit_selection": ("figures.orbit_selection",),
+    "figure_process": ("figures.process",),
+}
+#: old modules whose name is now a package: the package forwards their names (:func:`forward`)
+_NOW_PACKAGES: dict[str, tuple[str, ...]] = {
+    "cases": ("cases.schema", "cases.validate", "cases.saved_runs", "core.errors"),
+    "algorithms": ("algorithms.base", "algorithms.registry", "algorithms.palc",
+                   "algorithms.lattice", "algorithms.pycont_lite", "algorithms.sweep"),
+    "output": ("output.folders", "cases.saved_runs"),
 }
 
-#: old modules whose name is now a package: the package forwards their names (see ``forward``)
-OLD_PACKAGES: dict[str, tuple[str, ...]] = {
-    "nsm_continuation.cases": ("nsm_continuation.cases.schema",),
-    "nsm_continuation.output": ("nsm_continuation.output.folders",),
-}
+
+def _full(table: dict[str, tuple[str, ...]]) -> dict[str, tuple[str, ...]]:
+    return {f"nsm_continuation.{k}": tuple(f"nsm_continuation.{m}" for m in v)
+            for k, v in table.items()}
+
+
+OLD_PATHS = _full(_MOVED)
+OLD_PACKAGES = _full(_NOW_PACKAGES)
 
 
 def _caller_level() -> int:
@@ -63,21 +72,22 @@ def _caller_level() -> int:
     while frame is not None:
         name = frame.f_code.co_filename
         if not (name.startswith("<frozen importlib") or name == __file__
-                or name.endswith(("cases/__init__.py", "output/__init__.py"))):
+                or name.endswith(("cases/__init__.py", "output/__init__.py",
+                                  "algorithms/__init__.py"))):
             return level
         frame, level = frame.f_back, level + 1
     return 2
 
 
-def _warn(old: str, new: str) -> None:
-    warnings.warn(f"{old} is deprecated and will be removed in the next release: import from "
-                  f"{new} instead", DeprecationWarning, stacklevel=_caller_level())
-
-
-def _lookup(targets: tuple[str, ...], name: str, old: str) -> Any:
+def _moved(old: str, name: str, targets: tuple[str, ...]) -> Any:
+    """``name`` of the old module ``old``, read from the first of ``targets`` that has it, with
+    a warning naming that module."""
     for target in targets:
         module = import_module(target)
         if hasattr(module, name):
+            warnings.warn(f"{old}.{name} is deprecated and will be removed in the next release: "
+                          f"import it from {target}", DeprecationWarning,
+                          stacklevel=_caller_level())
             return getattr(module, name)
     raise AttributeError(f"module {old!r} has no attribute {name!r}")
 
@@ -85,10 +95,7 @@ def _lookup(targets: tuple[str, ...], name: str, old: str) -> Any:
 def forward(package: str, name: str) -> Any:
     """``__getattr__`` of a package that replaced a module: the old module's names, with a
     warning."""
-    targets = OLD_PACKAGES[package]
-    value = _lookup(targets, name, package)
-    _warn(f"{package}.{name}", targets[0])
-    return value
+    return _moved(package, name, OLD_PACKAGES[package])
 
 
 class _AliasFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -105,9 +112,7 @@ class _AliasFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def exec_module(self, module: ModuleType) -> None:
         old = module.__name__
-        targets = OLD_PATHS[old]
-        _warn(old, targets[0])
-        module.__getattr__ = lambda name: _lookup(targets, name, old)  # type: ignore[method-assign]
+        module.__getattr__ = lambda name: _moved(old, name, OLD_PATHS[old])  # type: ignore
 
 
 def install() -> None:

@@ -18,8 +18,9 @@
     problem = nsm.problem("ndof_impact", {"chain": {"n": 3, "mass": 1, "stiffness": 1}})
     result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
 
-A case is validated exactly as on the command line (:func:`nsm_continuation.cases.schema.validate`):
-bad input raises :class:`~nsm_continuation.cases.schema.CaseError` whose message names the key,
+A case is validated exactly as on the command line
+(:func:`nsm_continuation.cases.validate.validate`):
+bad input raises :class:`~nsm_continuation.core.errors.CaseError` whose message names the key,
 before
 anything is computed.
 """
@@ -35,9 +36,9 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from nsm_continuation.cases import registry
-from nsm_continuation.cases import schema as cases
-from nsm_continuation.cases.schema import Case, CaseError
+from nsm_continuation.cases import registry, schema, validate
+from nsm_continuation.cases.schema import Case
+from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, OrbitTrace, Point
 from nsm_continuation.output.files import (
@@ -47,7 +48,8 @@ from nsm_continuation.output.files import (
     termination_text,
     write_outputs,
 )
-from nsm_continuation.runs.runner import RunResult, run_case
+from nsm_continuation.runs.result import RunResult
+from nsm_continuation.runs.runner import run_case
 
 CaseSource = str | Path | Mapping[str, Any] | Case
 
@@ -69,7 +71,7 @@ def _raw(source: CaseSource) -> dict[str, Any]:
     if isinstance(source, Mapping):
         return copy.deepcopy(dict(source))  # overrides never change the caller's mapping
     if isinstance(source, str | Path):
-        return cases.load_raw(source)
+        return schema.load_raw(source)
     raise CaseError(f"case: expected a YAML path, a mapping or a Case, got "
                     f"{type(source).__name__}")
 
@@ -87,8 +89,8 @@ def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] 
                     raise CaseError(f"{key}: {part} is not a mapping")
             node[last] = value
     else:
-        raw = cases.apply_overrides(_raw(source), list(overrides))
-    return cases.validate(raw)
+        raw = schema.apply_overrides(_raw(source), list(overrides))
+    return validate.validate(raw)
 
 
 def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
@@ -100,7 +102,7 @@ def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
     tasks, with the same result (:mod:`nsm_continuation.runs.execution`); they replace the case's
     ``execution:`` block (default: serial), and exclude each other."""
     case, problem = _validated(source, overrides)
-    case = cases.with_execution(case, workers, scheduler)
+    case = schema.with_execution(case, workers, scheduler)
     return Result(run_case(case, problem, progress=progress))
 
 
@@ -114,11 +116,11 @@ def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
     try:
         params = cls.Parameters.model_validate(dict(parameters or {}))
     except ValidationError as err:
-        raise CaseError(cases._format(err, dict(parameters or {}), "parameters")) from None
+        raise CaseError(schema._format(err, dict(parameters or {}), "parameters")) from None
     try:
         return cls(params)
     except (ValueError, ArithmeticError) as exc:
-        raise CaseError(cases._keyed("parameters", str(exc))) from None
+        raise CaseError(schema._keyed("parameters", str(exc))) from None
 
 
 def continuation(problem: Problem, start: Any, *, name: str = "python",
@@ -142,15 +144,15 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
     try:
         case = Case.model_validate(raw)
     except ValidationError as err:
-        raise CaseError(cases._format(err, raw)) from None
-    case = cases.with_execution(case, workers, scheduler)
+        raise CaseError(schema._format(err, raw)) from None
+    case = schema.with_execution(case, workers, scheduler)
     try:
         window = problem.parameter_bounds(case.continuation.parameter, case.continuation.min,
                                           case.continuation.max)
     except ValueError as exc:
-        raise CaseError(cases._keyed("continuation.parameter", str(exc))) from None
+        raise CaseError(schema._keyed("continuation.parameter", str(exc))) from None
     if block is start:
-        cases.preflight(problem, case, start, window)
+        validate.preflight(problem, case, start, window)
         return Result(run_case(case, problem, progress=False))
     if not isinstance(start, StartPoint):
         y = np.asarray(start, dtype=float).reshape(-1)
@@ -166,9 +168,9 @@ def _orbit_periods(periods: Any, key: str) -> int:
     :data:`~nsm_continuation.cases.schema.MAX_ORBIT_PERIODS`, else a
     :class:`CaseError` (a ``ValueError``) naming ``key``."""
     if isinstance(periods, bool) or not isinstance(periods, int | np.integer) \
-            or not 1 <= periods <= cases.MAX_ORBIT_PERIODS:
+            or not 1 <= periods <= schema.MAX_ORBIT_PERIODS:
         raise CaseError(f"{key}: {periods!r} is not a whole number of periods from 1 to "
-                        f"{cases.MAX_ORBIT_PERIODS}")
+                        f"{schema.MAX_ORBIT_PERIODS}")
     return int(periods)
 
 
@@ -276,10 +278,11 @@ class Result:
         """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
         folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
         Returns the directory written."""
+        from nsm_continuation.figures.make import make_all
         from nsm_continuation.output.folders import OutputError
 
         try:
-            return write_outputs(self.run_result, Path(directory), plots=plots,
+            return write_outputs(self.run_result, Path(directory), make_all if plots else None,
                                  if_exists="overwrite" if overwrite else "error")
         except OutputError as exc:  # the CLI's advice, in this API's words
             raise OutputError(str(exc).replace("pass --overwrite", "pass overwrite=True")
@@ -311,7 +314,7 @@ class Result:
         ``settings`` are keys of the ``continuation:`` block (``parameter`` may be any
         parameter of the problem; the rest of the block is inherited when it is the same),
         ``analysis`` keys of ``analysis:``. Nothing is written (:meth:`save`)."""
-        from nsm_continuation.cases.restart import record_from_result
+        from nsm_continuation.runs.restart_record import record_from_result
 
         if isinstance(event, EventRecord):
             same = [e for e in self.events if e.branch == event.branch and e.kind == event.kind]
@@ -334,7 +337,7 @@ class Result:
         if name is not None:
             raw["name"] = name
         record = record_from_result(self.run_result, start["from"])
-        case, problem = cases.validate(raw, restart_record=record,
+        case, problem = validate.validate(raw, restart_record=record,
                                        problem_class=type(self.problem))
         return Result(run_case(case, problem, progress=False))
 
@@ -389,9 +392,9 @@ class Result:
         ``log`` signal the time view does not draw or a number of periods out of range."""
         from nsm_continuation.figures import orbits
 
-        cases.check_orbit_view(view, self.problem, "plot_orbits.view")
+        validate.check_orbit_view(view, self.problem, "plot_orbits.view")
         n = _orbit_periods(periods, "plot_orbits.periods")
-        cases.check_orbits(list(points), self.problem, "plot_orbits")
+        validate.check_orbits(list(points), self.problem, "plot_orbits")
         return orbits.plot(self.run_result, list(points), view, ax, n, list(log))
 
     def plot(self, ax: Any = None) -> Any:

@@ -156,7 +156,8 @@ def _target(args: argparse.Namespace, case: Case) -> OutputTarget:
 
 
 def _run(args: argparse.Namespace, path: str) -> int:
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases
+    from nsm_continuation.figures.make import make_all
     from nsm_continuation.figures.process import FigureProcess
     from nsm_continuation.output.files import build_report, termination_text, write_files
     from nsm_continuation.runs.runner import run_case
@@ -169,13 +170,13 @@ def _run(args: argparse.Namespace, path: str) -> int:
     target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
     # matplotlib is imported (and the figures drawn) by a child while this process computes
-    drawer = (FigureProcess(case, problem)
+    drawer = (FigureProcess(case, problem, make_all)
               if case.output.plots and problem.figures_from_inputs else None)
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
                        poll=_poll)
         assert target.tmp is not None
-        write_files(res, target.tmp, plots=case.output.plots, drawer=drawer)
+        write_files(res, target.tmp, make_all if case.output.plots else None, drawer)
         _poll()
         out = target.commit()
     except BaseException:
@@ -213,7 +214,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         return 0
     path = args.case or str(_default_case_path())
     if args.command == "validate":
-        from nsm_continuation.cases import schema as cases
+        from nsm_continuation import cases
 
         case, problem = cases.load(path, args.overrides)
         _target(args, case).check()  # where the run would write (nothing is created)

@@ -27,7 +27,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import nsm_continuation as nsm
-from nsm_continuation.cases import schema as cases
+from nsm_continuation import cases
 from nsm_continuation.core.problem import Problem
 
 ROOT = Path(__file__).resolve().parents[1]

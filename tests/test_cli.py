@@ -146,7 +146,7 @@ def test_missing_file_and_invalid_yaml(tmp_path, capsys):
 
 
 def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys):
-    from nsm_continuation.figures import branches as plots
+    from nsm_continuation.figures import make as plots
 
     def boom(*a, **k):
         raise RuntimeError("plotting failed")
@@ -166,7 +166,7 @@ def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys)
 
 
 def test_every_bundled_case_validates():
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases
 
     files = sorted((ROOT / "yaml_cases").glob("*.yaml"))
     assert len(files) >= 6

@@ -99,7 +99,7 @@ def toy_case() -> Case:
 def toy_report(problem: Problem, tmp_path: Path) -> dict[str, Any]:
     start = StartPoint(np.array([1.0, 0.0]), "right half")
     res = run_case(toy_case(), problem, progress=False, starts=[start])
-    out = write_outputs(res, tmp_path / "out", plots=False)
+    out = write_outputs(res, tmp_path / "out")
     return json.loads((out / "report.json").read_text())
 
 

@@ -20,7 +20,8 @@ import pytest
 import nsm_continuation as nsm
 from nsm_continuation.core.lattice import LatticeProblem
 from nsm_continuation.output.files import branch_rows, build_report
-from nsm_continuation.runs.execution import merge_in_seed_order, rebuild_case
+from nsm_continuation.runs.execution import merge_in_seed_order
+from nsm_continuation.runs.setup import rebuild_case
 
 ROOT = Path(__file__).resolve().parents[1]
 FIG12 = ROOT / "yaml_cases" / "wfem_fig12_fep.yaml"

@@ -97,7 +97,7 @@ def test_snippet_runs(code, tmp_path, monkeypatch):
 
 # ------------------------------------------------------------------------------------ YAML
 def _default_case() -> dict[str, Any]:
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases
 
     path = resources.files("nsm_continuation").joinpath("default_case.yaml")
     return cases.load_raw(str(path))
@@ -110,8 +110,8 @@ def _fill_placeholders(block: dict[str, Any], default: dict[str, Any]) -> dict[s
 
 @pytest.mark.parametrize("text", **_params(YAML_BLOCKS))
 def test_yaml_block_parses_and_validates(text, monkeypatch, tmp_path):
+    from nsm_continuation import cases
     from nsm_continuation.cases import restart as rs
-    from nsm_continuation.cases import schema as cases
 
     data = yaml.safe_load(text)
     assert isinstance(data, dict) and data, "a YAML block of the docs is a mapping of keys"
@@ -152,8 +152,7 @@ def test_bash_blocks_have_cli_commands():
 
 @pytest.mark.parametrize("text", **_params(BASH_BLOCKS))
 def test_bash_commands_parse(text, capsys):
-    from nsm_continuation import cli
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases, cli
 
     for argv in _commands(text):
         for token in argv[1:]:

@@ -380,7 +380,7 @@ def test_narrow_neimark_sacker_window_of_fig_6_1_is_found() -> None:
     limit 0.02 finds it, at the omega a 4x finer limit (0.005) gives (README table)."""
     from pathlib import Path
 
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases
     from nsm_continuation.runs.runner import run_case
 
     path = Path(__file__).resolve().parents[1] / "yaml_cases" / "ndof_fig6_1_stability.yaml"

@@ -581,7 +581,7 @@ def schema_cases(problem: str) -> st.SearchStrategy:
     params = _schema_of(cls.Parameters)
     adapter = getattr(cls, "start_adapter", None)
     start = _schema_of(adapter) if adapter is not None else st.just(base["start"])
-    from nsm_continuation.cases import schema as cases
+    from nsm_continuation import cases
 
     defs = cases.Case.model_json_schema()["$defs"]
     cont = from_schema(defs["ContinuationSpec"], defs)

@@ -28,6 +28,7 @@ import pytest
 import nsm_continuation as nsm
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.figures import branches as plots
+from nsm_continuation.figures import kit, multipliers
 from nsm_continuation.hybrid.presentation import homoclinic_fit
 from nsm_continuation.output import report
 from nsm_continuation.output.files import build_report, event_record
@@ -129,7 +130,7 @@ def test_short_forced_run_writes_a_frequency_response(fig2_run) -> None:
     assert ax.get_title() == "Frequency-response curve: impact_oscillator_fig2_sticking"
     assert (ax.get_xlabel(), ax.get_ylabel()) == pr.fep_labels
     assert ax.get_yscale() == "linear"
-    plots.plt.close(fig)
+    kit.plt.close(fig)
 
 
 def test_amplitude_of_a_non_impacting_orbit_is_the_closed_form() -> None:
@@ -151,7 +152,7 @@ def test_amplitude_of_a_non_impacting_orbit_is_the_closed_form() -> None:
         assert p.derived["max_q"] == pytest.approx(1 / abs(1 - w * w), rel=1e-8)
         assert pr.response_value(p.derived) == pytest.approx(1 / abs(1 - w * w), rel=1e-8)
         # what the CSV, the diagram and the report show
-        assert plots.quantity(pr, p, "amplitude_q") == pytest.approx(1 / abs(1 - w * w),
+        assert kit.quantity(pr, p, "amplitude_q") == pytest.approx(1 / abs(1 - w * w),
                                                                       rel=1e-8)
 
 
@@ -180,10 +181,10 @@ def test_pendulum_is_a_bifurcation_diagram_in_its_parameter(parameter: str,
     assert fig.axes[0].get_title() == "Bifurcation diagram: pendulum"
     assert fig.axes[0].get_xlabel() == parameter
     assert "frequency" not in texts(fig).lower()
-    plots.plt.close(fig)
-    assert plots.multipliers_vs_frequency(res, tmp_path / "m.png")
+    kit.plt.close(fig)
+    assert multipliers.multipliers_vs_frequency(res, tmp_path / "m.png")
     # the multiplier figure's axis is the parameter too (its file keeps its historical name)
-    assert plots.multipliers_plane(res, tmp_path / "p.png")
+    assert multipliers.multipliers_plane(res, tmp_path / "p.png")
 
 
 # ---------------------------------------------------------------------- homoclinic fit

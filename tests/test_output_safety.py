@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 from nsm_continuation import cli
-from nsm_continuation.output.folders import MARKER
+from nsm_continuation.cases.saved_runs import MARKER
 from nsm_continuation.runs import runner as run_module
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -306,7 +306,7 @@ def test_folders_created_for_a_run_are_removed_when_it_fails(tmp_path, capsys, m
     """Interrupted while the figures are drawn, by this process (``here``) or by the child
     forked before the computation (``child``: the interrupt arrives while this process waits
     for it): exit 130, and the folders the run created are gone."""
-    from nsm_continuation.figures import branches as plots
+    from nsm_continuation.figures import make as plots
     from nsm_continuation.figures import process as figure_process
 
     def boom(*a, **k):

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nsm_continuation.cases import schema as cases
+from nsm_continuation import cases
 from nsm_continuation.runs.runner import run_case
 
 CASES = Path(__file__).resolve().parents[1] / "yaml_cases"

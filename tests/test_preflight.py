@@ -19,7 +19,7 @@ from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumPr
 from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 from pydantic import ValidationError
 
-from nsm_continuation.cases import schema as cases
+from nsm_continuation import cases
 from nsm_continuation.core.preflight import GAP_MAX, GAP_MIN, MEMORY_ENV, TIME_ENV
 
 ROOT = Path(__file__).resolve().parents[1]

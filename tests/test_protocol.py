@@ -15,12 +15,17 @@ import numpy as np
 import pytest
 from pydantic import BaseModel, ConfigDict
 
-from nsm_continuation.cases.schema import Case, CaseError, validate
+from nsm_continuation.cases.schema import Case
+from nsm_continuation.cases.validate import validate
 from nsm_continuation.core import records
+from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.figures import branches as plots
+from nsm_continuation.figures import kit, multipliers
+from nsm_continuation.figures.make import make_all
 from nsm_continuation.output.files import write_outputs
-from nsm_continuation.runs.runner import RunResult, run_case
+from nsm_continuation.runs.result import RunResult
+from nsm_continuation.runs.runner import run_case
 
 CORE = Path(__file__).resolve().parents[1] / "nsm_continuation"
 
@@ -161,7 +166,7 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
     assert pr.csv_head == ["p", "x"] and pr.event_columns == ["p", "x"]
     assert pr.algorithms == ("palc",) and pr.signature_kind is None
 
-    out = write_outputs(res, tmp_path / "out", plots=True)
+    out = write_outputs(res, tmp_path / "out", make_all)
     with open(out / "branch_0.csv") as fh:
         rows = list(csv.reader(fh))
     assert rows[0][:3] == ["p", "x", "admissible"]
@@ -181,7 +186,7 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
     assert ax.get_yscale() == "linear"
     drawn = np.concatenate([ln.get_xdata() for ln in ax.get_lines() if len(ln.get_xdata()) > 1])
     assert drawn.min() == pytest.approx(-0.95) and drawn.max() == pytest.approx(0.95)
-    plots.plt.close(fig)
+    kit.plt.close(fig)
 
 
 def test_paper_problems_keep_their_presentation() -> None:
@@ -220,7 +225,7 @@ def test_problem_declared_event_kind_is_reported_with_its_meaning(tmp_path: Path
     assert len(hits) == 2  # x = 1/2 on both sides, p = +-sqrt(3)/2
     for ev in hits:
         assert abs(ev.point.y[1]) == pytest.approx(np.sqrt(0.75), abs=1e-9)
-    out = write_outputs(res, tmp_path / "out", plots=False)
+    out = write_outputs(res, tmp_path / "out")
     md = (out / "report.md").read_text()
     assert "- **toy_crossing**: x passes 1/2 (a kind the toy problem declares)" in md
     assert "| toy_crossing |" in md
@@ -343,9 +348,9 @@ def test_stability_false_never_calls_floquet(monkeypatch: pytest.MonkeyPatch) ->
         [p.y.tolist() for p in res_on.branches[0].points]
     # the multiplier plots are labelled by the continued quantity, not "frequency"
     figures: list[Any] = []
-    monkeypatch.setattr(plots.plt, "close", figures.append)
-    monkeypatch.setattr(plots.plt.Figure, "savefig", lambda *a, **k: None)
-    assert plots.multipliers_vs_frequency(res_on, Path("unused.png"))
-    assert plots.multipliers_plane(res_on, Path("unused.png"))
+    monkeypatch.setattr(kit.plt, "close", figures.append)
+    monkeypatch.setattr(kit.plt.Figure, "savefig", lambda *a, **k: None)
+    assert multipliers.multipliers_vs_frequency(res_on, Path("unused.png"))
+    assert multipliers.multipliers_plane(res_on, Path("unused.png"))
     assert figures[0].axes[2].get_xlabel() == "p"
     assert figures[1].axes[-1].get_ylabel() == "p"  # the colour bar

@@ -21,7 +21,7 @@ import yaml
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
-from nsm_continuation.cases.restart import RESTART_FORMAT, RESTART_VERSION
+from nsm_continuation.cases.saved_runs import RESTART_FORMAT, RESTART_VERSION
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the default chain case (Fig. 5.1, branch 1) cut to omega in [1.42, 1.49]: the linear grazing

@@ -18,11 +18,10 @@ import pytest
 import yaml
 from pydantic import ValidationError
 
-from nsm_continuation import cli
+from nsm_continuation import cases, cli
 from nsm_continuation.api import problem as api_problem
 from nsm_continuation.cases import registry
-from nsm_continuation.cases import schema as cases
-from nsm_continuation.cases.schema import CaseError
+from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.vocabulary import ParameterDeprecationWarning, as_parameters
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,7 +19,7 @@ from nsm_continuation.problems.bar.wfem_lattice import (
 )
 from nsm_continuation.problems.bar.wfem_operators import CONTACT, FREE, phase_operator, ring_step
 
-from nsm_continuation.cases import schema as cases
+from nsm_continuation import cases
 from nsm_continuation.cli import main as cli_main
 from nsm_continuation.runs.runner import run_case
 

@@ -47,12 +47,12 @@ secant from it (its other half is the same orbits shifted by ``k`` periods), unl
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from nsm_continuation.algorithms.base import TangentStart
-from nsm_continuation.cases.restart import Restart, period_multiple
 from nsm_continuation.core.palc import NUMERICAL_ERRORS, ContinuationEngine, describe_error
 from nsm_continuation.core.problem import Problem
 
@@ -126,7 +126,26 @@ def family_direction(J: np.ndarray, w: np.ndarray, ip: int) -> tuple[float, np.n
     return 1.0 / abs(wu), u / wu
 
 
-def switch_start(r: Restart, problem: Problem, settings: Any
+@dataclass
+class Switch:
+    """A switch at a located event: the event's unknowns ``y`` on the problem ``base`` it was
+    found on (the period-``k`` problem at a period doubling), the kind (``period_doubling``
+    or ``branch_point``), the arriving branch's unit tangent there, the amplitude to use (None:
+    :data:`AMPLITUDES`), the direction along the internal parameter (None: away from the
+    bifurcation at a period doubling, both ways at a branch point) and the start's label and
+    record (:class:`~nsm_continuation.cases.restart.Restart` builds it from a saved run)."""
+
+    y: np.ndarray
+    kind: str
+    base: Problem
+    tangent: np.ndarray | None
+    amplitude: float | None = None
+    direction: int | None = None
+    label: str = ""
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def switch_start(r: Switch, problem: Problem, settings: Any
                  ) -> tuple[list[TangentStart], dict[str, Any]]:
     """The first point of the branch that bifurcates at the restart's event (module
     docstring), as a start of ``problem`` (the doubled problem at a period doubling), and the
@@ -136,13 +155,13 @@ def switch_start(r: Restart, problem: Problem, settings: Any
     ip = problem.parameter_index
     scale = 1.0 + float(np.linalg.norm(yb, np.inf))
     where = f"{problem.parameter} = {yb[ip]:.10g}"
-    pd = r.switch == "period_doubling"
+    pd = r.kind == "period_doubling"
     reach, step = 1.0, None
     try:
         if pd:
             t1 = null_vector(r.base.jacobian(yb))  # the period-k branch's tangent
         else:
-            t = r.selection.tangent
+            t = r.tangent
             if t is None:
                 raise ValueError("the event has no tangent")
             t1 = t
@@ -154,7 +173,7 @@ def switch_start(r: Restart, problem: Problem, settings: Any
         raise ValueError(f"switch at {where}: {describe_error(exc)}") from None
     except ValueError as exc:
         raise ValueError(f"switch at {where}: {exc}") from None
-    amplitudes = ([r.spec.amplitude] if r.spec.amplitude is not None
+    amplitudes = ([r.amplitude] if r.amplitude is not None
                   else [a * scale for a in AMPLITUDES])
     tol = settings.newton_tol
     tried: list[str] = []
@@ -181,7 +200,7 @@ def switch_start(r: Restart, problem: Problem, settings: Any
             tried.append(f"{eps:.2g}: {describe_error(exc)}")
             continue
         if g <= 1e3 * tol * (1.0 + float(np.linalg.norm(y, np.inf))):
-            tried.append(f"{eps:.2g}: the solution is a period-{period_multiple(r.base)} "
+            tried.append(f"{eps:.2g}: the solution is a period-{int(r.base.period_multiple())} "
                          "orbit again")
             continue
         if found is None:
@@ -193,7 +212,7 @@ def switch_start(r: Restart, problem: Problem, settings: Any
             found = (y, eps, it)
             break
     if found is None:
-        what = (f"period-{2 * period_multiple(r.base)} orbit" if pd else "other branch")
+        what = (f"period-{2 * int(r.base.period_multiple())} orbit" if pd else "other branch")
         raise ValueError(f"switch at {where}: no {what} found (amplitude {'; '.join(tried)})")
     y, eps, it = found
     # away from a period doubling (the other half is the same orbits shifted by k periods),
@@ -201,13 +220,14 @@ def switch_start(r: Restart, problem: Problem, settings: Any
     # (w can point back along a strongly curved family: its parameter component is -t1.v t1_p)
     away = pd and r.direction is None
     direction = 1 if away else (r.direction or 0)
-    info = {**r.info(), "switch_amplitude": float(eps), "switch_newton_iterations": it,
-            "switch_kernel_sigma_ratio": ratio, "period_multiple": period_multiple(problem)}
+    info = {**r.info, "switch_amplitude": float(eps), "switch_newton_iterations": it,
+            "switch_kernel_sigma_ratio": ratio, "period_multiple": int(problem.period_multiple())}
     if pd:
         info["switch_reach"] = reach
     secant = (y - yb) / np.linalg.norm(y - yb)
-    start = TangentStart(y, r.label(), direction, info, tangent=secant, forward_only=away)
+    start = TangentStart(y, r.label, direction, info, tangent=secant, forward_only=away)
     return [start], {"switch_residual_evaluations": engine.n_evaluations}
 
 
-__all__ = ["AMPLITUDES", "family_reach", "null_vector", "other_direction", "switch_start"]
+__all__ = ["AMPLITUDES", "Switch", "family_reach", "null_vector", "other_direction",
+           "switch_start"]

@@ -1,13 +1,8 @@
-"""Restart a continuation from any saved point of a previous run (issue 12, item 1).
+"""Restart a continuation from any saved point of a previous run.
 
-**The restart record.** Every ``report.json`` holds a versioned block ``restart``
-(:func:`restart_block`, format :data:`RESTART_FORMAT`, version :data:`RESTART_VERSION`): the
-problem's name and its *full* validated parameters, the continued parameter (as the case named
-it), and per branch the names of the unknowns, the unknown that is the parameter, the period
-multiple (returns to the section per period of a hybrid orbit) and every event with its kind,
-its ordinal among the events of that kind, the CSV row of its point (or None: events are
-located between the points) and its unknowns ``y`` and unit tangent, exactly (JSON floats are
-written in repr precision, as the CSV's ``y_<name>`` columns are).
+The run's ``report.json`` holds a versioned restart record
+(:mod:`nsm_continuation.runs.restart_record`), read back by
+:mod:`nsm_continuation.cases.saved_runs`.
 
 **A restart** is a case whose ``start:`` names a previous run (:class:`RestartSpec`)::
 
@@ -37,36 +32,24 @@ Branch switching at the event (``switch:``) is :mod:`nsm_continuation.algorithms
 from __future__ import annotations
 
 import copy
-import csv
-import json
 import re
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from nsm_continuation.cases.saved_runs import RunRecord, csv_row, load_run
+from nsm_continuation.cases.schema import NAME_PATTERN, ContinuationSpec, _format
+from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem
 
-if TYPE_CHECKING:  # pragma: no cover
-    from nsm_continuation.runs.runner import RunResult
-
-#: ``restart.format`` of ``report.json``
-RESTART_FORMAT = "nsm-continuation-restart"
-#: ``restart.version`` this module writes and reads
-RESTART_VERSION = 1
 #: event kinds at which ``start.switch`` follows another branch
 SWITCH_KINDS = ("period_doubling", "branch_point")
 #: at a restart from a branch point without switch, the start is moved by this (relative to
 #: ``1 + |y|``) along the branch's tangent: at the point itself the tangent is not unique
 BRANCH_POINT_NUDGE = 1e-6
 
-
-def _case_error(msg: str) -> Exception:
-    from nsm_continuation.cases.schema import CaseError as _CE
-
-    return _CE(msg)
 
 
 # ---------------------------------------------------------------------- the start block
@@ -133,44 +116,43 @@ def is_restart(start: Any) -> bool:
 
 def parse_spec(start: Any) -> RestartSpec:
     """The validated restart block; one-line :class:`CaseError` naming the key."""
-    from nsm_continuation.cases.schema import _format
 
     try:
         spec = RestartSpec.model_validate(start)
     except ValidationError as err:
-        raise _case_error(_format(err, start, "start")) from None
+        raise CaseError(_format(err, start, "start")) from None
     if spec.event is not None and spec.point is not None:
-        raise _case_error("start.point: give start.event or start.point, not both")
+        raise CaseError("start.point: give start.event or start.point, not both")
     if spec.event is None and spec.point is None:
-        raise _case_error("start.event: a restart needs start.event (an event of the branch) "
+        raise CaseError("start.event: a restart needs start.event (an event of the branch) "
                           "or start.point (a row of its CSV)")
     if spec.switch is not False:
         if spec.event is None:
-            raise _case_error("start.switch: a branch is switched at an event (start.event: "
+            raise CaseError("start.switch: a branch is switched at an event (start.event: "
                               "period_doubling or branch_point), not at start.point")
         kind = spec.event_kind
         if kind not in SWITCH_KINDS:
-            raise _case_error(f"start.switch: switching is defined at {' and '.join(SWITCH_KINDS)}"
+            raise CaseError(f"start.switch: switching is defined at {' and '.join(SWITCH_KINDS)}"
                               f" events, not at {kind!r}")
         if isinstance(spec.switch, str) and spec.switch != kind:
-            raise _case_error(f"start.switch: {spec.switch!r} does not match the event's kind "
+            raise CaseError(f"start.switch: {spec.switch!r} does not match the event's kind "
                               f"{kind!r}")
     elif spec.amplitude is not None:
-        raise _case_error("start.amplitude: only used with start.switch")
+        raise CaseError("start.amplitude: only used with start.switch")
     if spec.curve is None:
         for key in ("free", "margin", "method"):
             if getattr(spec, key) is not None:
-                raise _case_error(f"start.{key}: only used with start.curve (a two-parameter "
+                raise CaseError(f"start.{key}: only used with start.curve (a two-parameter "
                                   "curve: curve: grazing)")
     elif spec.method == "augmented" and spec.curve != "grazing":
-        raise _case_error(f"start.method: the augmented system is built for grazing curves; a "
+        raise CaseError(f"start.method: the augmented system is built for grazing curves; a "
                           f"{spec.curve} curve is continued by the located method (drop "
                           "start.method)")
     elif spec.margin is not None and (spec.curve != "grazing" or spec.method == "located"):
-        raise _case_error("start.margin: only used with the augmented grazing curve (curve: "
+        raise CaseError("start.margin: only used with the augmented grazing curve (curve: "
                           "grazing, method: augmented)")
     elif spec.switch is not False:
-        raise _case_error("start.curve: a curve continues the event itself in two parameters; "
+        raise CaseError("start.curve: a curve continues the event itself in two parameters; "
                           "it is not a branch switch (drop start.switch)")
     return spec
 
@@ -191,130 +173,6 @@ def iterated(problem: Problem, multiple: int) -> Problem | None:
 def restart_start(problem: Problem, y: np.ndarray) -> Any:
     """:meth:`Problem.restart_start`."""
     return problem.restart_start(y)
-
-
-# ---------------------------------------------------------------------- writing the record
-def _floats(v: Any) -> list[float]:
-    return [float(x) for x in np.asarray(v, dtype=float).ravel()]
-
-
-def restart_block(res: RunResult) -> dict[str, Any]:
-    """The ``restart`` block of ``report.json`` (module docstring)."""
-    from nsm_continuation import __version__
-
-    pr = res.problem
-    parameters = pr.parameters_block()
-    if parameters is None:  # parameters that are not a pydantic model: the case's block
-        parameters = dict(res.case.parameters)
-    # a two-parameter curve is a run of its base problem, with what rebuilds the curve
-    from nsm_continuation.algorithms.curves import CodimOneCurve
-
-    curve_block = pr.restart_curve() if isinstance(pr, CodimOneCurve) else None
-    problem_name = curve_block.pop("base_problem") if curve_block else pr.name
-    branches = []
-    for br in res.branches:
-        rows = {id(p): k for k, p in enumerate(br.points)}
-        counts: dict[str, int] = {}
-        events = []
-        for ev in br.events:
-            n = counts.get(ev.kind, 0)
-            counts[ev.kind] = n + 1
-            p = ev.point
-            events.append({"kind": ev.kind, "index": n, "row": rows.get(id(p)),
-                           "parameter": float(p.y[pr.parameter_index]), "s": float(p.s),
-                           "y": _floats(p.y), "tangent": _floats(p.tangent)}
-                          | ({"chart": dict(p.chart)} if p.chart else {}))
-        # the rows from which the unknowns are in another chart (Problem.rechart)
-        charts = [{"from_row": k, "chart": dict(p.chart or {})}
-                  for k, p in enumerate(br.points)
-                  if (p.chart or None) != (br.points[k - 1].chart or None if k else None)]
-        multiple = br.info.get("period_multiple", br.info.get("returns"))
-        bpr = res.branch_problems.get(br.id, pr)
-        branches.append({
-            "id": br.id, "label": br.label, "csv": f"branch_{br.id}.csv",
-            "n_points": br.n_points, "variables": list(pr.variables),
-            "parameter": pr.parameter,
-            "period_multiple": (int(multiple) if multiple is not None
-                                else period_multiple(bpr)),
-            "events": events} | ({"charts": charts} if charts else {}))
-    block = {"format": RESTART_FORMAT, "version": RESTART_VERSION, "tool_version": __version__,
-             "problem": problem_name, "parameters": parameters,
-             "continued": res.case.continuation.parameter, "branches": branches}
-    if curve_block:
-        block["curve"] = curve_block
-    return block
-
-
-# ---------------------------------------------------------------------- reading a run
-@dataclass
-class RunRecord:
-    """A previous run: its restart block and its case input; ``folder`` is None for a run in
-    memory (:meth:`nsm_continuation.api.Result.restart`), whose CSV rows are ``rows``."""
-
-    label: str
-    restart: dict[str, Any]
-    case_input: dict[str, Any]
-    folder: Path | None = None
-    marker: dict[str, Any] = field(default_factory=dict)
-    rows: dict[int, np.ndarray] = field(default_factory=dict)
-
-
-def load_run(source: str) -> RunRecord:
-    """The run in the folder ``source`` (``start.from``); :class:`CaseError` naming
-    ``start.from`` when it is not a readable run of this tool with a restart record."""
-    from nsm_continuation.cases.schema import CaseError, short_text
-    from nsm_continuation.output.folders import MARKER, _sha256, read_marker
-
-    shown = short_text(source)
-    folder = Path(source).expanduser()
-    try:
-        if not folder.exists():
-            where = "" if folder.is_absolute() else f" (looked for in {Path.cwd()})"
-            raise _case_error(f"start.from: {shown} does not exist{where}")
-        if not folder.is_dir():
-            raise _case_error(f"start.from: {shown} is not a folder (the output folder of a "
-                              "run)")
-        marker = read_marker(folder)
-        if marker is None or "report.json" not in marker["files"]:
-            raise _case_error(f"start.from: {shown} is not a run of nsm-continuation (no "
-                              f"{MARKER} listing its report.json)")
-        path = folder / "report.json"
-        if not path.is_file():
-            raise _case_error(f"start.from: {shown}/report.json is missing")
-        if _sha256(path) != marker["files"]["report.json"]:
-            raise _case_error(f"start.from: {shown}/report.json was changed after the run (its "
-                              "SHA-256 differs from the run's marker); restart from an "
-                              "unchanged run")
-        report = json.loads(path.read_text(encoding="utf-8"))
-    except CaseError:
-        raise
-    except OSError as exc:
-        raise _case_error(f"start.from: cannot read {shown} ({exc.strerror or exc})") from None
-    except (ValueError, RecursionError):
-        raise _case_error(f"start.from: {shown}/report.json is not valid JSON") from None
-    block = report.get("restart") if isinstance(report, dict) else None
-    if not isinstance(block, dict) or block.get("format") != RESTART_FORMAT:
-        raise _case_error(f"start.from: {shown}/report.json has no restart record (written "
-                          "before restart records existed); run its case again")
-    if block.get("version") != RESTART_VERSION:
-        raise _case_error(f"start.from: {shown} holds a restart record of version "
-                          f"{block.get('version')!r}; this version reads {RESTART_VERSION}")
-    case = report.get("case")
-    case_input = case.get("input") if isinstance(case, dict) else None
-    if not isinstance(case_input, dict):
-        raise _case_error(f"start.from: {shown}/report.json has no case input")
-    return RunRecord(shown, block, case_input, folder, marker)
-
-
-def record_from_result(res: RunResult, label: str) -> RunRecord:
-    """The restart record of a run in memory (its CSV rows are the branches' points)."""
-    block = restart_block(res)
-    rows = {}
-    for br in res.branches:
-        if br.points:
-            rows[br.id] = np.array([p.y for p in br.points], dtype=float)
-    return RunRecord(label, json.loads(json.dumps(block)),
-                     res.case.model_dump(mode="json"), None, {}, rows)
 
 
 @dataclass
@@ -359,36 +217,36 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
     ids = [b.get("id") for b in branches]
     if spec.branch is None:
         if len(branches) != 1:
-            raise _case_error(f"start.branch: {record.label} has {len(branches)} branches "
+            raise CaseError(f"start.branch: {record.label} has {len(branches)} branches "
                               f"(ids {', '.join(map(str, ids))}); choose one")
         br = branches[0]
     else:
         match = [b for b in branches if b.get("id") == spec.branch]
         if not match:
-            raise _case_error(f"start.branch: {record.label} has no branch {spec.branch} (ids "
+            raise CaseError(f"start.branch: {record.label} has no branch {spec.branch} (ids "
                               f"{', '.join(map(str, ids)) or 'none'})")
         br = match[0]
     where = f"branch {br['id']} of {record.label}"
     n = int(br.get("n_points", 0))
     if n == 0:
-        raise _case_error(f"start.branch: {where} has no points (its start failed)")
+        raise CaseError(f"start.branch: {where} has no points (its start failed)")
     if spec.event is not None:
         kind = spec.event_kind
         evs = [e for e in br.get("events", []) if e.get("kind") == kind]
         if not evs:
-            raise _case_error(f"start.event: {where} has no {kind} event (its events: "
+            raise CaseError(f"start.event: {where} has no {kind} event (its events: "
                               f"{_kinds(br.get('events', []))})")
         index = spec.event_index
         if index is None:
             if len(evs) > 1:
                 values = ", ".join(f"{e['parameter']:.8g}" for e in evs[:6])
-                raise _case_error(f"start.event: {where} has {len(evs)} {kind} events (at "
+                raise CaseError(f"start.event: {where} has {len(evs)} {kind} events (at "
                                   f"{br['parameter']} = {values}{', ...' if len(evs) > 6 else ''});"
                                   f" choose one with event: {{kind: {kind}, index: "
                                   f"0..{len(evs) - 1}}}")
             index = 0
         if index >= len(evs):
-            raise _case_error(f"start.event.index: {where} has {len(evs)} {kind} event"
+            raise CaseError(f"start.event.index: {where} has {len(evs)} {kind} event"
                               f"{'s' if len(evs) != 1 else ''} (index 0..{len(evs) - 1}), "
                               f"not {index}")
         ev = evs[index]
@@ -399,51 +257,16 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
         assert spec.point is not None
         row = spec.point if spec.point >= 0 else n + spec.point
         if not 0 <= row < n:
-            raise _case_error(f"start.point: {where} has {n} points (rows 0..{n - 1}), not "
+            raise CaseError(f"start.point: {where} has {n} points (rows 0..{n - 1}), not "
                               f"{spec.point}")
-        y = _csv_row(record, br, row)
+        y = csv_row(record, br, row)
         moves = [c for c in br.get("charts", []) if int(c["from_row"]) <= row]
         sel = Selection(br, y, None, f"point {row} of branch {br['id']}",
                         (moves[-1]["chart"] or None) if moves else None)
     if y.size != len(br["variables"]) or not np.all(np.isfinite(y)):
-        raise _case_error(f"start.from: the unknowns of {sel.what} in {record.label} are not "
+        raise CaseError(f"start.from: the unknowns of {sel.what} in {record.label} are not "
                           f"{len(br['variables'])} finite numbers")
     return sel
-
-
-def _csv_row(record: RunRecord, br: dict[str, Any], row: int) -> np.ndarray:
-    """Row ``row`` of the branch's CSV: its ``y_<name>`` columns (exact: written in repr)."""
-    if record.folder is None:
-        return np.array(record.rows[int(br["id"])][row], dtype=float)
-    from nsm_continuation.cases.schema import CaseError
-    from nsm_continuation.output.folders import _sha256
-
-    name = str(br["csv"])
-    path = record.folder / name
-    digest = record.marker.get("files", {}).get(name)
-    try:
-        if digest is None or not path.is_file() or _sha256(path) != digest:
-            raise _case_error(f"start.point: {record.label}/{name} is missing or was changed "
-                              "after the run")
-        with open(path, newline="", encoding="utf-8") as fh:
-            reader = csv.reader(fh)
-            head = next(reader)
-            cols = [head.index(f"y_{v}") if f"y_{v}" in head else -1 for v in br["variables"]]
-            if min(cols) < 0:
-                raise _case_error(f"start.point: {record.label}/{name} lacks the columns "
-                                  f"y_<unknown> of {', '.join(br['variables'])}")
-            for k, values in enumerate(reader):
-                if k == row:
-                    return np.array([float(values[c]) for c in cols], dtype=float)
-    except CaseError:
-        raise
-    except OSError as exc:
-        raise _case_error(f"start.point: cannot read {record.label}/{name} "
-                          f"({exc.strerror or exc})") from None
-    except (ValueError, IndexError, StopIteration):
-        raise _case_error(f"start.point: row {row} of {record.label}/{name} is not a row of "
-                          "numbers") from None
-    raise _case_error(f"start.point: {record.label}/{name} has fewer than {row + 1} rows")
 
 
 # ---------------------------------------------------------------------- the new case
@@ -469,7 +292,7 @@ def inherit_raw(raw: dict[str, Any], record: RunRecord, sel: Selection,
     if raw.get("problem") is None:
         out["problem"] = problem
     elif raw["problem"] != problem:
-        raise _case_error(f"start.from: {record.label} is a run of problem {problem!r}, not of "
+        raise CaseError(f"start.from: {record.label} is a run of problem {problem!r}, not of "
                           f"{raw['problem']!r} (problem:)")
     if out.get("parameters") is None:
         out["parameters"] = {}
@@ -482,7 +305,6 @@ def inherit_raw(raw: dict[str, Any], record: RunRecord, sel: Selection,
     if isinstance(raw.get("analysis", {}), dict) and isinstance(old.get("analysis"), dict):
         out["analysis"] = _deep_merge(old["analysis"], raw.get("analysis", {}))
     if "name" not in raw:
-        from nsm_continuation.cases.schema import NAME_PATTERN
 
         base = str(old.get("name", "run"))
         suffix = "_switch" if spec.switch is not False else "_restart"
@@ -531,7 +353,7 @@ def map_unknowns(problem: Problem, sel: Selection, user: dict[str, Any],
         elif _parameter_value(params, name) is not None:
             y[k] = float(_parameter_value(params, name))  # type: ignore[arg-type]
         else:
-            raise _case_error(f"start.from: the unknown {name!r} of problem {problem.name!r} is "
+            raise CaseError(f"start.from: the unknown {name!r} of problem {problem.name!r} is "
                               f"neither an unknown of the run ({', '.join(old)}) nor a "
                               "parameter")
     return y
@@ -632,16 +454,15 @@ def located_curve(problem: Problem, sel: Selection, record: RunRecord, parameter
         if kind != curve.kind:
             what = (f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} event" if kind is not None
                     else "a CSV row (start.point)")
-            raise _case_error(f"start.curve: a {curve.kind} curve starts from a {curve.kind} "
+            raise CaseError(f"start.curve: a {curve.kind} curve starts from a {curve.kind} "
                               f"event of the run (start.event: {curve.kind}), not from {what}")
     continued = record.restart.get("continued")
     if not record.restart.get("curve") and curve.free != continued:
-        raise _case_error(f"start.free: the located {curve.kind} curve solves for the "
+        raise CaseError(f"start.free: the located {curve.kind} curve solves for the "
                           f"parameter the run continued ({continued}), not {curve.free!r}")
     saved = (record.restart.get("curve") or {}).get("base_settings")
     try:
         if saved is None:  # a run of the base problem: its own settings
-            from nsm_continuation.cases.schema import ContinuationSpec
 
             c = ContinuationSpec.model_validate(record.case_input.get("continuation") or {})
             saved = {"newton_tol": c.newton_tol, "step_initial": c.step.initial,
@@ -649,7 +470,7 @@ def located_curve(problem: Problem, sel: Selection, record: RunRecord, parameter
         return LocatedCurve(problem, curve.kind, curve.free, parameter, saved)
     except ValueError as exc:
         msg = str(exc)
-        raise _case_error(msg if msg.startswith(("start.", "continuation."))
+        raise CaseError(msg if msg.startswith(("start.", "continuation."))
                           else f"start.curve: {msg}") from None
 
 
@@ -664,7 +485,7 @@ def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: R
 
     names = problem.curve_parameters()
     if not names:
-        raise _case_error(f"start.curve: problem {problem.name!r} is not a hybrid system; "
+        raise CaseError(f"start.curve: problem {problem.name!r} is not a hybrid system; "
                           "grazing curves are continued for the orbits of hybrid problems "
                           "(impact_oscillator, two_mass_chain, double_pendulum, ...)")
     if not record.restart.get("curve"):
@@ -672,24 +493,24 @@ def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: R
         if kind != "grazing":
             what = (f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} event" if kind is not None
                     else "a CSV row (start.point)")
-            raise _case_error(f"start.curve: a grazing curve starts from a grazing event of "
+            raise CaseError(f"start.curve: a grazing curve starts from a grazing event of "
                               f"the run (start.event: grazing), not from {what}")
     known = sorted(names)
     if free not in names:
-        raise _case_error(f"start.free: {free!r} is not a parameter of {problem.name!r} (one "
+        raise CaseError(f"start.free: {free!r} is not a parameter of {problem.name!r} (one "
                           f"of {known})")
     if parameter == free:
-        raise _case_error(f"start.free: the grazing curve needs two parameters, and {free!r} "
+        raise CaseError(f"start.free: the grazing curve needs two parameters, and {free!r} "
                           "is the one continued (continuation.parameter); continue another "
                           f"one (one of {[k for k in known if k != free]})")
     if parameter == PERIOD or parameter not in names:
-        raise _case_error(f"continuation.parameter: {parameter!r} is not a parameter of "
+        raise CaseError(f"continuation.parameter: {parameter!r} is not a parameter of "
                           f"{problem.name!r} (one of {known})")
     try:
         return GrazingCurve(problem, free, parameter,
                             DEFAULT_MARGIN if margin is None else float(margin))
     except ValueError as exc:
-        raise _case_error(f"start.curve: {exc}") from None
+        raise CaseError(f"start.curve: {exc}") from None
 
 
 def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRecord,
@@ -701,7 +522,7 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
     k = int(sel.branch.get("period_multiple", 1) or 1)
     base = iterated(problem, k)
     if base is None:
-        raise _case_error(f"start.from: {sel.what} of {record.label} is an orbit of {k} base "
+        raise CaseError(f"start.from: {sel.what} of {record.label} is an orbit of {k} base "
                           f"periods, which problem {problem.name!r} cannot represent")
     # the point's unknowns are those of its chart (the run may have moved its section)
     base = base.in_chart(sel.chart)
@@ -711,11 +532,11 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
 
         refusal = curve_kind_refusal(base, cs.kind)
         if refusal is not None:
-            raise _case_error(refusal)
+            raise CaseError(refusal)
         # a problem with grazing-curve parameters continues its grazing curves by C1
         hybrid = bool(base.curve_parameters())
         if cs.kind == "grazing" and hybrid and cs.method == "located":
-            raise _case_error("start.method: the grazing curve of a hybrid orbit is continued "
+            raise CaseError("start.method: the grazing curve of a hybrid orbit is continued "
                               "by its augmented system (C1): at a grazing the family of orbits "
                               "has a nonsmooth fold that a continuation of the base problem "
                               "does not locate reliably (drop start.method)")
@@ -731,7 +552,7 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
         return base, base
     doubled = iterated(base, 2 * k)
     if doubled is None:
-        raise _case_error(f"start.switch: problem {problem.name!r} cannot represent orbits of "
+        raise CaseError(f"start.switch: problem {problem.name!r} cannot represent orbits of "
                           f"twice the period (Problem.iterated), so the period-{2 * k} family "
                           "cannot be continued")
     return doubled, base
@@ -751,7 +572,7 @@ def check_start(problem: Problem, y: np.ndarray, window: tuple[float | None, flo
             msg = str(exc)
             if msg.startswith("start."):
                 msg = msg.split(": ", 1)[-1]
-            raise _case_error(f"start.from: the restart point fails the start checks: "
+            raise CaseError(f"start.from: the restart point fails the start checks: "
                               f"{msg}") from None
         return
     p = float(y[problem.parameter_index])
@@ -759,7 +580,7 @@ def check_start(problem: Problem, y: np.ndarray, window: tuple[float | None, flo
     if (lo is not None and p < lo) or (hi is not None and p > hi):
         show = (f"[{lo if lo is not None else -np.inf:.10g}, "
                 f"{hi if hi is not None else np.inf:.10g}]")
-        raise _case_error(f"start.from: the restart point has {problem.parameter} = {p:.10g}, "
+        raise CaseError(f"start.from: the restart point has {problem.parameter} = {p:.10g}, "
                           f"outside the continuation window {show} of {problem.parameter} "
                           "(continuation.min/max)")
 
@@ -791,9 +612,11 @@ def start_points(r: Restart, problem: Problem, settings: Any) -> tuple[list[Any]
     from nsm_continuation.algorithms.base import TangentStart
 
     if r.switch is not None:
-        from nsm_continuation.algorithms.switching import switch_start
+        from nsm_continuation.algorithms.switching import Switch, switch_start
 
-        return switch_start(r, problem, settings)
+        switch = Switch(r.y, r.switch, r.base, r.selection.tangent, r.spec.amplitude,
+                        r.direction, r.label(), r.info())
+        return switch_start(switch, problem, settings)
     y = np.array(r.y, dtype=float)
     t = r.selection.tangent if r.same_unknowns and not r.overridden else None
     from nsm_continuation.algorithms.curves import LocatedCurve
@@ -809,7 +632,5 @@ def start_points(r: Restart, problem: Problem, settings: Any) -> tuple[list[Any]
     return [TangentStart(y, r.label(), direction, r.info(), tangent=t)], {}
 
 
-__all__ = ["RESTART_FORMAT", "RESTART_VERSION", "EventSpec", "Restart", "RestartSpec",
-           "RunRecord", "Selection", "configure", "is_restart", "iterated", "load_run",
-           "period_multiple", "record_from_result", "restart_block", "restart_start",
-           "select"]
+__all__ = ["EventSpec", "Restart", "RestartSpec", "Selection", "configure", "is_restart",
+           "iterated", "period_multiple", "restart_start", "select"]

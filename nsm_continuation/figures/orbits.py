@@ -40,7 +40,8 @@ from matplotlib.cm import ScalarMappable  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from nsm_continuation.cases.schema import CaseError, OrbitsSpec  # noqa: E402
+from nsm_continuation.cases.schema import OrbitsSpec  # noqa: E402
+from nsm_continuation.core.errors import CaseError  # noqa: E402
 from nsm_continuation.core.records import Branch, OrbitTrace, Point  # noqa: E402
 from nsm_continuation.figures.orbit_selection import (  # noqa: E402
     Chosen,

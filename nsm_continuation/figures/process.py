@@ -1,4 +1,4 @@
-"""Processes that draw a run's figures while this one does something else (issue 13, item 4).
+"""Processes that draw a run's figures while this one does something else.
 
 Two things cost a small run more than its computation (``benchmarks/bench_startup.py``): the
 import of matplotlib (0.55 s on the 2-core machine of ``/work/.library/env``) and the drawing
@@ -6,7 +6,7 @@ of the figures (0.9 s for the default case's four). Both are moved off the criti
 platform that forks (:data:`FORKS`) with a second core:
 
 * :class:`FigureProcess`, started by the command line before the computation, forks a child
-  that imports :mod:`nsm_continuation.figures.branches` and lays out one throw-away figure (fonts,
+  that imports :mod:`nsm_continuation.figures.kit` and lays out one throw-away figure (fonts,
   mathtext parser) while this process computes; the finished run is then sent to it through a
   pipe (its branches are plain data; the problem is the child's own copy, made at the fork)
   and it draws the figures there while this process writes the CSVs and the report;
@@ -32,10 +32,14 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from nsm_continuation.cases.schema import Case
     from nsm_continuation.core.problem import Problem
-    from nsm_continuation.runs.runner import RunResult
+    from nsm_continuation.runs.result import RunResult
 
 #: forks only here (POSIX ``fork`` without the macOS caveats)
 FORKS = sys.platform.startswith("linux")
+
+#: draws every figure of a run into a folder, returns their file names
+#: (:func:`nsm_continuation.figures.make.make_all`)
+Draw = Callable[["RunResult", Path], list[str]]
 
 #: what a child sends back: ``("ok", result)`` or ``("error", "Type: message")``
 Outcome = tuple[str, Any]
@@ -109,14 +113,14 @@ def in_two_processes(jobs: list[Callable[[], list[str]]]) -> list[str]:
 
 
 def _warm_up() -> None:  # pragma: no cover - runs in the child
-    """Import :mod:`nsm_continuation.figures.branches` and lay out one figure with text and
-    mathtext, so
-    that fonts, the text caches and the mathtext parser are ready when the run arrives."""
+    """Import :mod:`nsm_continuation.figures.kit` (matplotlib) and lay out one figure with text
+    and mathtext, so that fonts, the text caches and the mathtext parser are ready when the run
+    arrives."""
     import io
 
-    from nsm_continuation.figures import branches as plots
+    from nsm_continuation.figures import kit as plots
 
-    fig, ax = plots._figure(figsize=(2, 2))
+    fig, ax = plots.new_figure(figsize=(2, 2))
     ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_yscale("log")
     ax.plot([1.0, 2.0], [1.0, 10.0])
@@ -138,7 +142,7 @@ class FigureProcess:
     it) and exits when the pipe closes, also when this process dies. Where :func:`can_fork`
     is false nothing is started and :meth:`send` returns False (the caller draws)."""
 
-    def __init__(self, case: Case, problem: Problem) -> None:
+    def __init__(self, case: Case, problem: Problem, draw: Draw) -> None:
         self.pid: int | None = None
         self._send: int | None = None
         self._read: int | None = None
@@ -157,7 +161,7 @@ class FigureProcess:
             os.close(from_child)
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
-            _run_child(lambda: _draw_in_child(case, problem, to_child), to_parent)
+            _run_child(lambda: _draw_in_child(case, problem, draw, to_child), to_parent)
         os.close(to_child)
         os.close(to_parent)
         self.pid, self._send, self._read = pid, from_parent, from_child
@@ -190,7 +194,7 @@ class FigureProcess:
 
     def figures(self) -> list[str]:
         """The file names of the figures the child drew after :meth:`send`, in the order of
-        :func:`nsm_continuation.figures.branches.make_all`; ``RuntimeError`` with its message if it
+        :func:`nsm_continuation.figures.make.make_all`; ``RuntimeError`` with its message if it
         failed."""
         assert self.pid is not None and self._read is not None and self._send is None
         read, pid = self._read, self.pid
@@ -211,16 +215,14 @@ class FigureProcess:
         self._send = self._read = self.pid = None
 
 
-def _draw_in_child(case: Case, problem: Problem, read: int
+def _draw_in_child(case: Case, problem: Problem, draw: Draw, read: int
                    ) -> list[str] | None:  # pragma: no cover
     """The child's work: warm up, wait for the run (None if the pipe closes first: nothing is
-    drawn), draw its figures with the child's copies of the case and the problem."""
+    drawn), draw its figures (``draw``) with the child's copies of the case and the problem."""
     _warm_up()
     with os.fdopen(read, "rb") as fh:
         data = fh.read()
     if not data:
         os._exit(0)
-    from nsm_continuation.figures import branches as plots
-
     res, directory = pickle.loads(data)
-    return plots.make_all(dataclasses.replace(res, case=case, problem=problem), directory)
+    return draw(dataclasses.replace(res, case=case, problem=problem), directory)

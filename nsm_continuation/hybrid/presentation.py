@@ -187,7 +187,7 @@ class HybridPresentation:
         against the continued parameter (styled as the branch diagram)."""
         if self.response_key is None or not any(br.points for br in branches):
             return []
-        from nsm_continuation.figures.branches import quantity_panels
+        from nsm_continuation.figures.kit import quantity_panels
 
         c = self.response_coordinate
         name = f"impacts_vs_{self.parameter}.png"

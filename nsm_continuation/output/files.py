@@ -1,4 +1,5 @@
-"""Run outputs (a stable contract): ``report.json``, ``branch_<id>.csv``, ``report.md``, plots.
+"""Run outputs (a stable contract): ``report.json``, ``branch_<id>.csv``, ``report.md``, and
+the figures a drawing function given by the caller writes (:mod:`nsm_continuation.figures`).
 
 Where and how they are written (never over a user's files, atomically) is
 :mod:`nsm_continuation.output.folders`.
@@ -9,16 +10,33 @@ from __future__ import annotations
 import csv
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from nsm_continuation.cases.restart import restart_block
 from nsm_continuation.core.records import Branch, Event, Point
-from nsm_continuation.figures.process import FigureProcess
+from nsm_continuation.output import report as report_md
 from nsm_continuation.output.folders import IfExists, OutputTarget
-from nsm_continuation.runs.runner import RunResult
+from nsm_continuation.runs.diagrams import parent_link, summary
+from nsm_continuation.runs.restart_record import restart_block
+from nsm_continuation.runs.result import RunResult
+
+#: draws every figure of a run into a folder and returns their file names
+#: (:func:`nsm_continuation.figures.make.make_all`)
+Draw = Callable[[RunResult, Path], list[str]]
+
+
+class Drawer(Protocol):
+    """Draws a run's figures elsewhere while this process writes the rest
+    (:class:`nsm_continuation.figures.process.FigureProcess`)."""
+
+    def send(self, res: RunResult, directory: Path) -> bool:
+        """Start drawing ``res`` into ``directory``: False when it cannot (the caller draws)."""
+
+    def figures(self) -> list[str]:
+        """The file names drawn after :meth:`send`."""
 
 
 def _f(x: Any) -> Any:
@@ -117,8 +135,6 @@ def run_folder(directory: Path | str) -> str:
 def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
     """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
     the ``start:`` lines of ``continue_from_here`` (default: ``runs/<case name>``)."""
-    from nsm_continuation.runs.diagrams import parent_link, summary
-
     pr = res.problem
     columns = list(pr.event_columns)
     branches = []
@@ -193,7 +209,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
     rep["continuation"]["case_parameter"] = name
     annotate_parameter_directions(rep, res.branches, pr.parameter_index,
                                   pr.parameter_orientation(name))
-    from nsm_continuation.algorithms.base import ALGORITHMS
+    from nsm_continuation.algorithms.registry import ALGORITHMS
 
     # a run whose algorithm cannot start from a saved point (a sweep: its recorded returns
     # are not orbits to continue) gets no "continue from here" lines
@@ -216,17 +232,15 @@ def hint_context(res: RunResult) -> dict[str, Any]:
             "curve_parameters": list(pr.curve_parameters())}
 
 
-def write_files(res: RunResult, directory: Path, plots: bool = True,
-                drawer: FigureProcess | None = None) -> None:
+def write_files(res: RunResult, directory: Path, draw: Draw | None = None,
+                drawer: Drawer | None = None) -> None:
     """Write every output of a run (CSV per branch, report.json, report.md, figures) into
     ``directory``, which exists and is the run's own (see :mod:`nsm_continuation.output.folders`).
-    The figures are drawn by ``drawer`` where it can (a process started before the
-    computation, :class:`~nsm_continuation.figures.process.FigureProcess`, drawing while this
-    process writes the CSVs and the report), else here."""
-    from nsm_continuation.output import report as report_md
-
+    The figures (none when ``draw`` is None) are drawn by ``drawer`` where it can (a process
+    started before the computation, :class:`~nsm_continuation.figures.process.FigureProcess`,
+    drawing while this process writes the CSVs and the report), else here by ``draw``."""
     directory = Path(directory)
-    drawing = plots and drawer is not None and drawer.send(res, directory)
+    drawing = draw is not None and drawer is not None and drawer.send(res, directory)
     rep = build_report(res, run_folder(directory))
     for br in res.branches:
         cols, rows = branch_rows(br, res.problem.variables, res.problem.csv_head)
@@ -238,25 +252,24 @@ def write_files(res: RunResult, directory: Path, plots: bool = True,
     if drawing:
         assert drawer is not None
         figures = drawer.figures()
-    elif plots:
-        from nsm_continuation.figures import branches as plotting
-
-        figures = plotting.make_all(res, directory)
+    elif draw is not None:
+        figures = draw(res, directory)
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))
 
 
-def write_outputs(res: RunResult, out_dir: Path | str, plots: bool = True,
+def write_outputs(res: RunResult, out_dir: Path | str, draw: Draw | None = None,
                   if_exists: IfExists = "error") -> Path:
     """Write every output of a run into ``out_dir`` under the output policy of
-    :mod:`nsm_continuation.output.folders` (never deletes what this tool did not write); returns the
-    directory written (a numbered sibling with ``if_exists="new"``)."""
+    :mod:`nsm_continuation.output.folders` (never deletes what this tool did not write), the
+    figures with ``draw`` (none when None); returns the directory written (a numbered sibling
+    with ``if_exists="new"``)."""
     target = OutputTarget(Path(out_dir), if_exists)
     target.prepare()
     try:
         assert target.tmp is not None
-        write_files(res, target.tmp, plots)
+        write_files(res, target.tmp, draw)
         return target.commit()
     except BaseException:
         target.abort()

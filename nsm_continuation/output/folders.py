@@ -33,7 +33,6 @@ with one line naming the path.
 from __future__ import annotations
 
 import errno
-import hashlib
 import json
 import os
 import shutil
@@ -47,10 +46,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 from nsm_continuation import __version__
-from nsm_continuation.cases.schema import CaseError, short_text
+from nsm_continuation.cases.saved_runs import MARKER, read_marker, sha256
+from nsm_continuation.core.errors import CaseError, short_text
 
-#: marker file of a run directory: JSON with the tool, its version, the time and the files written
-MARKER = ".nsm-continuation-run.json"
 #: free space required in the output location before a run starts
 MIN_FREE_BYTES = 50 * 2**20
 IfExists = Literal["error", "overwrite", "new"]
@@ -70,26 +68,6 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def read_marker(directory: Path) -> dict | None:
-    """The marker of a run directory, or None if ``directory`` is not a run of this tool."""
-    try:
-        data = json.loads((directory / MARKER).read_text())
-    except (OSError, ValueError):
-        return None
-    if not isinstance(data, dict) or data.get("tool") != "nsm-continuation" \
-            or not isinstance(data.get("files"), dict):
-        return None
-    return data
-
-
 def previous_run_files(directory: Path) -> dict[str, str]:
     """The files a previous run wrote into ``directory`` (name -> SHA-256), each checked to be
     still that regular file; raises :class:`OutputError` naming the first one that is not (the
@@ -106,7 +84,7 @@ def previous_run_files(directory: Path) -> dict[str, str]:
                               "file name this tool writes; nothing was changed")
         if not target.exists() and not target.is_symlink():
             continue  # already gone: nothing to remove
-        if target.is_symlink() or not target.is_file() or _sha256(target) != digest:
+        if target.is_symlink() or not target.is_file() or sha256(target) != digest:
             raise OutputError(f"output: {target} is not the file the previous run wrote (changed "
                               "or replaced since); move it away or choose another --out "
                               "(nothing was changed)")
@@ -302,7 +280,7 @@ class OutputTarget:
         for name in files:
             if not (self.tmp / name).is_file():
                 raise OutputError(f"output: {name} is not a file (the outputs are files)")
-        digests = {name: _sha256(self.tmp / name) for name in files}
+        digests = {name: sha256(self.tmp / name) for name in files}
         (self.tmp / MARKER).write_text(json.dumps({
             "tool": "nsm-continuation", "version": __version__,
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": digests}, indent=1))

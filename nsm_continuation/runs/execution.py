@@ -46,6 +46,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from nsm_continuation.core.records import Branch
+from nsm_continuation.runs.setup import rebuild_case
 
 #: retries of a task whose worker died (Dask reschedules it on another worker)
 TASK_RETRIES = 2
@@ -62,34 +63,6 @@ class Execution:
     @property
     def distributed(self) -> bool:
         return bool(self.workers) or bool(self.scheduler)
-
-
-def rebuild_case(raw_case: dict[str, Any], problem_class: type | None = None,
-                 restart: tuple[Any, Any, Any] | None = None) -> tuple[Any, Any, Any, Any]:
-    """On a worker: the case, problem, settings and algorithm, from the case's input alone
-    (and the problem's class, sent by reference, when it is not registered: the Python API's
-    own problems; it must be importable on the worker). ``restart``: the case's restart
-    ``(spec, record, selection)`` (:class:`~nsm_continuation.cases.restart.Restart`), whose
-    problem is not the registered one: the period-``2k`` problem of a switch at a period
-    doubling, the run's period multiple (:func:`~nsm_continuation.cases.restart.configure`)."""
-    from nsm_continuation.algorithms.base import make_algorithm
-    from nsm_continuation.cases import registry
-    from nsm_continuation.cases.schema import Case
-    from nsm_continuation.runs.runner import settings_from_case
-
-    case = Case.model_validate(raw_case)
-    cls = problem_class or registry.get(case.problem)
-    problem = cls(cls.Parameters.model_validate(case.parameters))
-    if restart is not None:
-        from nsm_continuation.cases.restart import configure
-
-        spec, record, selection = restart
-        problem, _ = configure(problem, selection, spec, record, case.continuation.parameter)
-    settings, window = settings_from_case(case, problem)
-    algorithm = make_algorithm(case.continuation.algorithm or problem.algorithms[0], problem,
-                               settings)
-    problem.energy_cap = case.continuation.max_energy
-    return case, problem, window, algorithm
 
 
 #: on a worker: the rebuilt (algorithm, seeds) of the last cases seen, so that the tasks of one
@@ -197,7 +170,7 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     from dask.distributed import Client, LocalCluster
 
     if execution.scheduler:
-        from nsm_continuation.cases.schema import CaseError
+        from nsm_continuation.core.errors import CaseError
 
         refused = _refused(execution.scheduler)
         try:

@@ -1,228 +1,25 @@
-"""Run a validated case: build settings, continue every start with the case's algorithm
-(:mod:`nsm_continuation.algorithms.base`), collect the results."""
+"""One run of a validated case: its branches (:mod:`nsm_continuation.runs.branches`), grown
+into a bifurcation diagram when the case asks for one (``analysis.branch_switching``,
+:mod:`nsm_continuation.runs.diagrams`). The command line and the Python API run cases here."""
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
-from contextlib import nullcontext
-from dataclasses import dataclass, field
-from typing import Any
 
-from nsm_continuation.algorithms.base import make_algorithm, unsupported
-from nsm_continuation.cases.schema import Case, CaseError
+from nsm_continuation.cases.schema import Case
 from nsm_continuation.core.problem import Problem, StartPoint
-from nsm_continuation.core.records import Branch
-from nsm_continuation.core.settings import ContinuationSettings
-from nsm_continuation.runs.execution import (
-    DaskSession,
-    Execution,
-    lazy_session,
-    run_distributed,
-    search_seeds_distributed,
-)
-
-
-@dataclass
-class RunResult:
-    case: Case
-    problem: Problem
-    branches: list[Branch]
-    settings: ContinuationSettings
-    window: tuple[float | None, float | None]
-    timings: dict[str, Any] = field(default_factory=dict)
-    skipped: list[str] = field(default_factory=list)
-    #: the tree of a bifurcation diagram (``analysis.branch_switching``,
-    #: :mod:`nsm_continuation.runs.diagrams`): one record per event considered
-    tree: list[dict[str, Any]] = field(default_factory=list)
-    #: the problem each branch was computed with, where it is not ``problem`` (a switched
-    #: branch of a diagram: the period-2k problem at a period doubling)
-    branch_problems: dict[int, Problem] = field(default_factory=dict)
-    #: what ``output.orbits`` asks for that the run cannot draw, one line each, once checked
-    #: (:func:`nsm_continuation.figures.orbit_selection.spec_warnings`; None: not yet)
-    orbit_warnings: list[str] | None = None
-
-
-def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettings,
-                                                              tuple[float | None, float | None]]:
-    c, a = case.continuation, case.analysis
-    lo, hi = problem.parameter_bounds(c.parameter, c.min, c.max)
-    derived_bounds = ({problem.energy_quantity: (None, c.max_energy)}
-                      if c.max_energy is not None and problem.energy_quantity else {})
-    derived_bounds.update({k: (v[0], v[1]) for k, v in c.bounds.items()})
-    settings = ContinuationSettings(
-        step_initial=c.step.initial, step_min=c.step.min, step_max=c.step.max,
-        max_points=c.max_points, newton_tol=c.newton_tol, max_angle=c.max_angle,
-        param_min=lo, param_max=hi,
-        derived_bounds=derived_bounds,
-        unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
-        multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
-        stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
-        stability_on_phantom=a.stability_on_phantom, stability=a.stability,
-        # meant along continuation.parameter: along the internal parameter it may be reversed
-        direction=({"both": 0, "increase": 1, "decrease": -1}[c.direction]
-                   * problem.parameter_orientation(c.parameter)),
-    )
-    return settings, (lo, hi)
-
-
-class _Progress:
-    """Per-point callback of the engines: advances the tqdm bar (if any) and calls ``poll``
-    (e.g. the CLI's check for a pending SIGINT/SIGTERM: a signal whose exception was swallowed
-    inside a CasADi call is honoured at the next point)."""
-
-    def __init__(self, case: Case, total: int, progress: bool,
-                 poll: Callable[[], None] | None) -> None:
-        self.bar = None
-        if progress:
-            from tqdm import tqdm
-
-            # no monitor thread: a process without threads may draw its figures in a forked
-            # child (nsm_continuation.figures.process)
-            tqdm.monitor_interval = 0
-            self.bar = tqdm(total=total, unit="pt", leave=False, desc=case.name, disable=None)
-        self.poll = poll
-
-    def __call__(self, n: int) -> None:
-        if self.bar is not None:
-            self.bar.update(n)
-        if self.poll is not None:
-            self.poll()
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-def _failed_start(case: Case, problem: Problem, settings: ContinuationSettings,
-                  window: tuple[float | None, float | None], exc: Exception,
-                  t0: float) -> RunResult:
-    """The start block passed the preflight but its starts could not be built (e.g. the
-    transient simulation that finds a hybrid orbit failed): one failed branch records why."""
-    msg = str(exc).removeprefix("start: ")
-    failed = Branch(0, "start", [], [], {"start": f"no start point: {msg}"})
-    return RunResult(case, problem, [failed], settings, window,
-                     {"total_s": time.perf_counter() - t0, "n_points": 0, "per_branch_s": []})
+from nsm_continuation.runs.branches import run_branches
+from nsm_continuation.runs.diagrams import grow
+from nsm_continuation.runs.execution import Execution
+from nsm_continuation.runs.result import RunResult
 
 
 def run_case(case: Case, problem: Problem, progress: bool = True,
              starts: list[StartPoint] | None = None,
              poll: Callable[[], None] | None = None,
              execution: Execution | None = None) -> RunResult:
-    """Continue every start of ``case`` (or the given ``starts``: explicit start points of a
-    curve problem, e.g. from the Python API) with the case's algorithm
-    (``continuation.algorithm``, default the problem's first,
-    :mod:`nsm_continuation.algorithms.base`)
-    and collect the branches: in this process, or as Dask tasks (``execution``, else the
-    case's ``execution:`` block; :mod:`nsm_continuation.runs.execution`), with the same result.
-    ``poll`` is called after every point (it may raise to stop the run)."""
-    settings, window = settings_from_case(case, problem)
-    name = case.continuation.algorithm or problem.algorithms[0]
-    why = unsupported(name, problem)
-    if why is not None:
-        raise CaseError(f"continuation.algorithm: {why}")
-    algorithm = make_algorithm(name, problem, settings)
-    if starts is not None and not algorithm.takes_start_points:
-        raise CaseError(f"start: the {name} algorithm starts from the start: block only (a "
-                        "lattice problem has no start guess)")
-    problem.energy_cap = case.continuation.max_energy
-    execution = execution or Execution(case.execution.workers, case.execution.scheduler)
-    # one Dask client for the whole run, started when a phase has work to spread
-    with lazy_session(execution) if execution.distributed else nullcontext() as session:
-        result = _run(case, problem, algorithm, settings, window, progress, starts, poll,
-                      session)
-    return result
-
-
-def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSettings,
-         window: tuple[float | None, float | None], progress: bool,
-         starts: list[StartPoint] | None, poll: Callable[[], None] | None,
-         session: DaskSession | None) -> RunResult:
-    """:func:`run_case` once its algorithm is made: ``session`` is None for a serial run."""
-    t0 = time.perf_counter()
-    start_counters: dict[str, Any] = {}
-    registered = _registered_class(case.problem)
-    # what a worker builds the problem from: the registered class of case.problem (for a
-    # restart, configured as the restart says), else the problem's own class (the Python
-    # API's); a restart of a problem the registry does not know is computed here
-    problem_class = None if registered is type(problem) or (
-        registered is not None and case.restart is not None) else type(problem)
-    rebuildable = problem_class is None or case.restart is None
-    try:
-        if starts is None and case.restart is not None:
-            # a restart (start: {from: <run>}): the saved point, or the switched branch's
-            # first point (nsm_continuation.cases.restart, nsm_continuation.algorithms.switching)
-            from nsm_continuation.cases.restart import start_points
-
-            starts, start_counters = start_points(case.restart, problem, settings)
-        if starts is None and session is not None:
-            # the pieces of a split seed search (the lattice scan) as Dask tasks, adopted
-            # here in order: starts() below then finds their work done
-            start_counters.update(search_seeds_distributed(
-                session, case.model_dump(mode="json"), algorithm, case.start, window, poll))
-        seeds = (algorithm.starts(case.start, window) if starts is None
-                 else algorithm.seeds_from_points(starts))
-    except ValueError as exc:
-        return _failed_start(case, problem, settings, window, exc, t0)
-    algorithm.prepare()
-    t_setup = time.perf_counter() - t0
-    bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)
-    algorithm.progress = bar
-    # a local cluster only where there is work to spread: a single task (one branch in one
-    # piece) runs here (the same result, without the ~1 s of starting workers); an existing
-    # cluster (scheduler) is always used, the user chose where the work runs
-    tasks = sum(algorithm.branch_pieces(seed) for seed in seeds)
-    spread = session is not None and algorithm.distributable and rebuildable and (
-        tasks > 1 or (session.execution.scheduler is not None and tasks == 1))
-    start_counters["dask_branch_tasks"] = tasks if spread else 0
-    if spread and session is not None and session.execution.scheduler is not None \
-            and problem_class is not None and problem_class.__module__ == "__main__":
-        raise CaseError(f"execution.scheduler: the problem class {problem_class.__name__} is "
-                        "defined in the script (__main__), which the workers of an existing "
-                        "cluster cannot import: define it in a module installed on them")
-    if spread:
-        assert session is not None
-        explicit = starts if (starts is not None or case.restart is not None) else None
-        r = case.restart
-        restart = None if r is None else (r.spec, r.record, r.selection)
-        branches, skipped, per_branch, counters = run_distributed(
-            session, case.model_dump(mode="json"), algorithm, seeds, explicit, bar, poll,
-            problem_class, restart)
-    else:
-        branches, skipped, per_branch = [], [], []
-        for seed in seeds:
-            if algorithm.covered(seed, branches):
-                skipped.append(algorithm.label(seed))
-                continue
-            tb = time.perf_counter()
-            branches.append(algorithm.run_branch(seed, branch_id=len(branches)))
-            per_branch.append(time.perf_counter() - tb)
-        counters = algorithm.counters()
-    bar.close()
-    timings = {"total_s": time.perf_counter() - t0, algorithm.setup_key: t_setup,
-               "per_branch_s": per_branch,
-               "n_points": int(sum(b.n_points for b in branches)), **counters,
-               **start_counters}
-    result = RunResult(case, problem, branches, settings, window, timings, skipped)
-    if case.analysis.branch_switching is not None:
-        # a bifurcation diagram: the branches born at the detected points, recursively,
-        # each generation's switches as Dask tasks when the run has a session
-        from nsm_continuation.runs.diagrams import grow
-
-        grow(result, poll, session)
-        timings["total_s"] = time.perf_counter() - t0
-    if session is not None and session.started:
-        timings["dask_start_s"] = session.start_s
-    return result
-
-
-def _registered_class(name: str | None) -> type[Problem] | None:
-    """The class the registry builds for the problem ``name``, or None."""
-    from nsm_continuation.cases import registry
-
-    if name is None:
-        return None
-    try:
-        return registry.get(name)
-    except registry.UnknownProblemError:
-        return None
+    """Continue every start of ``case`` (or the given ``starts``) and, when the case asks for a
+    bifurcation diagram, every branch born at its detected points, recursively
+    (:func:`~nsm_continuation.runs.branches.run_branches`, with the same arguments)."""
+    tree = grow if case.analysis.branch_switching is not None else None
+    return run_branches(case, problem, progress, starts, poll, execution, grow=tree)

@@ -60,8 +60,9 @@ from nsm_continuation.problems.bar.wfem_simulation import (
 )
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
-from nsm_continuation.algorithms.base import SweepProblem, SweepSeed, sweep_point_record
+from nsm_continuation.algorithms.sweep import SweepProblem, sweep_point_record
 from nsm_continuation.core.preflight import STRICT, as_list, check_budget, check_gap, one_or_many
+from nsm_continuation.core.problem import SweepSeed
 from nsm_continuation.core.records import Point
 from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
