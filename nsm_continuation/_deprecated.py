@@ -94,7 +94,10 @@ def _moved(old: str, name: str, targets: tuple[str, ...]) -> Any:
 
 def forward(package: str, name: str) -> Any:
     """``__getattr__`` of a package that replaced a module: the old module's names, with a
-    warning."""
+    warning. A submodule's name is not forwarded (``from package import submodule`` asks the
+    package first, then imports the submodule)."""
+    if importlib.util.find_spec(f"{package}.{name}") is not None:
+        raise AttributeError(f"module {package!r} has no attribute {name!r}")
     return _moved(package, name, OLD_PACKAGES[package])
 
 

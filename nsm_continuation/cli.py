@@ -170,13 +170,14 @@ def _run(args: argparse.Namespace, path: str) -> int:
     target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
     # matplotlib is imported (and the figures drawn) by a child while this process computes
-    drawer = (FigureProcess(case, problem, make_all)
-              if case.output.plots and problem.figures_from_inputs else None)
+    draw = make_all if case.output.plots else None
+    drawer = (FigureProcess(case, problem, draw)
+              if draw is not None and problem.figures_from_inputs else None)
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
                        poll=_poll)
         assert target.tmp is not None
-        write_files(res, target.tmp, make_all if case.output.plots else None, drawer)
+        write_files(res, target.tmp, draw, drawer)
         _poll()
         out = target.commit()
     except BaseException:

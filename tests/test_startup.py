@@ -86,7 +86,9 @@ def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path):
     out = _fresh(
         "import json, os\n"
         "import nsm_continuation as nsm\n"
-        "from nsm_continuation import cli, figure_process, plots\n"
+        "from nsm_continuation import cli\n"
+        "from nsm_continuation.figures import multipliers as plots\n"
+        "from nsm_continuation.figures import process as figure_process\n"
         "real = plots.multipliers_vs_frequency\n"
         "def spy(*a):\n"
         "    open(f'pid_{os.getpid()}', 'w').close()\n"
@@ -114,7 +116,7 @@ def test_a_figure_failing_in_the_child_process_is_raised_here(tmp_path):
     jobs done, the child reaped; the order of the names is the jobs' order; a process that
     runs another thread is not forked."""
     out = _fresh(
-        "from nsm_continuation import figure_process\n"
+        "from nsm_continuation.figures import process as figure_process\n"
         "def fails():\n"
         "    raise ValueError('no data for this panel')\n"
         "try:\n"

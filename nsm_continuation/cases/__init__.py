@@ -1,24 +1,26 @@
 """YAML cases: the schema (:mod:`.schema`), its validation with the problem's preflight
 (:mod:`.validate`), restarts from saved runs (:mod:`.restart`, :mod:`.saved_runs`) and the
-problem registry (:mod:`.registry`)."""
+problem registry (:mod:`.registry`).
 
+``from nsm_continuation import cases`` gives the functions a script needs (``cases.load``,
+``cases.validate``, ``cases.load_raw``, ...), imported on first use: the command line's
+``list`` reads the registry without loading pydantic or CasADi.
+"""
+
+from importlib import import_module
 from typing import Any
 
-from nsm_continuation.cases.schema import (
-    Case,
-    apply_overrides,
-    load_raw,
-    parse_yaml,
-    with_execution,
-)
-from nsm_continuation.cases.validate import load, validate
-from nsm_continuation.core.errors import CaseError
+#: the names this package gives, and the module that defines each
+_PUBLIC = {"Case": "schema", "apply_overrides": "schema", "load_raw": "schema",
+           "parse_yaml": "schema", "with_execution": "schema", "load": "validate",
+           "validate": "validate"}
 
-__all__ = ["Case", "CaseError", "apply_overrides", "load", "load_raw", "parse_yaml", "validate",
-           "with_execution"]
+__all__ = sorted(_PUBLIC)
 
 
 def __getattr__(name: str) -> Any:
+    if name in _PUBLIC:
+        return getattr(import_module(f"{__name__}.{_PUBLIC[name]}"), name)
     from nsm_continuation._deprecated import forward
 
     return forward(__name__, name)

@@ -1,17 +1,18 @@
 """Every figure of a run, in a fixed order: the branch diagram, the multipliers, the problem's
 own figures, the tree of a bifurcation diagram and the orbit figures of ``output.orbits``;
-drawn in two processes where that is possible (:mod:`nsm_continuation.figures.process`)."""
+drawn in two processes where that is possible (:mod:`nsm_continuation.figures.process`).
+Importing this module does not import matplotlib: :func:`make_all` does when it draws, so a
+run hands it to the writer and a child process without loading matplotlib here first."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from nsm_continuation.figures.branches import fep
-from nsm_continuation.figures.multipliers import multipliers_plane, multipliers_vs_frequency
-from nsm_continuation.figures.orbits import make_figures
 from nsm_continuation.figures.process import in_two_processes
-from nsm_continuation.figures.trees import figure
-from nsm_continuation.runs.result import RunResult
+
+if TYPE_CHECKING:
+    from nsm_continuation.runs.result import RunResult
 
 
 def make_all(res: RunResult, out: Path) -> list[str]:
@@ -20,19 +21,20 @@ def make_all(res: RunResult, out: Path) -> list[str]:
     ``output.orbits``, :mod:`nsm_continuation.figures.orbits`): their file names, in this order.
     Drawn in two processes where that is possible
     (:func:`nsm_continuation.figures.process.in_two_processes`)."""
+    from nsm_continuation.figures import branches, multipliers, orbits, trees
 
     def branch_diagram() -> list[str]:
         if res.branches and any(br.points for br in res.branches):
-            fep(res, out / "fep.png")
+            branches.fep(res, out / "fep.png")
             return ["fep.png"]
         return []
 
     def along() -> list[str]:
-        ok = multipliers_vs_frequency(res, out / "multipliers_vs_frequency.png")
+        ok = multipliers.multipliers_vs_frequency(res, out / "multipliers_vs_frequency.png")
         return ["multipliers_vs_frequency.png"] if ok else []
 
     def plane() -> list[str]:
-        ok = multipliers_plane(res, out / "multipliers_complex_plane.png")
+        ok = multipliers.multipliers_plane(res, out / "multipliers_complex_plane.png")
         return ["multipliers_complex_plane.png"] if ok else []
 
     def problem_figures() -> list[str]:
@@ -41,12 +43,12 @@ def make_all(res: RunResult, out: Path) -> list[str]:
     def tree() -> list[str]:
         if res.case.output.axes is None and not res.tree:
             return []
-        return ["diagram.png"] if figure(res, out / "diagram.png") else []
+        return ["diagram.png"] if trees.figure(res, out / "diagram.png") else []
 
     def orbit_figures() -> list[str]:
         if res.case.output.orbits is None:
             return []
-        return make_figures(res, out)
+        return orbits.make_figures(res, out)
 
     return in_two_processes([branch_diagram, along, plane, problem_figures, tree,
                              orbit_figures])
