@@ -33,7 +33,7 @@ def _settled(size: np.ndarray, last: np.ndarray, scale: np.ndarray, exact: np.nd
 
 def _aberth(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray, rem: np.ndarray,
             max_sweeps: int) -> tuple[np.ndarray, dict[str, float]] | None:
-    """The Ehrlich-Aberth sweeps of :func:`low_rank_update_eigen` from the starting values
+    """The Ehrlich-Aberth sweeps of :func:`~.low_rank_update_eigen` from the starting values
     ``lam`` (all the roots, or a subset: :func:`refine_roots`); None if not converged."""
     active, last, poles = _sweep_start(mu, lam.size)
     for sweeps in range(1, max_sweeps + 1):
@@ -56,12 +56,12 @@ def _aberth(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray, rem: 
 
 def _sweep_start(mu: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, _Poles]:
     """``(active, last, poles)`` of an iteration on ``k`` roots before its first sweep: all
-    active, no correction yet, the poles prepared once (:func:`_log_derivative`)."""
+    active, no correction yet, the poles prepared once (:func:`~._log_derivative`)."""
     return np.ones(k, dtype=bool), np.full(k, np.inf), _Poles(mu)
 
 
 def _sweep_info(sweeps: int, last: np.ndarray) -> dict[str, float]:
-    """``info`` of :func:`low_rank_update_eigen`: sweeps and the largest last correction."""
+    """``info`` of :func:`~.low_rank_update_eigen`: sweeps and the largest last correction."""
     return {"sweeps": float(sweeps),
             "correction": float(np.max(last[np.isfinite(last)], initial=0.0))}
 
@@ -70,7 +70,7 @@ def refine_roots(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, guesses: np.ndarr
                  removed: tuple[complex, ...] = (), max_sweeps: int = 100
                  ) -> np.ndarray | None:
     """A few eigenvalues of ``A = diag(mu) + X Y^T``: those the starting values ``guesses``
-    converge to under the Aberth iteration of :func:`low_rank_update_eigen` restricted to them
+    converge to under the Aberth iteration of :func:`~.low_rank_update_eigen` restricted to them
     (O(n k^2) per root and sweep instead of O(n^2) for the whole spectrum). Each converges to
     the eigenvalue nearest to it (Newton's basin) while the others repel it (the Aberth
     term): two guesses next to a pair of close eigenvalues find both, not one twice. The
@@ -148,7 +148,7 @@ def _separate(lam: np.ndarray, fraction: float) -> np.ndarray:
 
 
 def _neighbour_gaps(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For the moves of starting values (:func:`_separate`, :func:`_separate_pairs`): the
+    """For the moves of starting values (:func:`_separate`, :func:`~._separate_pairs`): the
     distance of each value to its neighbours in angle (at most 0.1; 1e-3 where it is 0 or not
     finite) and a fixed pseudo-random unit complex number per value (results do not depend on
     the call history)."""

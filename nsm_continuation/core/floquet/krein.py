@@ -38,7 +38,7 @@ import numpy as np
 
 from nsm_continuation.core.problem import FloquetData
 
-#: a multiplier on the unit circle whose Krein definiteness (:func:`low_rank_update_eigen`) is
+#: a multiplier on the unit circle whose Krein definiteness (:func:`~.low_rank_update_eigen`) is
 #: below this in modulus has no trustworthy signature: it is at (or numerically within) a
 #: collision of opposite signatures, and is treated as indefinite
 KREIN_DEFINITE = 1e-6

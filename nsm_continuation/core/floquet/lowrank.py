@@ -47,7 +47,7 @@ def low_rank_update_eigen(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, *,
     ``chi(lam) = det(A - lam) = prod_m (mu_m - lam) det(I_k + Y^T (diag(mu) - lam)^-1 X)``,
 
     a k x k determinant of Cauchy sums (O(n) per ``lam``; the nearest pole is split off, see
-    :func:`_secular_terms`). The known eigenvalues ``r`` are removed *exactly* by iterating on
+    :func:`~._secular_terms`). The known eigenvalues ``r`` are removed *exactly* by iterating on
     ``q(lam) = chi(lam) / prod_r (lam - r)``: its logarithmic derivative is
     ``chi'/chi - sum_r 1/(lam - r)``, so the iteration never converges to a removed root
     (a computed root ``r + delta`` is cancelled by the pole at ``r`` except within
@@ -63,9 +63,9 @@ def low_rank_update_eigen(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, *,
 
     **Real maps.** When ``A`` is a real map in a basis closed under conjugation (a
     permutation ``p`` with ``mu[p] = conj(mu)``, ``X[p] = conj(X)``, ``Y[p] = conj(Y)``
-    exactly, :func:`_conjugation`: the chain's return map) and ``removed`` is closed under
+    exactly, :func:`~._conjugation`: the chain's return map) and ``removed`` is closed under
     conjugation, so is the spectrum: the iteration runs on one member of each conjugate pair
-    and on the real roots (:func:`_aberth_pairs`, about half the work of a sweep), a pair
+    and on the real roots (:func:`~._aberth_pairs`, about half the work of a sweep), a pair
     moving as its real quadratic factor, which splits into two real roots on the axis (a
     period doubling at -1, a fold at +1) and forms again from two real ones; the result is
     exactly conjugate-closed (``info['pairs'] = 1``; should the pairs not converge, the
@@ -127,7 +127,7 @@ def krein_definiteness(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.nda
     eigenvalue ``lam`` of ``diag(mu) + X Y^T`` (see :func:`low_rank_update_eigen`; ``lam`` from
     any solver): :func:`_krein_kernel`, O(n) per eigenvalue. For a real map (a permutation
     ``p`` with ``mu[p] = conj(mu)``, ``X[p] = conj(X)``, ``Y[p] = conj(Y)``:
-    :func:`_conjugation`) whose form is odd under it
+    :func:`~._conjugation`) whose form is odd under it
     (``s[p] = -s``: the Hermitian form ``-i omega(conj v, v)`` of a real symplectic form), the
     eigenvector of ``conj(lam)`` is ``conj(v)[p]`` and ``kappa(conj lam) = -kappa(lam)``
     exactly: only one member of each pair of exact conjugates in ``lam`` is computed (half the
@@ -174,7 +174,7 @@ def _krein_kernel(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray,
     (bounded near a pole), ``w`` the largest column of ``adj((mu_* - lam) S(lam))``. O(n) per
     eigenvalue, in one pass over the Cauchy matrix ``G_km = 1/(mu_m - lam_k)`` (chunks of
     rows): ``S_r = I + Y^T diag(G_k) X`` (the pole ``*`` split off as in
-    :func:`_secular_terms`), then with ``d = mu_* - lam`` the weights
+    :func:`~._secular_terms`), then with ``d = mu_* - lam`` the weights
     ``|d v_m|^2 = |d|^2 |G_km (X w)_m|^2`` (``m != *``) and ``|d v_*|^2 = |(X w)_*|^2``."""
     k = X.shape[1]
     Z = (Y[:, :, None] * X[:, None, :]).reshape(-1, k * k)

@@ -61,7 +61,7 @@ def _conjugate_slots(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _cold_start_pairs(mu: np.ndarray, removed: np.ndarray, k: int
                       ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The start of :func:`_cold_start` for a conjugate-closed pole set (:func:`_conjugation`)
+    """The start of :func:`~._cold_start` for a conjugate-closed pole set (:func:`~._conjugation`)
     and removed roots, itself conjugate-closed: the poles of the upper half plane and the real
     ones as ``(lam, partner)`` (:func:`_conjugate_slots`), less for each removed root in the
     upper half plane the pair nearest to it, for each real one the nearest real pole, and,
@@ -95,7 +95,7 @@ def _cold_start_pairs(mu: np.ndarray, removed: np.ndarray, k: int
 
 
 def _separate_pairs(lam: np.ndarray, partner: np.ndarray, fraction: float) -> np.ndarray:
-    """:func:`_separate` keeping the conjugate symmetry of ``(lam, partner)``: each member of
+    """:func:`~._separate` keeping the conjugate symmetry of ``(lam, partner)``: each member of
     the upper half plane moves by ``fraction`` of its neighbour gap (by at most half its
     distance to the real axis, so that it stays there), its conjugate with it; each real value
     along the real axis by a pseudo-random fraction of that (coincident values part)."""
@@ -142,11 +142,11 @@ def _quadratic_through(z1: np.ndarray, z2: np.ndarray, L1: np.ndarray, L2: np.nd
 def _aberth_pairs(mu: np.ndarray, X: np.ndarray, Y: np.ndarray, lam: np.ndarray,
                   partner: np.ndarray, rem: np.ndarray, max_sweeps: int
                   ) -> tuple[np.ndarray, dict[str, float]] | None:
-    """:func:`_aberth` for a spectrum closed under conjugation (:func:`_conjugation`) from a
+    """:func:`~._aberth` for a spectrum closed under conjugation (:func:`~._conjugation`) from a
     conjugate-closed start ``(lam, partner)`` (:func:`_conjugate_slots`): the secular
     function is evaluated at one member of each pair (the upper half plane) and at the real
     roots only, about half the O(n) evaluations and half the Aberth sums
-    (:func:`_pair_sums`) of :func:`_aberth`. A pair ``z, conj z`` moves as the quadratic
+    (:func:`_pair_sums`) of :func:`~._aberth`. A pair ``z, conj z`` moves as the quadratic
     factor ``(x - z)(x - conj z)`` (:func:`_quadratic_through`: the conjugate's share of the
     Aberth correction in closed form), which splits into two real roots when its
     discriminant says so; two members of the upper half plane nearer to each other than to

@@ -153,7 +153,7 @@ def _log_derivative(poles: _Poles, X: np.ndarray, Y: np.ndarray, lam: np.ndarray
                     rem: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(q'/q, q == 0)`` at each ``lam``: the logarithmic derivative of the secular function
     ``q(lam) = prod_m (mu_m - lam) det S(lam) / prod_r (lam - r)`` with the removed roots ``r``
-    divided out (:func:`low_rank_update_eigen`), from :func:`_secular_terms` (the poles
+    divided out (:func:`~.low_rank_update_eigen`), from :func:`_secular_terms` (the poles
     ``mu`` prepared once per solve); ``inf``/``nan`` where ``lam`` is (numerically) a root."""
     Gsum, _, F, dF, _, _ = _secular_terms(poles.mu, X, Y, lam, poles)
     with np.errstate(divide="ignore", invalid="ignore"):
