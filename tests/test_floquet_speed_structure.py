@@ -21,7 +21,6 @@ from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from scipy.optimize import linear_sum_assignment
 
 from nsm_continuation.core.floquet import (
-    _Poles,
     collision_distances,
     definite_sign,
     krein_definiteness,
@@ -29,6 +28,7 @@ from nsm_continuation.core.floquet import (
     low_rank_update_eigen,
     nearest_distances,
 )
+from nsm_continuation.core.floquet.secular import _Poles
 from nsm_continuation.core.palc import krein_motion, krein_motion_ratio
 
 
@@ -110,7 +110,7 @@ def _krein_definiteness_reference(mu: np.ndarray, X: np.ndarray, Y: np.ndarray,
                                   lam: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Direct formula: ``v = -(diag(mu) - lam)^-1 X w`` scaled by ``mu_* - lam``, ``w`` the
     largest column of ``adj(M)``, ``M = (mu_* - lam) S(lam)``, all sums formed densely."""
-    from nsm_continuation.core.floquet import _adj
+    from nsm_continuation.core.floquet.secular import _adj
 
     k = X.shape[1]
     D = mu[None, :] - lam[:, None]

@@ -1,6 +1,6 @@
 """Instability windows hidden inside one continuation step of a conservative family, found
-from the Krein words of the step's ends (``nsm_continuation/krein.py``) and located on the
-colliding pair's discriminant (``ContinuationEngine._krein_windows``).
+from the Krein words of the step's ends (``nsm_continuation/core/floquet/krein.py``) and
+located on the colliding pair's discriminant (``ContinuationEngine._krein_windows``).
 
 Oracles: the linear normal form of a Krein collision (``tests/oracles/krein_normal_form.py``),
 whose window ``(w1^2 - w2^2)^2 < 4 w1 w2 eps^2`` and multipliers are closed forms; for the
@@ -28,7 +28,7 @@ from oracles.scaled_chain import closed_form_y
 import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.core import palc
-from nsm_continuation.core.krein import SEVERAL, discriminant, signature_word, swap_paths
+from nsm_continuation.core.floquet.krein import SEVERAL, discriminant, signature_word, swap_paths
 
 #: steps free to jump over a window: no closing rule, no motion limit
 LOOSE = {"max_multiplier_step": 10.0}

@@ -22,13 +22,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nsm_continuation.core import floquet
 from nsm_continuation.core.floquet import (
     KREIN_DEFINITE,
     collision_distances,
     definite_sign,
     nearest_distances,
 )
+from nsm_continuation.core.floquet import krein as krein_geometry
 
 
 # ---------------------------------------------------------------- oracles
@@ -107,7 +107,7 @@ def edge_cases() -> list[tuple[np.ndarray, np.ndarray | None, float]]:
 @pytest.fixture
 def large_path(monkeypatch: pytest.MonkeyPatch):
     def use(flag: bool) -> None:
-        monkeypatch.setattr(floquet, "_SMALL_SPECTRUM", -1 if flag else 24)
+        monkeypatch.setattr(krein_geometry, "_SMALL_SPECTRUM", -1 if flag else 24)
     return use
 
 

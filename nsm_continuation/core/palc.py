@@ -50,7 +50,7 @@ from nsm_continuation.core.floquet import (
     krein_of,
     nearest_distances,
 )
-from nsm_continuation.core.krein import SEVERAL, discriminant, swap_paths
+from nsm_continuation.core.floquet.krein import SEVERAL, discriminant, swap_paths
 from nsm_continuation.core.problem import EvaluationError, FloquetData, Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.roots import bisect_predicate, illinois, interior_extremum, pole_estimate
