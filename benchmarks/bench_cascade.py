@@ -1,13 +1,13 @@
 """The period-doubling cascade of the double pendulum (Nordmark & Piiroinen 2009, sec. 6.2) as
-one bifurcation diagram, timed and cross-checked (issue 12, item 4).
+one bifurcation diagram, timed and cross-checked.
 
 Runs ``yaml_cases/pendulum_sec6_2_cascade.yaml`` (``analysis.branch_switching``: the period-2
 orbit continued in ``d``, every period doubling switched at, ``--depth`` generations: 2 gives
 periods 4 and 8 and locates the 8 -> 16 doubling on the period-8 branch, 3 also follows the
 period-16 family) and prints:
 
-* the time of each branch and of the whole run (the issue's target: the cascade to period 8 in
-  < 5 min on this machine);
+* the time of each branch and of the whole run (target: the cascade to period 8 in < 5 min
+  on this machine);
 * the located doublings, the intervals between them and their ratios, against Feigenbaum's
   ``delta = 4.6692``;
 * the non-trivial multipliers at each doubling (one at -1, the others zero to round-off: the

@@ -1,6 +1,6 @@
 """Large chains with stability: the 200-dof mode-1 branch, one point at N = 1000, and the
-paper's 5-dof branch 1 (issue 13, targets of item "200-dof chain ... < 30 s", "N = 1000:
-< 0.1 s per continuation point with multipliers", "branch 1 with all 27 events < 0.15 s").
+paper's 5-dof branch 1 (targets: "200-dof chain ... < 30 s", "N = 1000: < 0.1 s per
+continuation point with multipliers", "branch 1 with all 27 events < 0.15 s").
 
 * ``N = 200``: the chain of eq. (2.17) with ``m = 1/N``, ``k = N`` (paper's scaling), gap 1,
   ``start: {mode: 1}``, omega in [0.5, 3], stability and bifurcations on, through
@@ -22,8 +22,8 @@ paper's 5-dof branch 1 (issue 13, targets of item "200-dof chain ... < 30 s", "N
   ``0.90 T_1`` with detection on (the window of ``bench_engine_vs_pycont.py``), wall time and
   events, with the Krein-aware step control and with the generic motion check.
 
-With ``--baseline FILE`` (another version of ``nsm_continuation/floquet.py``, e.g. the
-committed one: ``git show HEAD:nsm_continuation/floquet.py > /tmp/floquet_head.py``) the
+With ``--baseline FILE`` (another version of ``nsm_continuation/core/floquet.py``, e.g. the
+committed one: ``git show HEAD:nsm_continuation/core/floquet.py > /tmp/floquet_head.py``) the
 ``N = 1000`` point is timed twice in the same run, first with the chain's multipliers from
 that file's solvers (``low_rank_update_eigen``, ``krein_definiteness``, ``refine_roots``),
 then with the current ones, so that a change is measured under the same load (``--repeat

@@ -34,11 +34,11 @@ rounds, each round measuring every setting once (load changes spread over all se
 Errors against the reference: ``|T - T_ref|`` [s], ``|tau - tau_ref|`` [s],
 ``|mu - mu_ref| / |mu_ref|``, ``|z - z_ref|_inf``.
 
-Targets of the issue, also timed: (i) one orbit with its multipliers from the perturbed guess at
+Targets, also timed: (i) one orbit with its multipliers from the perturbed guess at
 the default numerics (with and without building the problem, and through the engine's own start
 correction); (ii) ``nsm-continuation run`` on a temporary YAML continuing the orbit in ``e`` from
 0.85 (guess: the orbit converged here at e = 0.85) with at most 200 points, step at most 0.005
-(the case of the issue; the admissible branch holds fewer points) and at most 0.002 (about 200
+(the target's case; the admissible branch holds fewer points) and at most 0.002 (about 200
 points).
 
 Outputs: ``benchmarks/results/chatter_speed_accuracy.png`` (error vs ``t_solve``, log-log, three
@@ -637,7 +637,7 @@ def main() -> None:
         say(f"(ii) orbit at e = 0.85 (start guess): z = ({orb85.y[0]:.10f}, {orb85.y[1]:.10f}, "
             f"{orb85.y[2]:.10f}), T = {orb85.period:.6f} s, tau = {orb85.sticking:.6f} s")
         say()
-        # the case of the issue (step max 0.005: the admissible branch e in [0.5, ~0.8945]
+        # the target's case (step max 0.005: the admissible branch e in [0.5, ~0.8945]
         # holds fewer than 200 points), the same with step max 0.002 (about 200 points)
         variants = [(True, 0.005), (True, 0.002)]
         if args.continuation_no_detection:

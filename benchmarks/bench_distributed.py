@@ -1,4 +1,4 @@
-"""Branches as Dask tasks (issue 14): speed-up and overhead, one run, same machine.
+"""Branches as Dask tasks: speed-up and overhead, one run, same machine.
 
 Prints the wall time of
 1. ``yaml_cases/ndof_fig3_2_fep.yaml`` (Fig. 3.2, one branch per pole) serially, on a local

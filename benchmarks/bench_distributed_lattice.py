@@ -1,4 +1,4 @@
-"""The bar's lattice scan (Fig. 12) as Dask tasks (issue 14): speed-up, per-task costs, and an
+"""The bar's lattice scan (Fig. 12) as Dask tasks: speed-up, per-task costs, and an
 estimate of the scan at N = 1000 cells on a 64-core cluster.
 
 Prints
@@ -131,7 +131,7 @@ def main() -> None:
           f"{t_ser / t_dist:4.2f}x  identical outputs: {same}")
     if "seed_pieces_s" not in td:
         print("   the scan was not split: the problem does not implement the seed pieces of "
-              "LatticeProblem (nsm_continuation/lattice.py); no estimate")
+              "LatticeProblem (nsm_continuation/core/lattice.py); no estimate")
         return
     per = td["seed_pieces_s"]
     close = (td["seed_search_distributed_s"] - td["seed_cluster_start_s"]

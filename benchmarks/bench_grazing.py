@@ -1,4 +1,4 @@
-"""Continuation to, at and through grazing (issue 11): times and accuracies, one run.
+"""Continuation to, at and through grazing: times and accuracies, one run.
 
 Prints, for the forced impact oscillator ``q'' + 2 zeta q' + q = cos(omega t)``, ``q >= -0.5``,
 restitution 0.8:
@@ -9,7 +9,7 @@ restitution 0.8:
    ``1/sqrt((1 - w^2)^2 + (2 zeta w)^2) = 0.5`` for zeta = 0, 0.05, 0.1;
 3. the two-mass chain case ``yaml_cases/chain_two_mass_wall.yaml``: wall time and its grazing.
 
-Target (issue 11): an impacting orbit to and through grazing in < 10 s on this machine
+Target: an impacting orbit to and through grazing in < 10 s on this machine
 (2 cores, Python 3.11). Run: ``python benchmarks/bench_grazing.py``.
 """
 

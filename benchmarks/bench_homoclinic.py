@@ -1,4 +1,4 @@
-"""The homoclinic approach of sec. 6.3 (issue 11, item 5): period reached, p*, mu, time.
+"""The homoclinic approach of sec. 6.3: period reached, p*, mu, time.
 
 1. The bundled case ``yaml_cases/pendulum_sec6_3_homoclinic.yaml``: the period-1 orbit of the
    double pendulum (e = 0.9, d = 0.5) continued in its PERIOD, the torque solved for, until the
@@ -9,10 +9,10 @@
 2. How far double precision carries the period: ``T_max = c + ln(1 / dp) / mu`` for the
    torque resolved to ``eps |p|`` and to the resolution the branch shows (its deviation from
    the law beyond period 60).
-3. With ``--compare-torque``: the former set-up, the torque continued at the default
-   tolerances with the period bound 80 (the issue's run): the period reached, the spurious
-   multiplier crossings reported (now: none, the multipliers within their noise are not
-   classified) and the fit. ~1-2 min more.
+3. With ``--compare-torque``: the other set-up, the torque continued at the default
+   tolerances with the period bound 80: the period reached, the spurious multiplier
+   crossings reported (none: the multipliers within their noise are not classified) and the
+   fit. ~1-2 min more.
 
 Run: ``python benchmarks/bench_homoclinic.py [--compare-torque]``.
 """
@@ -86,7 +86,7 @@ def torque_case() -> None:
     (br,) = res.branches
     kinds = [e.kind for e in res.events]
     fit = res.report()["problem_results"]["branches"][0].get("homoclinic_fit")
-    print("3. the former set-up: continued in the torque, default tolerances, period <= 80")
+    print("3. the other set-up: continued in the torque, default tolerances, period <= 80")
     print(f"   wall time {wall:.1f} s, {len(br)} points, period reached "
           f"{np.nanmax(br['period']):.2f}, termination: {br.termination}")
     print(f"   events: {kinds} (period doublings: {kinds.count('period_doubling')})")
@@ -98,7 +98,7 @@ def torque_case() -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--compare-torque", action="store_true",
-                    help="also run the former continuation in the torque (~1-2 min)")
+                    help="also run the continuation in the torque (~1-2 min)")
     args = ap.parse_args()
     period_case()
     if args.compare_torque:

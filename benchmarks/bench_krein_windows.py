@@ -1,4 +1,4 @@
-"""Windows hidden inside one step (issue 13, item 2): what the Krein words find, and what
+"""Windows hidden inside one step: what the Krein words find, and what
 loosening the step control costs in missed events.
 
 For each case, the events located with the default step control are the reference; the same
@@ -7,8 +7,8 @@ case is run again with
 * ``max_multiplier_step: 0.1`` and ``1`` (the closing rule kept, as in the defaults),
 * ``max_multiplier_step: 1`` with the closing rule also removed (``palc.krein_closing``
   replaced by one that never refuses: not a setting, a test of the safety net alone),
-* the defaults with the step control before session 9: no cap from the motion ratio on the
-  growth of an accepted step (``palc._motion_capped_step`` replaced),
+* the defaults without the cap from the motion ratio on the growth of an accepted step
+  (``palc._motion_capped_step`` replaced: the step grows by the constant factor alone),
 
 and each run prints its points, step attempts (predictor-corrector calls), compute time, how
 many of the reference's crossings it finds (same kind on the same branch within 1e-9 in the
@@ -45,7 +45,7 @@ from nsm_continuation.core import palc  # noqa: E402
 CROSSINGS = ("fold", "period_doubling", "neimark_sacker")
 #: (label, analysis overrides, closing rule kept, steps sized by the motion ratio)
 VARIANTS = (("defaults (max_multiplier_step 0.02)", {}, True, True),
-            ("defaults, growth not capped (before)", {}, True, False),
+            ("defaults, growth not capped", {}, True, False),
             ("max_multiplier_step 0.1", {"max_multiplier_step": 0.1}, True, True),
             ("max_multiplier_step 1", {"max_multiplier_step": 1.0}, True, True),
             ("max_multiplier_step 1, no closing rule", {"max_multiplier_step": 1.0}, False,
@@ -53,7 +53,7 @@ VARIANTS = (("defaults (max_multiplier_step 0.02)", {}, True, True),
 
 
 def _uncapped(h: float, ratio: float) -> float:
-    """The step control before session 9: no cap on the growth of an accepted step."""
+    """No cap from the motion ratio on the growth of an accepted step."""
     return float("inf")
 
 

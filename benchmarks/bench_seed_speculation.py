@@ -1,4 +1,4 @@
-"""Would the seeds' branches of a lattice scan pay as speculative Dask tasks? (issue 14)
+"""Would the seeds' branches of a lattice scan pay as speculative Dask tasks?
 
 The bar's Fig. 12 scan seeds one branch per physical orbit, continued in seed order; a seed
 lying on an earlier branch is skipped, so the branches are not independent. Continued ``W``
@@ -9,7 +9,7 @@ visited lattice keys, and replays windows of ``W`` = 2, 3, 4 on that record: rou
 computed, wasted share; with the serial time per branch.
 
 Run: ``python benchmarks/bench_seed_speculation.py [--cells 300 500]`` (2 cores; the scan
-itself takes ~4 s at N = 300 and ~25 s at N = 500). Measured in session 8: N = 300, 152
+itself takes ~4 s at N = 300 and ~25 s at N = 500). One run on that machine: N = 300, 152
 branches of 688 seeds, W = 2 wastes 18 %; N = 500, 296 of 1418, W = 2 wastes 12 %; ~11 ms per
 branch at N = 500, ~30 ms at N = 1000.
 """

@@ -1,4 +1,4 @@
-"""Start-up and output cost of a run (issue 13, item 4): wall time against compute time.
+"""Start-up and output cost of a run: wall time against compute time.
 
 Prints
 1. the import time of ``nsm_continuation.cli`` in a fresh interpreter (best of ``--repeat``),

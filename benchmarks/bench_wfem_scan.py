@@ -1,12 +1,12 @@
 """The bar's lattice scan (Fig. 12 of Yoong, Thorin, Legrand 2017) with and without its
-structure (issue 13, item 5: "Fig. 12 at N = 1000 < 10 min on this machine").
+structure (target: Fig. 12 at N = 1000 in < 10 min on this machine).
 
 The scan solves every one-contact-phase node ``(m, M - m)`` with ``1 <= h <= 8`` of every
 period ``M`` in the window. Three uses of the structure, each switched off in the "plain" run:
 
 * the kernel dimensions of a period in closed form, ``h = g - rho`` or ``rho``
   (:func:`problems.bar.wfem_operators.kernel_dimensions_at_period`; plain: the O(M N) sweep of
-  every slot's sign, as before);
+  every slot's sign);
 * the batch COND2 screen (:func:`problems.bar.wfem_lattice.scan_screen`; plain: every node
   solved);
 * the per-cycle sign test of ``h > q`` nodes
@@ -14,7 +14,7 @@ period ``M`` in the window. Three uses of the structure, each switched off in th
   combinations formed).
 
 Both runs must give the same orbits, counters and filter reasons (checked here at every N run
-both ways). The plain scan at N = 1000 was estimated at ~38 min (2289 s): it is run only
+both ways). The plain scan at N = 1000 is estimated at ~38 min (2289 s): it is run only
 with ``--plain-1000``.
 
     python benchmarks/bench_wfem_scan.py [--cells 200 1000] [--plain-1000]
@@ -48,7 +48,7 @@ WINDOW = (1.0, 4.0)  # [omega_1, Omega_2] of Fig. 12
 
 @contextmanager
 def plain() -> Iterator[None]:
-    """The scan without its structure (the code before issue 13's item 5)."""
+    """The scan without its structure: kernel dimensions by sweep, no screen, no sign test."""
     saved = (wfem_bar.kernel_dimensions_at_period, wfem_bar.scan_screen,
              wfem_lattice.contact_sign_conflict)
     wfem_bar.kernel_dimensions_at_period = kernel_dimensions_by_sweep

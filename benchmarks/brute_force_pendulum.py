@@ -29,7 +29,7 @@ Charts (``benchmarks/results/``, git-ignored): ``brute_force_fig8b.png``,
 
 ``--quick``: coarse grids, short transients (< 1 min on 2 cores); the default is the full run
 (~4.5-5.5 min on 2 shared cores; measured numbers in ``benchmarks/README.md``). The sweeps are
-Dask tasks (issue 14), the same tasks whatever runs them: Fig. 8(b), Fig. 9(b) up, Fig. 9(b)
+Dask tasks, the same tasks whatever runs them: Fig. 8(b), Fig. 9(b) up, Fig. 9(b)
 down, Fig. 9(c) zoom and Fig. 10 (each a chain of values warm-started from the previous one,
 so not split further); ``--workers N`` (default 2) runs them on a local cluster of N
 single-threaded worker processes (:func:`nsm_continuation.runs.execution.start_client`, as

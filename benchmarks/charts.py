@@ -1,4 +1,4 @@
-"""One speed-vs-accuracy chart per system (issue 13, item 7): error against wall time, log-log.
+"""One speed-vs-accuracy chart per system: error against wall time, log-log.
 
     python benchmarks/charts.py [--quick] [--out-dir DIR] [--docs-dir DIR | --no-docs]
                                 [--only chain double_pendulum wfem_bar]
