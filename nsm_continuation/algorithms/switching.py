@@ -1,4 +1,4 @@
-"""Branch switching at a simple branch point and at a period doubling (issue 12, item 2).
+"""Branch switching at a simple branch point and at a period doubling.
 
 **Simple branch point** (event ``branch_point``: ``det[G_y; t^T]`` changes sign). There ``G_y``
 (``n x (n+1)``) has rank ``n - 1``: its kernel is spanned by the tangents of the two branches

@@ -627,7 +627,7 @@ _locate_collision`)."""
         function of the branches (no state shared with other hooks)."""
         return {}
 
-    # == restart & branch switching (issue 12; :mod:`nsm_continuation.cases.restart`) ==
+    # == restart & branch switching (:mod:`nsm_continuation.cases.restart`) ===============
     def period_multiple(self) -> int:
         """How many base periods an orbit of this instance spans (the returns to the section of
         a hybrid orbit, ``start.returns``); stored in the restart record of each run."""

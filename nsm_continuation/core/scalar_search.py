@@ -5,7 +5,7 @@
 *Algorithms for Minimization without Derivatives*, ch. 5), step for step, so its iterates and
 result are those of SciPy's to the last bit (``tests/test_scalar_search.py`` compares them).
 It is here because importing ``scipy.optimize`` costs 0.16 s, a tenth of the default case's
-wall time (issue 13, ``benchmarks/bench_startup.py``), for one call per hidden Krein window.
+wall time (``benchmarks/bench_startup.py``), for one call per hidden Krein window.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Bifurcation diagrams: every branch born at a detected point, followed recursively, in one run
-(issue 12, item 4).
+"""Bifurcation diagrams: every branch born at a detected point, followed recursively, in one
+run.
 
 ``analysis: {branch_switching: {depth: 3, kinds: [period_doubling, branch_point]}}`` makes a
 run grow a tree. Generation 0 is the case's own branches. For each generation ``g < depth``,
