@@ -52,7 +52,7 @@ _MOVED: dict[str, tuple[str, ...]] = {
 }
 #: old modules whose name is now a package: the package forwards their names (:func:`forward`)
 _NOW_PACKAGES: dict[str, tuple[str, ...]] = {
-    "cases": ("cases.schema", "cases.validate", "cases.saved_runs", "core.errors"),
+    "cases": ("cases.schema", "cases.validation", "cases.saved_runs", "core.errors"),
     "algorithms": ("algorithms.base", "algorithms.registry", "algorithms.palc",
                    "algorithms.lattice", "algorithms.pycont_lite", "algorithms.sweep"),
     "output": ("output.folders", "cases.saved_runs"),

@@ -19,7 +19,7 @@
     result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
 
 A case is validated exactly as on the command line
-(:func:`nsm_continuation.cases.validate.validate`):
+(:func:`nsm_continuation.cases.validation.validate`):
 bad input raises :class:`~nsm_continuation.core.errors.CaseError` whose message names the key,
 before
 anything is computed.
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from nsm_continuation.cases import registry, schema, validate
+from nsm_continuation.cases import registry, schema, validation
 from nsm_continuation.cases.schema import Case
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem, StartPoint
@@ -90,7 +90,7 @@ def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] 
             node[last] = value
     else:
         raw = schema.apply_overrides(_raw(source), list(overrides))
-    return validate.validate(raw)
+    return validation.validate(raw)
 
 
 def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
@@ -152,7 +152,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
     except ValueError as exc:
         raise CaseError(schema._keyed("continuation.parameter", str(exc))) from None
     if block is start:
-        validate.preflight(problem, case, start, window)
+        validation.preflight(problem, case, start, window)
         return Result(run_case(case, problem, progress=False))
     if not isinstance(start, StartPoint):
         y = np.asarray(start, dtype=float).reshape(-1)
@@ -337,7 +337,7 @@ class Result:
         if name is not None:
             raw["name"] = name
         record = record_from_result(self.run_result, start["from"])
-        case, problem = validate.validate(raw, restart_record=record,
+        case, problem = validation.validate(raw, restart_record=record,
                                        problem_class=type(self.problem))
         return Result(run_case(case, problem, progress=False))
 
@@ -392,9 +392,9 @@ class Result:
         ``log`` signal the time view does not draw or a number of periods out of range."""
         from nsm_continuation.figures import orbits
 
-        validate.check_orbit_view(view, self.problem, "plot_orbits.view")
+        validation.check_orbit_view(view, self.problem, "plot_orbits.view")
         n = _orbit_periods(periods, "plot_orbits.periods")
-        validate.check_orbits(list(points), self.problem, "plot_orbits")
+        validation.check_orbits(list(points), self.problem, "plot_orbits")
         return orbits.plot(self.run_result, list(points), view, ax, n, list(log))
 
     def plot(self, ax: Any = None) -> Any:

@@ -22,7 +22,7 @@ from nsm_continuation.problems.bar.continuum import (
 )
 from nsm_continuation.problems.bar.wfem_lattice import BarModel, classify, solve_node
 
-from nsm_continuation.cases.validate import load
+from nsm_continuation.cases.validation import load
 from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.settings import ContinuationSettings
 

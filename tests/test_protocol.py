@@ -16,7 +16,7 @@ import pytest
 from pydantic import BaseModel, ConfigDict
 
 from nsm_continuation.cases.schema import Case
-from nsm_continuation.cases.validate import validate
+from nsm_continuation.cases.validation import validate
 from nsm_continuation.core import records
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint

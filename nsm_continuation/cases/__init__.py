@@ -1,5 +1,5 @@
 """YAML cases: the schema (:mod:`.schema`), its validation with the problem's preflight
-(:mod:`.validate`), restarts from saved runs (:mod:`.restart`, :mod:`.saved_runs`) and the
+(:mod:`.validation`), restarts from saved runs (:mod:`.restart`, :mod:`.saved_runs`) and the
 problem registry (:mod:`.registry`).
 
 ``from nsm_continuation import cases`` gives the functions a script needs (``cases.load``,
@@ -11,16 +11,17 @@ from importlib import import_module
 from typing import Any
 
 #: the names this package gives, and the module that defines each
-_PUBLIC = {"Case": "schema", "apply_overrides": "schema", "load_raw": "schema",
-           "parse_yaml": "schema", "with_execution": "schema", "load": "validate",
-           "validate": "validate"}
+_PUBLIC = {"Case": "cases.schema", "apply_overrides": "cases.schema", "load_raw": "cases.schema",
+           "parse_yaml": "cases.schema", "with_execution": "cases.schema",
+           "load": "cases.validation", "validate": "cases.validation",
+           "CaseError": "core.errors"}
 
 __all__ = sorted(_PUBLIC)
 
 
 def __getattr__(name: str) -> Any:
     if name in _PUBLIC:
-        return getattr(import_module(f"{__name__}.{_PUBLIC[name]}"), name)
+        return getattr(import_module(f"nsm_continuation.{_PUBLIC[name]}"), name)
     from nsm_continuation._deprecated import forward
 
     return forward(__name__, name)

@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from nsm_continuation.cases.validate import validate
+from nsm_continuation.cases.validation import validate
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch, Event
