@@ -19,7 +19,10 @@ from nsm_continuation.core.records import OrbitTrace
 
 class ChainPresentation:
     """Presentation members of
-    :class:`~nsm_continuation.problems.chain.ndof_impact.NDofImpactProblem`."""
+    :class:`~nsm_continuation.problems.chain.ndof_impact.NDofImpactProblem`. They read from the
+    problem (``self``) the attributes annotated below and the methods ``state``, ``w_N``,
+    ``poles``, ``zeros_of_w_N``, ``grazing_energy``, ``internal_resonances`` and
+    ``static_grazing_spectrum``."""
 
     N: int
     c: int

@@ -47,7 +47,7 @@ class ChainStarts:
           ``NSM_CONTINUATION_MAX_HOURS``; only then the modal analysis (O(N^3)) is done, here,
           once (it is reused by the run);
         * the modal analysis succeeds (finite matrices, ``K`` positive definite) and resolves
-          ``omega_1`` (:data:`MODAL_RESOLUTION`); frequencies in ``[1e-100, 1e100]``;
+          ``omega_1`` (:attr:`.ModalModel.MODAL_RESOLUTION`); frequencies in ``[1e-100, 1e100]``;
         * ``start.mode <= N``, ``gap != 0`` for a mode start, the start period ``k T_j`` (mode,
           subharmonic) or ``T`` inside the window (a start outside it computes nothing);
           ``all: true`` needs both window ends, and its number of branches (the poles
