@@ -51,7 +51,7 @@ from collections.abc import Callable, Iterator  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
-from nsm_continuation.problems.chain import ndof_impact  # noqa: E402
+from nsm_continuation.problems.chain import stability as chain_stability  # noqa: E402
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 
 import nsm_continuation as nsm  # noqa: E402
@@ -168,7 +168,7 @@ def point_1000(n: int) -> dict[str, float]:
     out["Floquet structured (warm)"] = min(warm_times)
 
     def cold() -> None:
-        pb._multiplier_memory.clear()
+        pb.multiplier_memory.clear()
         pb.floquet(y, t)
 
     out["Floquet structured (cold)"] = best(cold)
@@ -238,14 +238,14 @@ def multiplier_solvers(path: str | None) -> Iterator[None]:
 
     names = {"low_rank_update_eigen": base.low_rank_update_eigen,
              "krein_definiteness": krein, "refine_roots": base.refine_roots}
-    saved = {k: getattr(ndof_impact, k) for k in names}
+    saved = {k: getattr(chain_stability, k) for k in names}
     try:
         for k, v in names.items():
-            setattr(ndof_impact, k, v)
+            setattr(chain_stability, k, v)
         yield
     finally:
         for k, v in saved.items():
-            setattr(ndof_impact, k, v)
+            setattr(chain_stability, k, v)
         del sys.modules[spec.name]
 
 
@@ -259,7 +259,7 @@ def branch1_paper(krein: bool) -> dict[str, Any]:
     start = StartPoint(pb.y_from_state(u0, du0, 0.99 * T1), "branch 1", -1)
     times, n_ev, kinds, npts = [], 0, None, 0
     for _ in range(3):
-        pb._multiplier_memory.clear()
+        pb.multiplier_memory.clear()
         eng = ContinuationEngine(pb, st)
         t0 = time.perf_counter()
         br = eng.run(start)

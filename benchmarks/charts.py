@@ -234,14 +234,14 @@ def chain_multipliers(quick: bool) -> Table:
 
         def warm(pb: NDofImpactProblem = pb, y: np.ndarray = y, t: np.ndarray = t,
                  y2: np.ndarray = y2) -> Any:
-            pb._multiplier_memory.clear()
+            pb.multiplier_memory.clear()
             pb.floquet(y2, t)
             t0 = time.perf_counter()
             fl = pb.floquet(y, t)
             return time.perf_counter() - t0, fl
 
         def cold(pb: NDofImpactProblem = pb, y: np.ndarray = y, t: np.ndarray = t) -> Any:
-            pb._multiplier_memory.clear()
+            pb.multiplier_memory.clear()
             return pb.floquet(y, t)
 
         ws = [warm() for _ in range(repeat)]

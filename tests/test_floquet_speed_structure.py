@@ -279,6 +279,6 @@ def test_chain_warm_starts_and_repeated_points_give_the_dense_multipliers() -> N
         assert msd(fs.multipliers, fd.multipliers) <= 1e-9
         assert msd(fs.multipliers, fc.multipliers) <= 1e-11
         assert np.allclose(np.sort(krein_of(fs)), np.sort(krein_of(fc)), atol=1e-8)
-    start = pb._nearest_guess(pts[-1][0])
+    start = pb.multiplier_memory.nearest_guess(pts[-1][0])
     assert start is not None and start[0].shape == (2 * n - 2,)
     assert pb.floquet_fallbacks == 0

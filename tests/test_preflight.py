@@ -148,7 +148,7 @@ def test_ndof_construction_is_lazy() -> None:
     t0 = time.perf_counter()
     p = NDofImpactProblem({"chain": {"dofs": 2000, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
     assert time.perf_counter() - t0 < 0.5
-    assert "_modal" not in p.__dict__ and "_matrices" not in p.__dict__
+    assert "decomposition" not in p.modal.__dict__ and "matrices" not in p.modal.__dict__
     assert p.dim == 2002
 
 

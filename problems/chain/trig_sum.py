@@ -21,7 +21,7 @@ uncertified cells are split and evaluated pointwise. Measured on the ``m = 1/N, 
 to its linear grazing orbit (``N`` modes, ``n = 3208`` / ``16008`` cells): 1.9 ms at
 ``N = 200`` and 26 ms at ``N = 1000`` (pointwise sines and cosines: 0.18 s and 4.2 s).
 
-Small sums (issue 13: the 5-dof chain calls this ~7000 times per frequency-energy plot, on
+Small sums (the 5-dof chain calls this ~7000 times per frequency-energy plot, on
 16-100 cells and ~5 brackets, where numpy's per-call overhead, not arithmetic, is the cost):
 up to ``POINTWISE_GRID`` edge-mode pairs the first pass takes the sines and cosines at the
 edges directly (:meth:`TrigSum.d12`, one evaluation that includes ``t1``), and up to
