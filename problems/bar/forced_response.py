@@ -7,7 +7,7 @@ distributed force ``f = f0 sin(omega t)``; the total energy of the steady state 
 one forcing period is plotted against the forcing frequency for increasing frequencies and
 several dampings (Figs. 20-22 (a): moving wall, (b): distributed force; Fig. 20: g0 > 0,
 21: g0 = 0, 22: g0 < 0). The steady state at each frequency is found by time stepping
-(Algorithm 2, :func:`problems.bar.wfem_simulation.forced_response_point`), warm-started from
+(Algorithm 2, :func:`problems.bar.forced_steady_state.forced_response_point`), warm-started from
 the steady state at the previous frequency, by the ``sweep`` algorithm
 (:class:`nsm_continuation.algorithms.base.Sweep`), one sweep (branch) per damping ratio.
 
@@ -27,7 +27,7 @@ frequencies (``numpy.linspace(min, max, max_points)``), ``parameter`` is ``omega
 (``omega / omega_1``, eq. 13) or ``omega``. Optional: ``transient_periods`` (10),
 ``average_periods`` (8), ``transient_time`` (3 decay times), ``max_time`` (12 decay times;
 required with a zero damping), ``steady_tol`` (2e-3), ``switching`` (``subcell`` or ``grid``):
-:func:`problems.bar.wfem_simulation.steady_state_rule`.
+:func:`problems.bar.forced_steady_state.steady_state_rule`.
 
 Each point: ``energy_ratio`` (the period-averaged energy over ``E_ref`` of eq. 14; absolute for
 g0 = 0), ``amplitude`` (half the peak-to-peak end displacement), ``steady`` and ``multiple``
@@ -46,18 +46,18 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from nsm_continuation.problems.bar.continuum import main_signature
-from nsm_continuation.problems.bar.wfem_simulation import (
-    BarParams,
+from nsm_continuation.problems.bar.forced_steady_state import (
     ForcedPoint,
-    Loading,
     SteadyStateRule,
     forced_response_point,
+    steady_state_rule,
+)
+from nsm_continuation.problems.bar.linear_forced import (
     linear_forced_end_amplitude,
     linear_forced_energy,
     linear_wall_response,
-    rest_state,
-    steady_state_rule,
 )
+from nsm_continuation.problems.bar.wfem_stepping import BarParams, Loading, rest_state
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
 from nsm_continuation.algorithms.base import SweepProblem, SweepSeed, sweep_point_record

@@ -19,7 +19,7 @@ Method
   sign, and shift the effective gap by up to one step per period). A step is CONTACT when
   ``g0 - u_end <= 0`` (up to a tolerance) and the arriving characteristic is compressive,
   ``J = w[N-1] <= 0``, FREE otherwise, decided at its beginning by the switching rule shared
-  with :func:`problems.bar.wfem_simulation.simulate`
+  with :func:`problems.bar.wfem_stepping.simulate`
   (:func:`problems.bar.wfem_operators.floating_bc_contact`).
 * Perturbations (:func:`perturbation_growth`, :func:`perturb`), all admissible (no penetration):
 
@@ -190,7 +190,7 @@ def floating_bc_simulation(model: BarModel, w0: np.ndarray, steps: int, *,
                            ) -> FloatingBCRun:
     """Algorithm 2 (floating boundary condition) on the characteristic ring, O(1) per step.
 
-    The specialisation of :func:`problems.bar.wfem_simulation.simulate` to the undamped,
+    The specialisation of :func:`problems.bar.wfem_stepping.simulate` to the undamped,
     unforced bar with a fixed wall, on a moving ring origin instead of a rotated array: the
     switching decision is the same function,
     :func:`problems.bar.wfem_operators.floating_bc_contact`, and the end update the same signed
