@@ -45,7 +45,7 @@ import math
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from nsm_continuation.problems.bar.continuum import main_signature
+from nsm_continuation.problems.bar.continuum_orbits import main_backbone
 from nsm_continuation.problems.bar.forced_steady_state import (
     ForcedPoint,
     SteadyStateRule,
@@ -129,26 +129,6 @@ class ForcedStart(BaseModel):
 
     model_config = STRICT
     warm_start: bool = True
-
-
-def main_backbone(mode: int, gap_sign: float, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
-    """``(omega / omega_1, E / E_ref)`` of the main backbone of mode k (the exact continuum
-    limit, :mod:`problems.bar.continuum`): ``E / E_ref = 32 / (pi^2 mu(T)^2)`` with ``mu``
-    affine in the period ``T = 4 / omega_ratio`` (units L/c), admissible where
-    ``sign(mu) = sign(g0)`` (hardening from omega_k for g0 > 0, softening from Omega_k for
-    g0 < 0). For ``g0 = 0`` the vertical line at the asymptote (energy free): ``x`` twice the
-    asymptote and ``y = (nan, nan)``, to be drawn as a vertical line."""
-    sig = main_signature(mode)
-    if gap_sign == 0:
-        x = sig.omega_ratio_asymptote
-        return np.array([x, x]), np.full(2, np.nan)
-    lo, hi = sig.T_range
-    T = np.linspace(lo, hi, n)
-    mu = np.asarray(sig.mu(T), dtype=float)
-    ok = np.sign(mu) == np.sign(gap_sign)
-    with np.errstate(divide="ignore"):
-        energy = 32.0 / (math.pi**2 * mu[ok] ** 2)
-    return 4.0 / T[ok], energy
 
 
 def response_kind(multiple: int) -> str:

@@ -5,7 +5,7 @@ obstacle at x = L across the signed gap ``g0``. Periodic orbits of the WFEM disc
 ``(A_c^p A_f^m - I) Q = 0`` (12) with COND1-COND3; they exist only at lattice periods
 ``T = (m + p) dt``. The lattice engine (:mod:`nsm_continuation.core.lattice`) continues them: the
 predictor extrapolates the phase lengths linearly along the branch (exact for these branches:
-the free time is an affine function of the period, see :mod:`problems.bar.continuum`), the
+the free time is an affine function of the period, see :mod:`problems.bar.continuum_orbits`), the
 corrector picks, among the admissible *physical* solutions (filter of
 :func:`problems.bar.wfem_lattice.classify`) near the predicted node, the one continuing the previous
 one (same number of profile jumps, energy closest to the extrapolated energy).
@@ -803,7 +803,7 @@ class WfemBarProblem(BarFrequencyEnergy, LatticeProblem):
     @staticmethod
     def _energy_predict(history: list[LatticeSolution], M: int) -> float:
         """Extrapolate E^(-1/2) linearly in M (exact on the continuum branches, eq. in
-        :mod:`problems.bar.continuum`: E ~ (T - T*)^-2)."""
+        :mod:`problems.bar.continuum_orbits`: E ~ (T - T*)^-2)."""
         a, b = history[-2], history[-1]
         ya, yb = a.energy ** -0.5, b.energy ** -0.5
         y = yb + (yb - ya) * (M - b.M) / (b.M - a.M)

@@ -43,9 +43,9 @@ Method
   profile or the energy norm (Euclidean norm of ``w``: the energy is ``dx |w|^2 / (4E)``, so
   ``d^2`` is the energy of the difference relative to the orbit's). The *distance to the family*
   (:func:`family_distance`) is the orbital distance to the member of the continuum branch with the
-  *same energy* (cell averages of its profile at half-step phases, :mod:`problems.bar.continuum`):
-  the energy is exactly conserved, so that member is the only one of the family a perturbed
-  trajectory could approach in the energy norm.
+  *same energy* (cell averages of its profile at half-step phases,
+  :mod:`problems.bar.continuum_orbits`): the energy is exactly conserved, so that member is the
+  only one of the family a perturbed trajectory could approach in the energy norm.
 * Classification (:func:`classify_growth`, :data:`GROWTH_CRITERION`): bounded (the running
   maximum of the distance stays within 5x the initial one, the grid resolution as a floor) /
   linear growth / exponential growth (fits of the rising part); a growth verdict needs a small
@@ -109,7 +109,11 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
-from nsm_continuation.problems.bar.continuum import Signature, continuum_orbit, main_signature
+from nsm_continuation.problems.bar.continuum_orbits import (
+    Signature,
+    continuum_orbit,
+    main_signature,
+)
 from nsm_continuation.problems.bar.wfem_lattice import BarModel, LatticeSolution
 from nsm_continuation.problems.bar.wfem_operators import (
     CONTACT,
@@ -369,7 +373,7 @@ def family_member_period(model: BarModel, sig: Signature, energy: float) -> tupl
     """Period T and amplitude A of the member of branch ``sig`` with the given energy.
 
     ``energy = L A^2 / (2E)`` (S = 1) and ``A = 2 E g0 / (L mu(T))`` with ``mu`` affine in T
-    (:mod:`problems.bar.continuum`); ``mu`` has the sign of ``g0`` on the admissible side.
+    (:mod:`problems.bar.continuum_orbits`); ``mu`` has the sign of ``g0`` on the admissible side.
     """
     A = float(np.sqrt(2 * model.E * energy / model.L))
     mu = 2 * model.E * model.g0 / (model.L * A)
