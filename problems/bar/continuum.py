@@ -32,7 +32,7 @@ from nsm_continuation.problems.bar.continuum_orbits import (
     main_signature,
     subharmonic_signature,
 )
-from nsm_continuation.problems.bar.presentation import BarFrequencyEnergy
+from nsm_continuation.problems.bar.presentation import BarContinuumPresentation
 from pydantic import (
     BaseModel,
     Discriminator,
@@ -130,13 +130,12 @@ START_ADAPTER = one_or_many(StartSpec)
 
 
 # -- the problem -----------------------------------------------------------------------------------
-class BarContinuumProblem(BarFrequencyEnergy, Problem):
+class BarContinuumProblem(BarContinuumPresentation, Problem):
     """Continuum nonsmooth modes of the bar: straight branches ``t_f = a T + b``
     (:mod:`problems.bar.continuum_orbits`)."""
 
     name: ClassVar[str] = "bar_continuum"
-    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
-    figures_from_inputs: ClassVar[bool] = True
+    energy_quantity: ClassVar[str | None] = "energy_ratio"
     Parameters: ClassVar[type[BaseModel]] = BarContinuumParameters
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
 
@@ -422,52 +421,6 @@ class BarContinuumProblem(BarFrequencyEnergy, Problem):
                     None if lo is None or lo <= 0 else conv / lo)
         raise ValueError(f"continuation.parameter: {name!r} is not one of 'omega_ratio', "
                          "'omega', 'T'")
-
-    # ------------------------------------------------------------------ report and plots
-    def summary(self) -> dict[str, Any]:
-        return {"c": self.c, "omega_1": self.omega1, "E_ref": self.energy_ref,
-                "E_0": self.energy_0, "gap": self.g0, "time_unit_L_over_c": self.L / self.c}
-
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        """Per branch: signature, asymptote, admissible interval and the end energies."""
-        out = []
-        for br in branches:
-            sig = br.info.get("signature")
-            if sig is None:
-                continue
-            s = Signature(*sig)
-            ends = {}
-            for name, T in (("contact_end", s.T_contact_end), ("free_end", s.T_free_end)):
-                mu = continuum_orbit(s, T).mu
-                ends[f"energy_ratio_at_{name}"] = 32 / (np.pi**2 * mu**2) if mu else np.inf
-                ends[f"omega_ratio_at_{name}"] = 4.0 / T
-            out.append({"label": br.label, "signature": sig,
-                        "omega_ratio_asymptote": br.info.get("omega_ratio_asymptote"),
-                        "admissible_omega_ratio": br.info.get("admissible_omega_ratio"),
-                        **ends})
-        return {"branches": out}
-
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
-                         branches: list[Any]) -> None:
-        """omega_k, Omega_k, and the asymptotes of the main backbones and of every backbone
-        the run continued (its start's ``omega_ratio_asymptote``)."""
-        lo, hi = x_range
-        asym = {main_signature(k).omega_ratio_asymptote for k in range(1, 20)}
-        asym |= {br.info["omega_ratio_asymptote"] for br in branches
-                 if br.info.get("omega_ratio_asymptote") is not None}
-        for k in range(1, 40):
-            for x, col in ((2 * k - 1, "tab:blue"), (2 * k, "tab:orange")):
-                if lo - 0.05 <= x <= hi + 0.05:
-                    ax.axvline(x, ls=":", color=col, lw=0.8, zorder=1)
-        for x in asym:
-            if lo - 0.05 <= x <= hi + 0.05:
-                ax.axvline(x, ls="--", color="0.5", lw=0.8, zorder=1)
-
-    def legend_handles(self) -> list[Any]:
-        from matplotlib.lines import Line2D
-        return [Line2D([], [], ls=":", color="tab:blue", label=r"$\omega_k$ (fixed-free)"),
-                Line2D([], [], ls=":", color="tab:orange", label=r"$\Omega_k$ (fixed-fixed)"),
-                Line2D([], [], ls="--", color="0.5", label=r"asymptote ($g_0 = 0$ branch)")]
 
 
 __all__ = ["BarContinuumProblem", "ContinuumOrbit", "Signature", "check_signature",

@@ -291,6 +291,24 @@ def continuum_orbit(sig: Signature, T: float) -> ContinuumOrbit:
     return ContinuumOrbit(Signature(int(sig[0]), int(sig[1])), float(T), jump_set(sig, T))
 
 
+# -- the backbone frequencies (sec. 6.1, eq. 15, 16) ----------------------------------------------
+def main_asymptote(k: int) -> float:
+    """omega / omega_1 of the g0 = 0 main backbone of mode k (section 6.1): (w_k+1)^2/(w_k+2)."""
+    wk = 2 * k - 1
+    return (wk + 1) ** 2 / (wk + 2)
+
+
+def subharmonic_start(k: int, n: int) -> float:
+    """omega / omega_1 where the n-th subharmonic of mode k starts for g0 > 0, eq. (15)."""
+    return (2 * k * (n + 1) - 1) / (n + 1)
+
+
+def subharmonic_asymptote(k: int, n: int) -> float:
+    """omega / omega_1 of the subharmonic asymptote, eq. (16)."""
+    wk = 2 * k - 1
+    return (n + 1) * (wk + 1) ** 2 / (wk * (n + 1) + n + 2)
+
+
 def main_backbone(mode: int, gap_sign: float, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
     """``(omega / omega_1, E / E_ref)`` of the main backbone of mode k (the exact continuum
     limit): ``E / E_ref = 32 / (pi^2 mu(T)^2)`` with ``mu`` affine in the period
@@ -312,4 +330,5 @@ def main_backbone(mode: int, gap_sign: float, n: int = 400) -> tuple[np.ndarray,
 
 
 __all__ = ["RING_TOL", "ContinuumOrbit", "Signature", "check_signature", "continuum_orbit",
-           "jump_set", "main_backbone", "main_signature", "subharmonic_signature"]
+           "jump_set", "main_asymptote", "main_backbone", "main_signature",
+           "subharmonic_asymptote", "subharmonic_signature", "subharmonic_start"]
