@@ -37,8 +37,8 @@ from contextlib import contextmanager  # noqa: E402
 from math import gcd  # noqa: E402
 from typing import Any  # noqa: E402
 
-import nsm_continuation.problems.bar.wfem_bar as wfem_bar  # noqa: E402
 import nsm_continuation.problems.bar.wfem_lattice as wfem_lattice  # noqa: E402
+import nsm_continuation.problems.bar.wfem_nodes as wfem_nodes  # noqa: E402
 import numpy as np  # noqa: E402
 from nsm_continuation.problems.bar.wfem_bar import WfemBarProblem  # noqa: E402
 from nsm_continuation.problems.bar.wfem_operators import kernel_dimensions_by_sweep  # noqa: E402
@@ -49,15 +49,15 @@ WINDOW = (1.0, 4.0)  # [omega_1, Omega_2] of Fig. 12
 @contextmanager
 def plain() -> Iterator[None]:
     """The scan without its structure: kernel dimensions by sweep, no screen, no sign test."""
-    saved = (wfem_bar.kernel_dimensions_at_period, wfem_bar.scan_screen,
+    saved = (wfem_nodes.kernel_dimensions_at_period, wfem_nodes.scan_screen,
              wfem_lattice.contact_sign_conflict)
-    wfem_bar.kernel_dimensions_at_period = kernel_dimensions_by_sweep
-    wfem_bar.scan_screen = lambda N, M, ms: np.ones(np.asarray(ms).size, dtype=bool)
+    wfem_nodes.kernel_dimensions_at_period = kernel_dimensions_by_sweep
+    wfem_nodes.scan_screen = lambda N, M, ms: np.ones(np.asarray(ms).size, dtype=bool)
     wfem_lattice.contact_sign_conflict = lambda Js: False
     try:
         yield
     finally:
-        (wfem_bar.kernel_dimensions_at_period, wfem_bar.scan_screen,
+        (wfem_nodes.kernel_dimensions_at_period, wfem_nodes.scan_screen,
          wfem_lattice.contact_sign_conflict) = saved
 
 

@@ -4,8 +4,8 @@ each against the per-node computation it replaces."""
 
 from __future__ import annotations
 
-import nsm_continuation.problems.bar.wfem_bar as wfem_bar
 import nsm_continuation.problems.bar.wfem_lattice as wfem_lattice
+import nsm_continuation.problems.bar.wfem_nodes as wfem_nodes
 import numpy as np
 import pytest
 from nsm_continuation.problems.bar.wfem_bar import WfemBarProblem
@@ -69,7 +69,7 @@ def _scan(N: int, monkeypatch: pytest.MonkeyPatch, screen: bool
           ) -> tuple[WfemBarProblem, list]:
     with monkeypatch.context() as mp:
         if not screen:
-            mp.setattr(wfem_bar, "scan_screen",
+            mp.setattr(wfem_nodes, "scan_screen",
                        lambda N, M, ms: np.ones(np.asarray(ms).size, dtype=bool))
         pb = WfemBarProblem({"E": 1.0, "rho": 1.0, "L": 1.0, "cells": N, "gap": 1e-3})
         return pb, pb.scan_window((1.0, 4.0))

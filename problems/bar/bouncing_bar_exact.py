@@ -8,7 +8,7 @@ body force ``F0`` (per unit volume, pointing towards the obstacle). A clamped le
 supported (the bar then never reaches the obstacle for Table 1: static deflection
 ``F0 L^2 / (2E) = 0.56 << g0``).
 
-This module is an oracle for :mod:`problems.bar.wfem_simulation` and shares no code with it: it
+This module is an oracle for :mod:`problems.bar.wfem_stepping` and shares no code with it: it
 works in *continuous* time, with no grid. Along the characteristics of ``rho v_t - sigma_x = F0``,
 ``sigma_t = E v_x`` (A.1 with a body force),
 

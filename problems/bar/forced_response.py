@@ -7,7 +7,7 @@ distributed force ``f = f0 sin(omega t)``; the total energy of the steady state 
 one forcing period is plotted against the forcing frequency for increasing frequencies and
 several dampings (Figs. 20-22 (a): moving wall, (b): distributed force; Fig. 20: g0 > 0,
 21: g0 = 0, 22: g0 < 0). The steady state at each frequency is found by time stepping
-(Algorithm 2, :func:`problems.bar.wfem_simulation.forced_response_point`), warm-started from
+(Algorithm 2, :func:`problems.bar.forced_steady_state.forced_response_point`), warm-started from
 the steady state at the previous frequency, by the ``sweep`` algorithm
 (:class:`nsm_continuation.algorithms.base.Sweep`), one sweep (branch) per damping ratio.
 
@@ -27,7 +27,7 @@ frequencies (``numpy.linspace(min, max, max_points)``), ``parameter`` is ``omega
 (``omega / omega_1``, eq. 13) or ``omega``. Optional: ``transient_periods`` (10),
 ``average_periods`` (8), ``transient_time`` (3 decay times), ``max_time`` (12 decay times;
 required with a zero damping), ``steady_tol`` (2e-3), ``switching`` (``subcell`` or ``grid``):
-:func:`problems.bar.wfem_simulation.steady_state_rule`.
+:func:`problems.bar.forced_steady_state.steady_state_rule`.
 
 Each point: ``energy_ratio`` (the period-averaged energy over ``E_ref`` of eq. 14; absolute for
 g0 = 0), ``amplitude`` (half the peak-to-peak end displacement), ``steady`` and ``multiple``
@@ -45,19 +45,20 @@ import math
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-from nsm_continuation.problems.bar.continuum import main_signature
-from nsm_continuation.problems.bar.wfem_simulation import (
-    BarParams,
+from nsm_continuation.problems.bar.continuum_orbits import main_backbone
+from nsm_continuation.problems.bar.forced_steady_state import (
     ForcedPoint,
-    Loading,
     SteadyStateRule,
     forced_response_point,
+    steady_state_rule,
+)
+from nsm_continuation.problems.bar.linear_forced import (
     linear_forced_end_amplitude,
     linear_forced_energy,
     linear_wall_response,
-    rest_state,
-    steady_state_rule,
 )
+from nsm_continuation.problems.bar.presentation import ForcedBarPresentation
+from nsm_continuation.problems.bar.wfem_stepping import BarParams, Loading, rest_state
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
 from nsm_continuation.algorithms.sweep import SweepProblem, sweep_point_record
@@ -132,26 +133,6 @@ class ForcedStart(BaseModel):
     warm_start: bool = True
 
 
-def main_backbone(mode: int, gap_sign: float, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
-    """``(omega / omega_1, E / E_ref)`` of the main backbone of mode k (the exact continuum
-    limit, :mod:`problems.bar.continuum`): ``E / E_ref = 32 / (pi^2 mu(T)^2)`` with ``mu``
-    affine in the period ``T = 4 / omega_ratio`` (units L/c), admissible where
-    ``sign(mu) = sign(g0)`` (hardening from omega_k for g0 > 0, softening from Omega_k for
-    g0 < 0). For ``g0 = 0`` the vertical line at the asymptote (energy free): ``x`` twice the
-    asymptote and ``y = (nan, nan)``, to be drawn as a vertical line."""
-    sig = main_signature(mode)
-    if gap_sign == 0:
-        x = sig.omega_ratio_asymptote
-        return np.array([x, x]), np.full(2, np.nan)
-    lo, hi = sig.T_range
-    T = np.linspace(lo, hi, n)
-    mu = np.asarray(sig.mu(T), dtype=float)
-    ok = np.sign(mu) == np.sign(gap_sign)
-    with np.errstate(divide="ignore"):
-        energy = 32.0 / (math.pi**2 * mu[ok] ** 2)
-    return 4.0 / T[ok], energy
-
-
 def response_kind(multiple: int) -> str:
     """The signature of a steady state: periodic, period k T (subharmonic) or not steady."""
     if multiple == 1:
@@ -159,7 +140,7 @@ def response_kind(multiple: int) -> str:
     return f"period {multiple} T" if multiple > 1 else "not steady"
 
 
-class WfemForcedBarProblem(SweepProblem):
+class WfemForcedBarProblem(ForcedBarPresentation, SweepProblem):
     """Steady forced response of the WFEM bar over a frequency grid (module docstring)."""
 
     name: ClassVar[str] = "wfem_forced_bar"
@@ -173,12 +154,6 @@ class WfemForcedBarProblem(SweepProblem):
                            "budget); recorded at the first frequency of the new kind",
     }
     signature_kind: ClassVar[str | None] = "response_change"
-    diagram_title: ClassVar[str] = "Frequency response (steady state, section 7)"
-    diagram_yscale: ClassVar[str] = "log"
-    fep_axes = ("omega_ratio", "energy_ratio")
-    csv_head = ["omega_ratio", "omega", "energy_ratio", "linear_energy_ratio", "amplitude",
-                "linear_amplitude", "steady", "multiple", "contact_fraction", "damping_ratio"]
-    event_columns = ["omega_ratio", "energy_ratio", "amplitude", "multiple", "damping_ratio"]
     #: seconds per simulated step (a + b N, measured on the shared 2-core machine under load:
     #: 12 us at N = 100, 18 us at N = 1600; an upper estimate)
     STEP_SECONDS: ClassVar[tuple[float, float]] = (1.5e-5, 5e-9)
@@ -242,13 +217,6 @@ class WfemForcedBarProblem(SweepProblem):
             if margin >= 0.0:
                 return energy / self.energy_scale, abs(p.wall_amplitude)
         return math.nan, math.nan
-
-    def reference_label(self) -> str:
-        if self.params.force_amplitude != 0.0:
-            return "linear, no contact (closed form)"
-        if self.bar.g0 < 0.0:
-            return "linear, permanent contact (closed form)"
-        return "none (without contact the bar stays at rest)"
 
     # -- preflight --------------------------------------------------------------------------
     def parameter_bounds(self, name: str, lo: float | None, hi: float | None
@@ -354,135 +322,6 @@ class WfemForcedBarProblem(SweepProblem):
     def monitor_names(self) -> list[str]:
         return ["omega", "omega_ratio", "energy", "energy_ratio", "amplitude", "u_max", "u_min",
                 "contact_fraction", "steps"]
-
-    # -- presentation -----------------------------------------------------------------------
-    @property
-    def fep_labels(self) -> tuple[str, str]:  # type: ignore[override]
-        y = (r"period-averaged energy $\bar E/E_{ref}$ (eq. 14)" if self.bar.g0 != 0
-             else r"period-averaged energy $\bar E$ (g0 = 0: absolute)")
-        return (r"forcing frequency $\omega/\omega_1$", y)
-
-    def reference_curve(self, eta: float, x_range: tuple[float, float],
-                        n: int = 600) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The linear reference on a fine grid of ``omega / omega_1``: ``(x, E/E_ref,
-        amplitude)`` (NaN where there is none)."""
-        x = np.linspace(x_range[0], x_range[1], n)
-        ref = np.array([self.linear_reference(xi * self.bar.omega1, eta) for xi in x])
-        return x, ref[:, 0], ref[:, 1]
-
-    def backbones(self, x_range: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray,
-                                                                    str]]:
-        """The main NSM backbones (modes 1, 2) inside ``x_range`` (:func:`main_backbone`)."""
-        out = []
-        for k in (1, 2):
-            x, y = main_backbone(k, np.sign(self.bar.g0))
-            keep = (x >= x_range[0]) & (x <= x_range[1])
-            if keep.any():
-                out.append((x[keep], y[keep], f"NSM backbone, mode {k}"))
-        return out
-
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
-                         branches: list[Any]) -> None:
-        """The linear references (dashed, one per damping ratio), the main NSM backbones and
-        the linear resonances omega_k (fixed-free) and Omega_k (fixed-fixed)."""
-        from nsm_continuation.problems.bar.plots_forced import (
-            draw_backbones,
-            draw_linear_resonances,
-        )
-
-        for zeta in self.params.damping_ratios:
-            x, e, _ = self.reference_curve(self.eta(zeta), x_range)
-            ax.plot(x, e, "--", color="0.45", lw=0.9, zorder=1)
-        draw_backbones(ax, self.backbones(x_range), color="tab:blue")
-        draw_linear_resonances(ax, x_range)
-
-    def legend_handles(self) -> list[Any]:
-        """What :meth:`plot_decorations` draws (the reference only where there is one)."""
-        from matplotlib.lines import Line2D
-
-        p = self.params
-        ref = ([Line2D([], [], ls="--", color="0.45", label=self.reference_label())]
-               if p.force_amplitude != 0.0 or self.bar.g0 < 0.0 else [])
-        return ref + [Line2D([], [], color="tab:blue", lw=1.0, label="NSM backbones (modes 1, 2)"),
-                      Line2D([], [], ls=":", color="tab:blue", lw=0.8,
-                             label=r"$\omega_k$ (fixed-free)"),
-                      Line2D([], [], ls=":", color="tab:orange", lw=0.8,
-                             label=r"$\Omega_k$ (fixed-fixed)")]
-
-    def extra_plots(self, out_dir: Any, branches: list[Any],
-                    window: tuple[float | None, float | None]) -> list[str]:
-        """``frequency_response.png``: energy and end amplitude against the forcing frequency,
-        one curve per sweep (steady filled, not steady hollow), linear references, backbones."""
-        from pathlib import Path
-
-        from nsm_continuation.problems.bar.plots_forced import (
-            frequency_response_figure,
-            response_curves,
-        )
-
-        curves = response_curves(branches)
-        if not curves:
-            return []
-        xs = np.concatenate([c.x for c in curves])
-        x_range = (float(xs.min()), float(xs.max()))
-        refs = []
-        for zeta in self.params.damping_ratios:
-            x, e, a = self.reference_curve(self.eta(zeta), x_range)
-            refs.append((x, e, a, rf"$\zeta_1$ = {zeta:g}"))
-        fig = frequency_response_figure(curves, refs, self.backbones(x_range),
-                                        self.fep_labels[1], self.reference_label(),
-                                        title=self.figure_title())
-        fig.savefig(Path(out_dir) / "frequency_response.png", dpi=130)
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
-        return ["frequency_response.png"]
-
-    def figure_title(self) -> str:
-        p = self.params
-        what = ("moving wall" if p.force_amplitude == 0 else "distributed force"
-                if p.wall_amplitude == 0 else "moving wall and distributed force")
-        return (f"Forced response, {what} (w0 = {p.wall_amplitude:g}, f0 = "
-                f"{p.force_amplitude:g}), g0 = {p.gap:g}, N = {p.cells}")
-
-    def summary(self) -> dict[str, Any]:
-        bar, p = self.bar, self.params
-        return {"omega_1": bar.omega1, "dt": bar.time_step, "E_ref": bar.energy_ref,
-                "cells": bar.N, "gap": bar.g0, "wall_amplitude": p.wall_amplitude,
-                "force_amplitude": p.force_amplitude, "damping_ratios": p.damping_ratios,
-                "eta": [self.eta(z) for z in p.damping_ratios],
-                "linear_reference": self.reference_label(), "switching": p.switching}
-
-    def warnings(self) -> list[str]:
-        p = self.params
-        if p.force_amplitude == 0.0 and 0.0 <= p.wall_amplitude <= p.gap:
-            return [f"wall_amplitude = {p.wall_amplitude:g} <= gap = {p.gap:g}: the wall never "
-                    "reaches the bar at rest (section 7 takes w0 > g0)"]
-        return []
-
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        """Per sweep: the resonance peak, the count of periodic / subharmonic / not steady
-        responses, the simulated steps, and the largest deviation from the linear reference."""
-        out = []
-        for br in branches:
-            pts = br.points
-            if not pts:
-                continue
-            d = [p.derived for p in pts]
-            peak = max(d, key=lambda q: q["energy_ratio"])
-            lin = np.array([q["linear_energy_ratio"] for q in d])
-            en = np.array([q["energy_ratio"] for q in d])
-            dev = np.abs(en / lin - 1.0)[np.isfinite(lin)]
-            out.append({"branch": br.id, "label": br.label,
-                        "peak_omega_ratio": peak["omega_ratio"],
-                        "peak_energy_ratio": peak["energy_ratio"],
-                        "periodic": sum(q["multiple"] == 1 for q in d),
-                        "subharmonic": sum(q["multiple"] > 1 for q in d),
-                        "not_steady": sum(q["multiple"] == 0 for q in d),
-                        "steps": int(sum(q["steps"] for q in d)),
-                        "max_relative_deviation_from_linear": (float(dev.max()) if dev.size
-                                                               else None)})
-        return {"sweeps": out, "linear_reference": self.reference_label()}
 
 
 __all__ = ["ForcedBarParameters", "ForcedStart", "WfemForcedBarProblem", "main_backbone",

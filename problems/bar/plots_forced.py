@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from nsm_continuation.problems.bar.wfem_simulation import ForcedSweep
+from nsm_continuation.problems.bar.forced_steady_state import ForcedSweep
 
 Backbone = tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, str]
 #: a linear reference: ``(omega / omega_1, E / E_ref, end amplitude, label)``

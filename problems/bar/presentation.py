@@ -1,21 +1,306 @@
-"""Presentation shared by the bar's two problems (the WFEM lattice, ``wfem_bar``, and its
-continuum limit, ``bar_continuum``): the frequency-energy plot of the paper's figures, in
-``omega / omega_1`` (eq. 13) and ``E / E_ref`` (eq. 14), with the CSV and report columns of
-earlier releases."""
+"""Presentation of the bar's three problems, one class per problem (Yoong, Thorin, Legrand
+2017): what the diagrams, CSV files, reports and extra figures show, all pure functions of the
+results and the parameters. Each class is a mixin placed before the Problem class in its
+problem's bases (it overrides the presentation defaults of
+:class:`~nsm_continuation.core.problem.Problem`) and reads the problem only through ``self``:
+
+* :class:`WfemBarPresentation` (``wfem_bar``) and :class:`BarContinuumPresentation`
+  (``bar_continuum``): the frequency-energy plot of the paper's figures, in ``omega / omega_1``
+  (eq. 13) and ``E / E_ref`` (eq. 14), with the linear frequencies omega_k (fixed-free) and
+  Omega_k (fixed-fixed) and the energy asymptotes (sec. 6.1, eq. 16);
+* :class:`ForcedBarPresentation` (``wfem_forced_bar``): the frequency response of section 7
+  (Figs. 20-22) with its linear references in closed form and the NSM backbones.
+"""
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
+
+import numpy as np
+from nsm_continuation.problems.bar.continuum_orbits import (
+    Signature,
+    continuum_orbit,
+    main_asymptote,
+    main_backbone,
+    main_signature,
+    subharmonic_asymptote,
+)
 
 
-class BarFrequencyEnergy:
-    """Mixin placed before :class:`~nsm_continuation.core.problem.Problem` in a bar problem's
-    bases: it overrides the protocol's presentation defaults."""
+class WfemBarPresentation:
+    """Presentation of ``wfem_bar`` (:class:`problems.bar.wfem_bar.WfemBarProblem`): the
+    frequency-energy plot, the lattice asymptotes against the paper's formulas, the filter's
+    counters and the orbit figures of :mod:`problems.bar.plots`. Reads ``self.model`` (the
+    :class:`~problems.bar.wfem_lattice.BarModel`), the seed notes and the node counters
+    (``_seed_notes``, ``filter_counts``, ``node_evaluations``)."""
 
-    energy_quantity: ClassVar[str | None] = "energy_ratio"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
     fep_axes = ("omega_ratio", "energy_ratio")
     fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
     diagram_title: ClassVar[str] = "Frequency-energy plot"
     diagram_yscale: ClassVar[str] = "log"
     csv_head = ["T", "omega", "energy"]
     event_columns = ["omega", "T", "energy"]
+
+    def summary(self) -> dict[str, Any]:
+        md = self.model
+        return {"c": md.c, "dt": md.dt, "omega_1": md.omega1, "E_ref": md.energy_ref,
+                "cells": md.N, "gap": md.g0}
+
+    def warnings(self) -> list[str]:
+        return list(self._seed_notes)
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        formulas = {f"main mode {k} (sec. 6.1)": main_asymptote(k) for k in range(1, 6)}
+        formulas.update({f"subharmonic k={k}, n={n} (eq. 16)": subharmonic_asymptote(k, n)
+                         for k in range(1, 5) for n in range(1, 8)})
+        asym = []
+        for br in branches:
+            for ev in br.events:
+                if ev.kind == "asymptote":
+                    r = ev.data["omega_ratio"]
+                    name, val = min(formulas.items(), key=lambda kv: abs(kv[1] - r))
+                    asym.append({"branch": br.id, "label": br.label, "lattice": r,
+                                 "nearest_formula": name, "formula": val, "difference": r - val})
+        return {"asymptotes_vs_paper": asym, "filter_removed": dict(self.filter_counts),
+                "lattice_nodes_evaluated": self.node_evaluations,
+                "main_asymptotes_omega_ratio": [main_asymptote(k) for k in (1, 2, 3)]}
+
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """omega_k (fixed-free), Omega_k (fixed-fixed) and the g0 = 0 asymptotes."""
+        lo, hi = x_range
+        for k in range(1, 20):
+            for x, ls, col in ((2 * k - 1, ":", "tab:blue"), (2 * k, ":", "tab:orange"),
+                               (main_asymptote(k), "--", "0.5")):
+                if lo - 0.05 <= x <= hi + 0.05:
+                    ax.axvline(x, ls=ls, color=col, lw=0.8, zorder=1)
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        """Space-time fields (Fig. 8a, 10a, 13, 17), contact-end series, manifold (Fig. 9)."""
+        from nsm_continuation.problems.bar import plots
+
+        return plots.extra_plots(out_dir, branches, self)
+
+    def legend_handles(self) -> list[Any]:
+        from matplotlib.lines import Line2D
+        return [Line2D([], [], ls=":", color="tab:blue", label=r"$\omega_k$ (fixed-free)"),
+                Line2D([], [], ls=":", color="tab:orange", label=r"$\Omega_k$ (fixed-fixed)"),
+                Line2D([], [], ls="--", color="0.5", label=r"$g_0=0$ asymptote (sec. 6.1)")]
+
+
+class BarContinuumPresentation:
+    """Presentation of ``bar_continuum`` (:class:`problems.bar.continuum.BarContinuumProblem`):
+    the frequency-energy plot and, per branch, its signature, asymptote and end energies.
+    Reads the problem's scales (``c``, ``omega1``, ``energy_ref``, ``energy_0``, ``g0``,
+    ``L``)."""
+
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
+    fep_axes = ("omega_ratio", "energy_ratio")
+    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
+    diagram_title: ClassVar[str] = "Frequency-energy plot"
+    diagram_yscale: ClassVar[str] = "log"
+    csv_head = ["T", "omega", "energy"]
+    event_columns = ["omega", "T", "energy"]
+
+    def summary(self) -> dict[str, Any]:
+        return {"c": self.c, "omega_1": self.omega1, "E_ref": self.energy_ref,
+                "E_0": self.energy_0, "gap": self.g0, "time_unit_L_over_c": self.L / self.c}
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Per branch: signature, asymptote, admissible interval and the end energies."""
+        out = []
+        for br in branches:
+            sig = br.info.get("signature")
+            if sig is None:
+                continue
+            s = Signature(*sig)
+            ends = {}
+            for name, T in (("contact_end", s.T_contact_end), ("free_end", s.T_free_end)):
+                mu = continuum_orbit(s, T).mu
+                ends[f"energy_ratio_at_{name}"] = 32 / (np.pi**2 * mu**2) if mu else np.inf
+                ends[f"omega_ratio_at_{name}"] = 4.0 / T
+            out.append({"label": br.label, "signature": sig,
+                        "omega_ratio_asymptote": br.info.get("omega_ratio_asymptote"),
+                        "admissible_omega_ratio": br.info.get("admissible_omega_ratio"),
+                        **ends})
+        return {"branches": out}
+
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """omega_k, Omega_k, and the asymptotes of the main backbones and of every backbone
+        the run continued (its start's ``omega_ratio_asymptote``)."""
+        lo, hi = x_range
+        asym = {main_signature(k).omega_ratio_asymptote for k in range(1, 20)}
+        asym |= {br.info["omega_ratio_asymptote"] for br in branches
+                 if br.info.get("omega_ratio_asymptote") is not None}
+        for k in range(1, 40):
+            for x, col in ((2 * k - 1, "tab:blue"), (2 * k, "tab:orange")):
+                if lo - 0.05 <= x <= hi + 0.05:
+                    ax.axvline(x, ls=":", color=col, lw=0.8, zorder=1)
+        for x in asym:
+            if lo - 0.05 <= x <= hi + 0.05:
+                ax.axvline(x, ls="--", color="0.5", lw=0.8, zorder=1)
+
+    def legend_handles(self) -> list[Any]:
+        from matplotlib.lines import Line2D
+        return [Line2D([], [], ls=":", color="tab:blue", label=r"$\omega_k$ (fixed-free)"),
+                Line2D([], [], ls=":", color="tab:orange", label=r"$\Omega_k$ (fixed-fixed)"),
+                Line2D([], [], ls="--", color="0.5", label=r"asymptote ($g_0 = 0$ branch)")]
+
+
+class ForcedBarPresentation:
+    """Presentation of ``wfem_forced_bar``
+    (:class:`problems.bar.forced_response.WfemForcedBarProblem`): the frequency response of
+    section 7 against the linear references (:meth:`linear_reference` of the problem) and the
+    main NSM backbones (:func:`problems.bar.continuum_orbits.main_backbone`). Reads
+    ``self.params``, ``self.bar`` (the :class:`~problems.bar.wfem_stepping.BarParams`), and
+    the problem's ``eta`` and ``linear_reference``."""
+
+    diagram_title: ClassVar[str] = "Frequency response (steady state, section 7)"
+    diagram_yscale: ClassVar[str] = "log"
+    fep_axes = ("omega_ratio", "energy_ratio")
+    csv_head = ["omega_ratio", "omega", "energy_ratio", "linear_energy_ratio", "amplitude",
+                "linear_amplitude", "steady", "multiple", "contact_fraction", "damping_ratio"]
+    event_columns = ["omega_ratio", "energy_ratio", "amplitude", "multiple", "damping_ratio"]
+
+    def reference_label(self) -> str:
+        if self.params.force_amplitude != 0.0:
+            return "linear, no contact (closed form)"
+        if self.bar.g0 < 0.0:
+            return "linear, permanent contact (closed form)"
+        return "none (without contact the bar stays at rest)"
+
+    @property
+    def fep_labels(self) -> tuple[str, str]:  # type: ignore[override]
+        y = (r"period-averaged energy $\bar E/E_{ref}$ (eq. 14)" if self.bar.g0 != 0
+             else r"period-averaged energy $\bar E$ (g0 = 0: absolute)")
+        return (r"forcing frequency $\omega/\omega_1$", y)
+
+    def reference_curve(self, eta: float, x_range: tuple[float, float],
+                        n: int = 600) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The linear reference on a fine grid of ``omega / omega_1``: ``(x, E/E_ref,
+        amplitude)`` (NaN where there is none)."""
+        x = np.linspace(x_range[0], x_range[1], n)
+        ref = np.array([self.linear_reference(xi * self.bar.omega1, eta) for xi in x])
+        return x, ref[:, 0], ref[:, 1]
+
+    def backbones(self, x_range: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray,
+                                                                    str]]:
+        """The main NSM backbones (modes 1, 2) inside ``x_range`` (:func:`main_backbone`)."""
+        out = []
+        for k in (1, 2):
+            x, y = main_backbone(k, np.sign(self.bar.g0))
+            keep = (x >= x_range[0]) & (x <= x_range[1])
+            if keep.any():
+                out.append((x[keep], y[keep], f"NSM backbone, mode {k}"))
+        return out
+
+    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
+                         branches: list[Any]) -> None:
+        """The linear references (dashed, one per damping ratio), the main NSM backbones and
+        the linear resonances omega_k (fixed-free) and Omega_k (fixed-fixed)."""
+        from nsm_continuation.problems.bar.plots_forced import (
+            draw_backbones,
+            draw_linear_resonances,
+        )
+
+        for zeta in self.params.damping_ratios:
+            x, e, _ = self.reference_curve(self.eta(zeta), x_range)
+            ax.plot(x, e, "--", color="0.45", lw=0.9, zorder=1)
+        draw_backbones(ax, self.backbones(x_range), color="tab:blue")
+        draw_linear_resonances(ax, x_range)
+
+    def legend_handles(self) -> list[Any]:
+        """What :meth:`plot_decorations` draws (the reference only where there is one)."""
+        from matplotlib.lines import Line2D
+
+        p = self.params
+        ref = ([Line2D([], [], ls="--", color="0.45", label=self.reference_label())]
+               if p.force_amplitude != 0.0 or self.bar.g0 < 0.0 else [])
+        return ref + [Line2D([], [], color="tab:blue", lw=1.0, label="NSM backbones (modes 1, 2)"),
+                      Line2D([], [], ls=":", color="tab:blue", lw=0.8,
+                             label=r"$\omega_k$ (fixed-free)"),
+                      Line2D([], [], ls=":", color="tab:orange", lw=0.8,
+                             label=r"$\Omega_k$ (fixed-fixed)")]
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        """``frequency_response.png``: energy and end amplitude against the forcing frequency,
+        one curve per sweep (steady filled, not steady hollow), linear references, backbones."""
+        from pathlib import Path
+
+        from nsm_continuation.problems.bar.plots_forced import (
+            frequency_response_figure,
+            response_curves,
+        )
+
+        curves = response_curves(branches)
+        if not curves:
+            return []
+        xs = np.concatenate([c.x for c in curves])
+        x_range = (float(xs.min()), float(xs.max()))
+        refs = []
+        for zeta in self.params.damping_ratios:
+            x, e, a = self.reference_curve(self.eta(zeta), x_range)
+            refs.append((x, e, a, rf"$\zeta_1$ = {zeta:g}"))
+        fig = frequency_response_figure(curves, refs, self.backbones(x_range),
+                                        self.fep_labels[1], self.reference_label(),
+                                        title=self.figure_title())
+        fig.savefig(Path(out_dir) / "frequency_response.png", dpi=130)
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        return ["frequency_response.png"]
+
+    def figure_title(self) -> str:
+        p = self.params
+        what = ("moving wall" if p.force_amplitude == 0 else "distributed force"
+                if p.wall_amplitude == 0 else "moving wall and distributed force")
+        return (f"Forced response, {what} (w0 = {p.wall_amplitude:g}, f0 = "
+                f"{p.force_amplitude:g}), g0 = {p.gap:g}, N = {p.cells}")
+
+    def summary(self) -> dict[str, Any]:
+        bar, p = self.bar, self.params
+        return {"omega_1": bar.omega1, "dt": bar.time_step, "E_ref": bar.energy_ref,
+                "cells": bar.N, "gap": bar.g0, "wall_amplitude": p.wall_amplitude,
+                "force_amplitude": p.force_amplitude, "damping_ratios": p.damping_ratios,
+                "eta": [self.eta(z) for z in p.damping_ratios],
+                "linear_reference": self.reference_label(), "switching": p.switching}
+
+    def warnings(self) -> list[str]:
+        p = self.params
+        if p.force_amplitude == 0.0 and 0.0 <= p.wall_amplitude <= p.gap:
+            return [f"wall_amplitude = {p.wall_amplitude:g} <= gap = {p.gap:g}: the wall never "
+                    "reaches the bar at rest (section 7 takes w0 > g0)"]
+        return []
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Per sweep: the resonance peak, the count of periodic / subharmonic / not steady
+        responses, the simulated steps, and the largest deviation from the linear reference."""
+        out = []
+        for br in branches:
+            pts = br.points
+            if not pts:
+                continue
+            d = [p.derived for p in pts]
+            peak = max(d, key=lambda q: q["energy_ratio"])
+            lin = np.array([q["linear_energy_ratio"] for q in d])
+            en = np.array([q["energy_ratio"] for q in d])
+            dev = np.abs(en / lin - 1.0)[np.isfinite(lin)]
+            out.append({"branch": br.id, "label": br.label,
+                        "peak_omega_ratio": peak["omega_ratio"],
+                        "peak_energy_ratio": peak["energy_ratio"],
+                        "periodic": sum(q["multiple"] == 1 for q in d),
+                        "subharmonic": sum(q["multiple"] > 1 for q in d),
+                        "not_steady": sum(q["multiple"] == 0 for q in d),
+                        "steps": int(sum(q["steps"] for q in d)),
+                        "max_relative_deviation_from_linear": (float(dev.max()) if dev.size
+                                                               else None)})
+        return {"sweeps": out, "linear_reference": self.reference_label()}
+
+
+__all__ = ["BarContinuumPresentation", "ForcedBarPresentation", "WfemBarPresentation"]

@@ -231,7 +231,7 @@ def floating_bc_contact(in_contact: bool, gap: float, gap_free_next: float,
                         stress_tol: float = 0.0) -> bool:
     """The switching decision of Algorithm 2 (App. B): is step n a CONTACT step?
 
-    The one rule of every time stepper of the bar (:func:`problems.bar.wfem_simulation.simulate`
+    The one rule of every time stepper of the bar (:func:`problems.bar.wfem_stepping.simulate`
     and :func:`problems.bar.wfem_stability.floating_bc_simulation`; :func:`ring_step` and
     :func:`simulate_ring` apply a *given* phase pattern and decide nothing). Contact is a
     *candidate* if the end was in contact over step n - 1, or the gap (B.2)

@@ -19,7 +19,7 @@ Method
   sign, and shift the effective gap by up to one step per period). A step is CONTACT when
   ``g0 - u_end <= 0`` (up to a tolerance) and the arriving characteristic is compressive,
   ``J = w[N-1] <= 0``, FREE otherwise, decided at its beginning by the switching rule shared
-  with :func:`problems.bar.wfem_simulation.simulate`
+  with :func:`problems.bar.wfem_stepping.simulate`
   (:func:`problems.bar.wfem_operators.floating_bc_contact`).
 * Perturbations (:func:`perturbation_growth`, :func:`perturb`), all admissible (no penetration):
 
@@ -43,9 +43,9 @@ Method
   profile or the energy norm (Euclidean norm of ``w``: the energy is ``dx |w|^2 / (4E)``, so
   ``d^2`` is the energy of the difference relative to the orbit's). The *distance to the family*
   (:func:`family_distance`) is the orbital distance to the member of the continuum branch with the
-  *same energy* (cell averages of its profile at half-step phases, :mod:`problems.bar.continuum`):
-  the energy is exactly conserved, so that member is the only one of the family a perturbed
-  trajectory could approach in the energy norm.
+  *same energy* (cell averages of its profile at half-step phases,
+  :mod:`problems.bar.continuum_orbits`): the energy is exactly conserved, so that member is the
+  only one of the family a perturbed trajectory could approach in the energy norm.
 * Classification (:func:`classify_growth`, :data:`GROWTH_CRITERION`): bounded (the running
   maximum of the distance stays within 5x the initial one, the grid resolution as a floor) /
   linear growth / exponential growth (fits of the rising part); a growth verdict needs a small
@@ -109,7 +109,11 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
-from nsm_continuation.problems.bar.continuum import Signature, continuum_orbit, main_signature
+from nsm_continuation.problems.bar.continuum_orbits import (
+    Signature,
+    continuum_orbit,
+    main_signature,
+)
 from nsm_continuation.problems.bar.wfem_lattice import BarModel, LatticeSolution
 from nsm_continuation.problems.bar.wfem_operators import (
     CONTACT,
@@ -190,7 +194,7 @@ def floating_bc_simulation(model: BarModel, w0: np.ndarray, steps: int, *,
                            ) -> FloatingBCRun:
     """Algorithm 2 (floating boundary condition) on the characteristic ring, O(1) per step.
 
-    The specialisation of :func:`problems.bar.wfem_simulation.simulate` to the undamped,
+    The specialisation of :func:`problems.bar.wfem_stepping.simulate` to the undamped,
     unforced bar with a fixed wall, on a moving ring origin instead of a rotated array: the
     switching decision is the same function,
     :func:`problems.bar.wfem_operators.floating_bc_contact`, and the end update the same signed
@@ -369,7 +373,7 @@ def family_member_period(model: BarModel, sig: Signature, energy: float) -> tupl
     """Period T and amplitude A of the member of branch ``sig`` with the given energy.
 
     ``energy = L A^2 / (2E)`` (S = 1) and ``A = 2 E g0 / (L mu(T))`` with ``mu`` affine in T
-    (:mod:`problems.bar.continuum`); ``mu`` has the sign of ``g0`` on the admissible side.
+    (:mod:`problems.bar.continuum_orbits`); ``mu`` has the sign of ``g0`` on the admissible side.
     """
     A = float(np.sqrt(2 * model.E * energy / model.L))
     mu = 2 * model.E * model.g0 / (model.L * A)
