@@ -46,7 +46,7 @@ GAP_MIN, GAP_MAX = 1e-100, 1e100
 def one_or_many(spec: Any) -> TypeAdapter:
     """The validator of a ``start:`` block: one ``spec`` mapping or a list of them, tagged by
     type so that an error names the key of the one model it concerns (capitalised tags are
-    left out of error locations by :func:`nsm_continuation.cases.schema.validate`)."""
+    left out of error locations by :func:`nsm_continuation.cases.validation.validate`)."""
     return TypeAdapter(Annotated[
         Annotated[spec, Tag("One")] | Annotated[list[spec], Tag("Many")],  # type: ignore[valid-type]
         Discriminator(lambda v: "Many" if isinstance(v, list) else "One")])

@@ -55,7 +55,7 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      the problem does not draw is refused before computing; default None: no orbit
      figures), which the generic orbit figures of ``output.orbits`` draw
      (:mod:`nsm_continuation.figures.orbits`);
-   - *sweeps* (an optional capability, :class:`~nsm_continuation.algorithms.base.Sweep`, YAML
+   - *sweeps* (an optional capability, :class:`~nsm_continuation.algorithms.sweep.Sweep`, YAML
      ``continuation.algorithm: sweep``): a problem that lists ``"sweep"`` in ``algorithms``
      implements :meth:`sweep_seeds` (the sweeps of its ``start:`` block, :class:`SweepSeed`)
      and :meth:`sweep_point` (the solution at one grid value of the parameter from the state
@@ -231,8 +231,8 @@ class Problem(ABC):
     #: :attr:`parameter` itself (the chain: ``omega``, which it maps to its unknown ``T``)
     case_parameter: ClassVar[str | None] = None
     #: names of the continuation algorithms that can continue this problem
-    #: (:data:`nsm_continuation.algorithms.base.ALGORITHMS`: ``palc``, ``lattice``, ``pycont``); the
-    #: first is the default of YAML ``continuation.algorithm``
+    #: (:data:`nsm_continuation.algorithms.registry.ALGORITHMS`: ``palc``, ``lattice``,
+    #: ``pycont``, ...); the first is the default of YAML ``continuation.algorithm``
     algorithms: ClassVar[tuple[str, ...]] = ("palc",)
     #: the derived quantity that ``continuation.max_energy`` bounds (None: the problem has no
     #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
@@ -366,7 +366,7 @@ class Problem(ABC):
         ``direction`` meant along ``name`` into one along the internal parameter."""
         return 1
 
-    # == sweeps (optional capability; :class:`nsm_continuation.algorithms.base.Sweep`) ==
+    # == sweeps (optional capability; :class:`nsm_continuation.algorithms.sweep.Sweep`) ==
     @classmethod
     def can_sweep(cls) -> bool:
         """Whether the class implements the sweep hooks (:meth:`sweep_seeds` and
@@ -652,8 +652,8 @@ _locate_collision`)."""
     def parameters_block(self) -> dict[str, Any] | None:
         """The instance's parameters as the YAML ``parameters:`` block that rebuilds it
         (JSON values), written to the restart record of every run (``report.json``'s
-        ``restart.parameters``, :func:`nsm_continuation.cases.restart.restart_block`) so that a
-        restart builds the same problem. Default: ``params`` (the validated ``Parameters``
+        ``restart.parameters``, :func:`nsm_continuation.runs.restart_record.restart_block`) so
+        that a restart builds the same problem. Default: ``params`` (the validated ``Parameters``
         model) dumped in JSON mode; None if ``params`` is not a pydantic model (the record then
         keeps the case's ``parameters:`` block as written)."""
         if isinstance(self.params, BaseModel):

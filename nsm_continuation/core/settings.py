@@ -1,6 +1,6 @@
 """Numerical settings of one continuation run, shared by every algorithm (the YAML
 ``continuation:`` and ``analysis:`` blocks map here: see
-:func:`nsm_continuation.runs.runner.settings_from_case`)."""
+:func:`nsm_continuation.runs.setup.settings_from_case`)."""
 
 from __future__ import annotations
 

@@ -48,7 +48,7 @@ def draws_markers(br: Branch) -> bool:
     """Whether the branch's points are drawn as dots rather than joined by lines: a cloud of
     points, not a curve (the recorded section returns of a brute-force bifurcation diagram,
     Figs. 8(b), 9(b)-(c) of Nordmark & Piiroinen 2009), which the algorithm declares in
-    ``Branch.info['draw'] == 'markers'`` (:class:`~nsm_continuation.algorithms.base.Sweep`)."""
+    ``Branch.info['draw'] == 'markers'`` (:class:`~nsm_continuation.algorithms.sweep.Sweep`)."""
     return br.info.get("draw") == "markers"
 
 

@@ -132,8 +132,8 @@ def time_signals(res: Any, chosen: list[Chosen], periods: int) -> list[str] | No
 def spec_warnings(res: Any) -> list[str]:
     """What ``output.orbits`` asks for that the run cannot draw, one line each (known only
     after computing; the views and point kinds were checked before,
-    :func:`~nsm_continuation.cases.schema.check_orbits`): a branch of ``branches`` the run does not
-    have (or without points), a point entry that selects nothing, a signal of ``log`` that
+    :func:`~nsm_continuation.cases.validation.check_orbits`): a branch of ``branches`` the run
+    does not have (or without points), a point entry that selects nothing, a signal of ``log`` that
     the time view does not draw (read from the first chosen orbit), ``log`` without the time
     view. Computed once per run (kept in ``res.orbit_warnings``); none without
     ``output.orbits``."""

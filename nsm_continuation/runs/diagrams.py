@@ -8,9 +8,9 @@ every event of a listed kind on a branch of generation ``g`` starts a branch of 
 family at a
 period doubling of an orbit of ``k`` periods, the other branch at a branch point), built and
 validated exactly as the case ``start: {from: <this run>, branch: <id>, event: {kind, index},
-switch: true}`` would be (:func:`nsm_continuation.cases.schema.validate` on the run in memory), and
-continued with the case's ``continuation`` settings (``branch_switching.max_points`` per
-switched branch if given).
+switch: true}`` would be (:func:`nsm_continuation.cases.validation.validate` on the run in
+memory), and continued with the case's ``continuation`` settings
+(``branch_switching.max_points`` per switched branch if given).
 
 **Deterministic order.** Breadth first: generation by generation, parents in the order of
 their ids, events in arclength order along the parent (their ``index`` among the events of
@@ -80,7 +80,7 @@ def _ordinals(br: Branch) -> list[tuple[Any, int]]:
 
 def _sub_result(res: RunResult, br: Branch, problem: Problem) -> RunResult:
     """The run reduced to the one branch ``br`` (and the problem it was computed with): what
-    :func:`nsm_continuation.cases.restart.record_from_result` reads."""
+    :func:`nsm_continuation.runs.restart_record.record_from_result` reads."""
     return RunResult(res.case, problem, [br], res.settings, res.window)
 
 

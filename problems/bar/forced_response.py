@@ -9,7 +9,7 @@ several dampings (Figs. 20-22 (a): moving wall, (b): distributed force; Fig. 20:
 21: g0 = 0, 22: g0 < 0). The steady state at each frequency is found by time stepping
 (Algorithm 2, :func:`problems.bar.forced_steady_state.forced_response_point`), warm-started from
 the steady state at the previous frequency, by the ``sweep`` algorithm
-(:class:`nsm_continuation.algorithms.base.Sweep`), one sweep (branch) per damping ratio.
+(:class:`nsm_continuation.algorithms.sweep.Sweep`), one sweep (branch) per damping ratio.
 
 YAML::
 
