@@ -370,7 +370,7 @@ class _BadLattice(LatticeProblem):
         self.parameter = "p"
         self.exc = exc
 
-    def lattice_seeds(self, start, window):
+    def lattice_seeds(self, start, window, energy_cap=None):
         return [LatticeSeed(0, "seed")]
 
     def lattice_next(self, history, direction, window):

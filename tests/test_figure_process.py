@@ -94,11 +94,16 @@ def test_a_problem_that_does_not_declare_figures_from_inputs_is_drawn_here(tmp_p
         "    started.append(1)\n"
         "    start(self, case, problem, draw)\n"
         "figure_process.FigureProcess.__init__ = spy\n"
+        "derived = NDofImpactProblem.derived\n"
+        "def counted(self, y):\n"
+        "    # state the run leaves in this problem object: the points it analysed\n"
+        "    self.seen = getattr(self, 'seen', 0) + 1\n"
+        "    return derived(self, y)\n"
+        "NDofImpactProblem.derived = counted\n"
         "real = NDofImpactProblem.extra_plots\n"
         "def extra(self, out_dir, branches, window):\n"
-        "    # state the run left in this problem object: the energy cap the runner set\n"
-        "    (out_dir / 'cap.txt').write_text(f'{self.energy_cap}')\n"
-        "    return [*real(self, out_dir, branches, window), 'cap.txt']\n"
+        "    (out_dir / 'seen.txt').write_text(f'{getattr(self, \"seen\", 0)}')\n"
+        "    return [*real(self, out_dir, branches, window), 'seen.txt']\n"
         "NDofImpactProblem.extra_plots = extra\n"
         "code = cli.main(['run', '--out', 'run', '--quiet', '--set',\n"
         "                 'continuation.max_points=10', '--set', 'continuation.max_energy=7'])\n"
@@ -106,8 +111,8 @@ def test_a_problem_that_does_not_declare_figures_from_inputs_is_drawn_here(tmp_p
         tmp_path)
     info = json.loads(out.strip().splitlines()[-1])
     assert info["code"] == 0 and info["started"] == 0
-    # set by the run (runner.run_case), seen by the figure; a copy made before the run has None
-    assert float((tmp_path / "run" / "cap.txt").read_text()) == 7.0
+    # left by the run, seen by the figure; a copy made before the run has seen no point
+    assert int((tmp_path / "run" / "seen.txt").read_text()) > 0
     assert "fep.png" in json.loads((tmp_path / "run" / "report.json").read_text())["figures"]
 
 

@@ -44,7 +44,8 @@ class Lattice(Algorithm):
 
     def starts(self, case_start: Any, window: Window) -> list[Any]:
         self.distributable = self.lattice_problem.lattice_distribute_branches(case_start)
-        return list(self.lattice_problem.lattice_seeds(case_start, window))
+        return list(self.lattice_problem.lattice_seeds(case_start, window,
+                                                       self.settings.energy_cap))
 
     def seeds_from_points(self, points: list[StartPoint]) -> list[Any]:
         raise ValueError("a lattice problem starts from its start: block only")

@@ -79,9 +79,11 @@ class LatticeProblem(Problem):
         raise TypeError(f"problem {self.name!r} is a lattice problem: it has no smooth residual")
 
     @abstractmethod
-    def lattice_seeds(self, start: Any, window: tuple[float | None, float | None]
-                      ) -> list[LatticeSeed]:
-        """Starting solutions from the YAML ``start:`` block."""
+    def lattice_seeds(self, start: Any, window: tuple[float | None, float | None],
+                      energy_cap: float | None = None) -> list[LatticeSeed]:
+        """Starting solutions from the YAML ``start:`` block, in the parameter ``window``;
+        ``energy_cap``: the run's ``continuation.max_energy`` (a seed above it would give a
+        one-point branch)."""
 
     @abstractmethod
     def lattice_next(self, history: list[Any], direction: int,

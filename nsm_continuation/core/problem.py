@@ -239,7 +239,6 @@ class Problem(ABC):
     energy_quantity: ClassVar[str | None] = None
     #: the run's ``continuation.max_energy`` (a bound on ``energy_quantity``), set by the runner
     #: before the starts are built: a problem may skip starts above it (None: no bound)
-    energy_cap: float | None = None
 
     def __init__(self, params: BaseModel) -> None:
         self.params = params

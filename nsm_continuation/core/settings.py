@@ -22,6 +22,10 @@ class ContinuationSettings:
     param_max: float | None = None
     #: bounds on derived quantities, e.g. {"energy": (None, 1e3)}
     derived_bounds: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
+    #: the case's ``continuation.max_energy`` (None: unbounded): in ``derived_bounds`` for the
+    #: problem's ``energy_quantity``, and handed to a lattice problem's seed search
+    #: (:meth:`~nsm_continuation.core.lattice.LatticeProblem.lattice_seeds`)
+    energy_cap: float | None = None
     #: a multiplier counts as outside the unit circle where ``|lambda| > 1 + unit_circle_tol``
     #: (the detector of crossings; their location does not depend on it)
     unit_circle_tol: float = 1e-7

@@ -232,9 +232,7 @@ def grow(res: RunResult, poll: Callable[[], None] | None = None,
                 cb, why, per_branch = _task_result(futures.pop(k))
                 problem = None
                 if cb is not None:  # the child's problem, built here as the worker built it
-                    child_case, problem, why = _child_problem(raw, record, cls)
-                    if problem is not None:
-                        problem.energy_cap = child_case.continuation.max_energy
+                    _, problem, why = _child_problem(raw, record, cls)
             else:
                 cb, why, per_branch, problem = _switch(raw, record, cls, poll)
             same = None if cb is None or problem is None else _same_branch(res, cb, problem)

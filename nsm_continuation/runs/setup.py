@@ -27,7 +27,7 @@ def settings_from_case(case: Case, problem: Problem) -> tuple[ContinuationSettin
         step_initial=c.step.initial, step_min=c.step.min, step_max=c.step.max,
         max_points=c.max_points, newton_tol=c.newton_tol, max_angle=c.max_angle,
         param_min=lo, param_max=hi,
-        derived_bounds=derived_bounds,
+        derived_bounds=derived_bounds, energy_cap=c.max_energy,
         unit_circle_tol=a.unit_circle_tol, event_tol=a.event_tol,
         multiplier_event_tol=a.multiplier_event_tol, max_multiplier_step=a.max_multiplier_step,
         stop_on_inadmissible=a.stop_on_inadmissible, detect_bifurcations=a.bifurcations,
@@ -66,5 +66,4 @@ def rebuild_case(raw_case: dict[str, Any], problem_class: type | None = None,
     settings, window = settings_from_case(case, problem)
     algorithm = make_algorithm(case.continuation.algorithm or problem.algorithms[0], problem,
                                settings)
-    problem.energy_cap = case.continuation.max_energy
     return case, problem, window, algorithm

@@ -103,8 +103,7 @@ class WfemBarProblem(WfemBarPresentation, WfemBarPreflight, WfemBarSeeds, WfemLa
         self.variables = ["omega_ratio", "contact_fraction"]
         self.parameter = "omega_ratio"
         self._init_nodes()
-        #: energy-ratio bound of the case (set by the runner; seeds above it are not used)
-        self.energy_cap = None
+        #: the seeds of each start block and window (the preflight's search, reused by the run)
         self._seed_cache: dict[tuple[str, Any], list[LatticeSeed]] = {}
         #: what the report should say about the seeds (a scan cut at start.max_seeds)
         self._seed_notes: list[str] = []

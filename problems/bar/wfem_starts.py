@@ -84,21 +84,22 @@ class WfemBarSeeds:
     orbit of each start's branch (module docstring), found among the problem's node solutions
     (:meth:`problems.bar.wfem_nodes.WfemLatticeNodes.physical`)."""
 
-    def lattice_seeds(self, start: Any, window: tuple[float | None, float | None]
-                      ) -> list[LatticeSeed]:
+    def lattice_seeds(self, start: Any, window: tuple[float | None, float | None],
+                      energy_cap: float | None = None) -> list[LatticeSeed]:
         spec = self.start_adapter.validate_python(start) if not isinstance(
             start, BaseModel) else start
         if isinstance(spec, list):
-            return [seed for one in spec for seed in self.lattice_seeds(one, window)]
+            return [seed for one in spec
+                    for seed in self.lattice_seeds(one, window, energy_cap)]
         if isinstance(spec, ScanStart):  # depends on energy_cap: never cached
-            return self._lattice_seeds(spec, window)
+            return self._lattice_seeds(spec, window, energy_cap)
         key = (spec.model_dump_json(), window)
         if key not in self._seed_cache:  # the preflight's seed search is reused by the run
             self._seed_cache[key] = self._lattice_seeds(spec, window)
         return list(self._seed_cache[key])
 
-    def _lattice_seeds(self, spec: BaseModel, window: tuple[float | None, float | None]
-                       ) -> list[LatticeSeed]:
+    def _lattice_seeds(self, spec: BaseModel, window: tuple[float | None, float | None],
+                       energy_cap: float | None = None) -> list[LatticeSeed]:
         md = self.model
         if isinstance(spec, NodeStart):
             if len(spec.node) not in (2, 4):
@@ -112,7 +113,7 @@ class WfemBarSeeds:
         if isinstance(spec, ScanStart):
             sols = self.scan_window(window)
             sols.sort(key=lambda s: (profile_jumps(s.w0), s.energy))
-            cap = self.energy_cap
+            cap = energy_cap
             if cap is not None:  # seeds above the energy bound would give one-point branches
                 sols = [s for s in sols if s.energy / md.energy_ref <= cap]
             if spec.max_seeds is not None and len(sols) > spec.max_seeds:
