@@ -76,7 +76,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
-from nsm_continuation.hybrid.shooting import ShootingFailure  # noqa: E402
+from nsm_continuation.hybrid.return_map import ShootingFailure  # noqa: E402
 from nsm_continuation.hybrid.simulate import SimOptions  # noqa: E402
 
 #: known 6.1 orbit (section coordinates q2, q1dot, q2dot at e = 0.89)

@@ -48,6 +48,12 @@ OLD_PATHS: dict[str, tuple[str, ...]] = {
     "nsm_continuation.orbits": ("nsm_continuation.figures.orbits",),
     "nsm_continuation.orbit_selection": ("nsm_continuation.figures.orbit_selection",),
     "nsm_continuation.figure_process": ("nsm_continuation.figures.process",),
+    "nsm_continuation.hybrid.shooting": ("nsm_continuation.hybrid.case",
+                                         "nsm_continuation.hybrid.return_map",
+                                         "nsm_continuation.hybrid.problem",
+                                         "nsm_continuation.hybrid.specs",
+                                         "nsm_continuation.hybrid.case_preflight",
+                                         "nsm_continuation.hybrid.case_period"),
 }
 
 #: old modules whose name is now a package: the package forwards their names (see ``forward``)

@@ -59,7 +59,7 @@ class Transitions:
             return S2, Y, J, Jt, t, info
         if mode == S2 and name == "v":                                  # II: local minimum of H
             info["near_approach"] = float(pr[0])
-            # J at the turn: the grazing normal form (shooting.grazing_tangent) needs the
+            # J at the turn: the grazing normal form (:mod:`.grazing`) needs the
             # gradient of H_min = H(x(t_turn)) (dH/dt = v = 0 there) and the tail sensitivity
             events.append(SimEvent("near_approach", t, Y[: c.n].copy(),
                                    {"H": float(pr[0]), "J": None if J is None else J.copy()}))
