@@ -118,7 +118,6 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         (:func:`~nsm_continuation.hybrid.brute_force.sweep_point`)."""
         return brute_force.sweep_point(self, seed, value, state)
 
-
     def monitor_names(self) -> list[str]:
         """The keys of :meth:`derived` at a simulated point."""
         extremes = [f"{m}_{name}" for name in self.hybrid.state_names for m in ("min", "max")]

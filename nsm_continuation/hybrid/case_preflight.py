@@ -246,7 +246,6 @@ class CasePreflight:
                      f"{len(items)} brute-force start{'s' if len(items) != 1 else ''} of "
                      f"{max_points} values, transient and recorded returns", seconds=seconds)
 
-
     def _return_seconds(self, X: np.ndarray) -> float:
         """Estimated cost of one return to the section from the full state ``X`` for an explicit
         integrator: ``STEPS_PER_STIFFNESS * rho * T`` steps, with ``rho`` the spectral radius of
