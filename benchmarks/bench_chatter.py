@@ -23,7 +23,7 @@ residual ``pb.shooting.residual_jacobian`` at fixed ``e`` (the parameter column 
 5. **Robustness near the loss of sticking** (``e`` up to 0.8944635, ``tau`` down to 5e-4 s):
    whether each setting still applies the chatter map (or resolves the sequence impact by
    impact until it breaks off, reporting no sticking), and the round-off floor of the map's
-   error estimate per order (measured by wrapping the private ``simulate._extrapolate``).
+   error estimate per order (measured by wrapping ``transitions.extrapolate``).
 
 For every setting: ``t_sim`` the wall time of one simulation of the return map with
 sensitivities at the reference orbit, ``t_solve`` the wall time of "find the orbit and its
@@ -76,7 +76,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem  # noqa: E402
 
-from nsm_continuation.hybrid.shooting import ShootingFailure  # noqa: E402
+from nsm_continuation.hybrid.return_map import ShootingFailure  # noqa: E402
 from nsm_continuation.hybrid.simulate import SimOptions  # noqa: E402
 
 #: known 6.1 orbit (section coordinates q2, q1dot, q2dot at e = 0.89)
@@ -294,11 +294,11 @@ def plot(rows: list[dict[str, Any]], ref_spread: dict[str, float], path: Path) -
 
 def estimate_floor(pb: DoublePendulumProblem, y: np.ndarray, order: int) -> tuple[float, ...]:
     """The chatter map's error estimate at every impact of a sequence that is never cut
-    (chatter_tol 1e-30), by wrapping the private ``_extrapolate``: returns (lowest value of
+    (chatter_tol 1e-30), by wrapping ``transitions.extrapolate``: returns (lowest value of
     the descent, median and largest value after the descent, i.e. the round-off floor)."""
-    from nsm_continuation.hybrid import simulate as simmod
+    from nsm_continuation.hybrid import transitions as simmod
 
-    orig = simmod._extrapolate
+    orig = simmod.extrapolate
     est: list[float] = []
 
     def wrapped(entries: list[Any], m: int) -> Any:
@@ -311,13 +311,13 @@ def estimate_floor(pb: DoublePendulumProblem, y: np.ndarray, order: int) -> tupl
 
     set_options(pb, SimOptions(rtol=1e-10, atol=1e-12, chatter_tol=1e-30, chatter_order=order,
                                sensitivities=False, wall_time=60.0))
-    simmod._extrapolate = wrapped
+    simmod.extrapolate = wrapped
     try:
         pb.shooting.simulate(y)
     except ShootingFailure:
         pass
     finally:
-        simmod._extrapolate = orig
+        simmod.extrapolate = orig
     L = np.array(est)
     if L.size == 0:
         return (np.nan, np.nan, np.nan)

@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import nsm_continuation as nsm  # noqa: E402
-from nsm_continuation.hybrid.shooting import period_reach  # noqa: E402
+from nsm_continuation.hybrid.return_map import period_reach  # noqa: E402
 
 CASE = ROOT / "yaml_cases" / "pendulum_sec6_3_homoclinic.yaml"
 MU_SADDLE = 0.28879317  # tests/oracles/pendulum_equilibria.py

@@ -49,6 +49,8 @@ _MOVED: dict[str, tuple[str, ...]] = {
     "orbits": ("figures.orbits",),
     "orbit_selection": ("figures.orbit_selection",),
     "figure_process": ("figures.process",),
+    "hybrid.shooting": ("hybrid.case", "hybrid.return_map", "hybrid.problem", "hybrid.specs",
+                        "hybrid.case_preflight", "hybrid.case_period"),
 }
 #: old modules whose name is now a package: the package forwards their names (:func:`forward`)
 _NOW_PACKAGES: dict[str, tuple[str, ...]] = {

@@ -2,7 +2,7 @@
 
 The period-1 orbit of the double pendulum (e = 0.9, d = 0.5) is continued in its period with
 the torque among the unknowns (``continuation.parameter: period``, ``start.free_parameter:
-torque``; :class:`~nsm_continuation.hybrid.shooting.PeriodShooting`) towards the homoclinic
+torque``; :class:`~nsm_continuation.hybrid.return_map.PeriodShooting`) towards the homoclinic
 orbit of the saddle on the sticking surface, whose unstable eigenvalue is 0.28879 (two
 independent linearisations, ``tests/oracles/pendulum_equilibria.py``).
 
@@ -16,7 +16,7 @@ Checked here:
   period doubling, fold or branch point); the fit of ``p - p* = a1 exp(-mu T) + ...`` gives
   ``mu`` within 1e-4 of the saddle's eigenvalue (measured 5e-6; the leading law alone within
   0.3 %) and ``p*`` within 1e-9 of the paper's saddle torque (measured 1.6e-10);
-* how far double precision carries the period (:func:`~nsm_continuation.hybrid.shooting.
+* how far double precision carries the period (:func:`~nsm_continuation.hybrid.return_map.
   period_reach`): the torque is resolved to ``eps |p|`` at best, so with the measured
   ``c ~ -3.4`` the period has no digit left near 109; the noise of the simulated return map
   (~1e-12, round-off drift while sticking) resolves the torque only to ~1e-11 (no digit near
@@ -34,7 +34,7 @@ from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumPr
 
 import nsm_continuation as nsm
 from nsm_continuation.core.floquet import count_outside
-from nsm_continuation.hybrid.shooting import PERIOD, PeriodShooting, period_reach
+from nsm_continuation.hybrid.return_map import PERIOD, PeriodShooting, period_reach
 
 CASE = "yaml_cases/pendulum_sec6_3_homoclinic.yaml"
 MU_SADDLE = 0.288793           # unstable eigenvalue of the sticking saddle (oracle: 0.28879317)
@@ -232,7 +232,7 @@ def test_fit_with_the_next_order_on_a_synthetic_law() -> None:
     """``p - p* = a1 x + (a2 + a3 T) x^2``, ``x = exp(-mu T)`` (the next order of the passage
     near the saddle and of ``mu(p)``), with noise ``eps |p|`` and the period uncertainty that
     noise implies: the fit returns ``mu`` to 1e-6; the leading law alone is biased."""
-    from nsm_continuation.hybrid.presentation import homoclinic_fit
+    from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 
     rng = np.random.default_rng(3)
     mu, c, p_star = 0.28879, -3.4, -31.0016660941

@@ -248,7 +248,7 @@ def test_homoclinic_torque_from_the_period_continuation():
     """The homoclinic torque of sec. 6.3 (the paper's saddle at -31.00166609425), guarded by
     the well-conditioned formulation: the period prescribed (7.26 -> 50), the torque solved
     for (``continuation.parameter: period``), the law ``p - p* = a exp(-mu T) + ...`` fitted
-    (:func:`~nsm_continuation.hybrid.presentation.homoclinic_fit`) and extrapolated to p*.
+    (:func:`~nsm_continuation.hybrid.homoclinic.homoclinic_fit`) and extrapolated to p*.
     At the default tolerances (rtol = chatter_tol = 1e-10) the last periodic torque found by
     bisection on direct simulations is -31.0016660945425 (benchmarks/README.md); converged
     (rtol <= 1e-12, chatter_tol <= 1e-12) p* = -31.0016660941 (tests/test_homoclinic.py,
@@ -257,7 +257,7 @@ def test_homoclinic_torque_from_the_period_continuation():
 
     from nsm_continuation.core.palc import ContinuationEngine
     from nsm_continuation.core.settings import ContinuationSettings
-    from nsm_continuation.hybrid.presentation import homoclinic_fit
+    from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 
     pb = DoublePendulumProblem({"restitution": 0.9, "d": 0.5, "torque": -31.09})
     pb.parameter_bounds("period", 7.0, 50.0)

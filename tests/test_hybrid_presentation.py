@@ -29,7 +29,7 @@ import nsm_continuation as nsm
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.figures import branches as plots
 from nsm_continuation.figures import kit, multipliers
-from nsm_continuation.hybrid.presentation import homoclinic_fit
+from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.output import report
 from nsm_continuation.output.files import build_report, event_record
 

@@ -239,7 +239,7 @@ def test_family_kinds_are_not_core_kinds() -> None:
     assert core == {"fold", "branch_point", "period_doubling", "neimark_sacker",
                     "stability_change", "grazing", "endpoint", "asymptote"}
     from nsm_continuation.core.lattice import LatticeProblem
-    from nsm_continuation.hybrid.shooting import HybridShootingProblem
+    from nsm_continuation.hybrid.problem import HybridShootingProblem
 
     assert set(HybridShootingProblem.event_kinds) == {
         "sticking_lost", "impact_sequence_change", "homoclinic_approach"}

@@ -27,7 +27,7 @@ import nsm_continuation as nsm
 from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.problem import KinkCrossing, Problem, Rechart, StartPoint
 from nsm_continuation.core.settings import ContinuationSettings
-from nsm_continuation.hybrid.shooting import HybridShootingProblem
+from nsm_continuation.hybrid.problem import HybridShootingProblem
 
 R = 0.8
 
@@ -401,7 +401,7 @@ def test_a_state_deep_inside_the_obstacle_is_named_a_bad_guess() -> None:
     """A section state deep inside the stop is a guess far from any orbit, not an impact at the
     section's time (the message used to say the latter whatever the depth); on the surface
     it is the section's."""
-    from nsm_continuation.hybrid.shooting import ShootingFailure
+    from nsm_continuation.hybrid.return_map import ShootingFailure
 
     pb = nsm.problem("impact_oscillator", {"zeta": 0.1, "omega": 1.5, "gap": -0.5,
                                            "restitution": 0.8})

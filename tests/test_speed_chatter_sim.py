@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
+from nsm_continuation.hybrid import hermite, transitions
 from nsm_continuation.hybrid import simulate as sm
 from nsm_continuation.hybrid.simulate import SimOptions, Simulator
 
@@ -231,14 +232,14 @@ def test_memoised_extrapolation_equals_the_whole_tableau(m: int, sens: bool) -> 
             if len(seq) < m + 1:
                 continue
             window = seq[-(m + 1):]
-            got = sm._extrapolate(window, m)
+            got = transitions.extrapolate(window, m)
             ref = plain_extrapolate([tuple(e[:4]) for e in window], m)
             assert np.array_equal(got[0], ref[0]) and np.array_equal(got[2], ref[2])
             assert (got[1] is None) == (ref[1] is None)
             if sens:
                 assert np.array_equal(got[1], ref[1])
             # entries without a memo (the benchmark's wrapper passes them through) work too
-            bare = sm._extrapolate([tuple(e[:4]) for e in window], m)
+            bare = transitions.extrapolate([tuple(e[:4]) for e in window], m)
             assert np.array_equal(bare[0], ref[0])
 
 
@@ -249,7 +250,7 @@ def test_quadratic_roots_are_numpy_roots_bitwise() -> None:
         a, b, c = rng.normal(size=3) * 10.0 ** rng.uniform(-12, 4, size=3)
         if rng.random() < 0.1:
             b = 0.0
-        ref, got = np.roots([a, b, c]), sm._quadratic_roots(a, b, c)
+        ref, got = np.roots([a, b, c]), hermite.quadratic_roots(a, b, c)
         assert ref.dtype == got.dtype and np.array_equal(ref, got)
 
 
@@ -277,8 +278,8 @@ def test_first_root_equals_the_plain_search() -> None:
         # numpy scalars as the simulator's arrays give them, and Python floats
         args = (np.float64(g0), np.float64(d0), np.float64(g1), np.float64(d1), dt)
         ref = plain_hermite_first_root(*args, direction, floor)
-        assert sm._hermite_first_root(*args, direction, floor) == ref
-        assert sm._hermite_first_root(g0, d0, g1, d1, dt, direction, floor) == ref
+        assert hermite.hermite_first_root(*args, direction, floor) == ref
+        assert hermite.hermite_first_root(g0, d0, g1, d1, dt, direction, floor) == ref
         found += ref is not None
     assert found > 2000
 
@@ -292,7 +293,7 @@ def test_one_sign_interpolant_has_no_crossing_on_a_dense_grid() -> None:
     for _ in range(5000):
         g0, d0, g1, d1, dt = _random_hermite(rng)
         m0, m1 = d0 * dt, d1 * dt
-        if not sm._hermite_one_sign(g0, m0, g1, m1):
+        if not hermite.hermite_one_sign(g0, m0, g1, m1):
             continue
         hits += 1
         G0, G1, M0, M1 = (np.longdouble(v) for v in (g0, g1, m0, m1))

@@ -481,7 +481,7 @@ def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: R
     ``free`` solved for and ``parameter`` continued; one-line :class:`CaseError` naming
     ``start.curve`` / ``start.free`` / ``continuation.parameter`` where it cannot be built."""
     from nsm_continuation.hybrid.codim1 import DEFAULT_MARGIN, GrazingCurve
-    from nsm_continuation.hybrid.shooting import PERIOD
+    from nsm_continuation.hybrid.return_map import PERIOD
 
     names = problem.curve_parameters()
     if not names:

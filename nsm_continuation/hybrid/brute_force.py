@@ -2,7 +2,7 @@
 Figs. 8(b), 9(b)-(c) and 10(b) are brute-force diagrams of the double pendulum).
 
 At each value of a grid of one parameter the attractor is simulated return by return on the
-problem's Poincaré section (:meth:`~nsm_continuation.hybrid.shooting.HybridCaseProblem.section`)
+problem's Poincaré section (:meth:`~nsm_continuation.hybrid.case.HybridCaseProblem.section`)
 with the event-driven simulator and **no sensitivities**: ``transient`` returns are discarded,
 then ``record`` returns are recorded. Each value starts from the previous value's final state
 (the attractor is followed); the first from the sweep's start state. A
@@ -18,7 +18,7 @@ The recorded state of a return is the full state on the section (its section coo
 to the section's value) with the angles that turn (``HybridSystem.periodic``) wrapped to
 ``(-per/2, per/2]``, i.e. ``(-pi, pi]``. As a continuation point
 (:func:`recorded_points`, the ``sweep`` algorithm of a
-:class:`~nsm_continuation.hybrid.shooting.HybridCaseProblem`) its unknowns are the section
+:class:`~nsm_continuation.hybrid.case.HybridCaseProblem`) its unknowns are the section
 coordinates and the parameter, the layout of the shooting unknowns, and its derived quantities
 those of the simulated return (``period``: the time of that return to the section).
 
@@ -44,7 +44,7 @@ from nsm_continuation.core.records import Point
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 
 if TYPE_CHECKING:  # pragma: no cover
-    from nsm_continuation.hybrid.shooting import HybridCaseProblem
+    from nsm_continuation.hybrid.case import HybridCaseProblem
 
 TWO_PI = 2.0 * np.pi
 

@@ -6,7 +6,7 @@ curve, the solution set of the augmented system
 
     G(z; p, q) = 0,      m(z; p, q) = margin,                                        (C1)
 
-``G`` the shooting residual (:mod:`.shooting`) and ``m`` the signed grazing margin closest to
+``G`` the shooting residual (:mod:`.return_map`) and ``m`` the signed grazing margin closest to
 zero (``H_min`` of a near approach, :func:`.grazing.margin_gradient`), with its exact gradient
 from the saltation-chained sensitivities of the same simulation. The curve sits exactly on the
 kink of the return map; ``margin`` (default ``1e-9``, relative to ``1 + |y|``) keeps it on the
@@ -44,13 +44,9 @@ from pydantic import BaseModel
 
 from nsm_continuation.algorithms.curves import CodimOneCurve
 from nsm_continuation.core.problem import EvaluationError
+from nsm_continuation.hybrid.case import HybridCaseProblem
 from nsm_continuation.hybrid.grazing import margin_gradient
-from nsm_continuation.hybrid.shooting import (
-    HybridCaseProblem,
-    HybridShooting,
-    Section,
-    ShootingFailure,
-)
+from nsm_continuation.hybrid.return_map import HybridShooting, Section, ShootingFailure
 
 #: the lifted parameter of the virtual system (the surface moved to ``H + s = 0``)
 SHIFT = "_grazing_curve_shift"

@@ -29,14 +29,11 @@ come from the saltation-chained sensitivities of one simulation, ``Phi_tail`` fr
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nsm_continuation.hybrid.return_map import HybridShooting, ShootingFailure
 from nsm_continuation.hybrid.simulate import SimResult, SimulationError
-
-if TYPE_CHECKING:  # pragma: no cover
-    from nsm_continuation.hybrid.shooting import HybridShooting
 
 #: how far (relative) the evaluation point of ``G_ns`` may be moved off the located grazing
 #: point to the non-impacting side: G_ns,y is smooth, the move changes it by O(delta)
@@ -55,8 +52,6 @@ def _non_impacting_point(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray
                          ) -> tuple[np.ndarray, SimResult] | None:
     """``y``, or a point within ``MAX_NUDGE`` of it along ``+-tangent``, whose orbit misses the
     surface at the grazing approach (``grazing_function > 0``)."""
-    from nsm_continuation.hybrid.shooting import ShootingFailure
-
     scale = 1.0 + float(np.linalg.norm(y))
     for delta in (0.0, *np.geomspace(1e-12, MAX_NUDGE, 11)):
         for sign in ((1.0,) if delta == 0.0 else (-1.0, 1.0)):
@@ -88,8 +83,6 @@ def normal_form(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray) -> Norma
     """Eqs. (G1)-(G2) at the grazing point ``y`` (located; ``tangent``: the branch's direction
     there, used only to find a non-impacting evaluation point next to ``y``); None when the
     grazing cannot be resolved (no near approach next to ``y``, a failed simulation)."""
-    from nsm_continuation.hybrid.shooting import ShootingFailure
-
     found = _non_impacting_point(sh, y, tangent)
     if found is None:
         return None
@@ -136,8 +129,6 @@ def margin_gradient(sh: HybridShooting, y: np.ndarray) -> tuple[float, np.ndarra
     exact gradient with respect to the unknowns: ``H_x J`` at a near approach (``dH/dt = 0``
     there), ``-(v/a) v_x J + (v^2 / 2a^2) a_x J`` at an impact (``J`` including the impact
     time's dependence, eq. 40)."""
-    from nsm_continuation.hybrid.shooting import ShootingFailure
-
     try:
         res = sh.simulate(y)
     except ShootingFailure:
@@ -177,8 +168,6 @@ def solve_margin(sh: HybridShooting, z: np.ndarray, target: float, tol: float,
     when the Newton correction falls below ``1e-11 (1 + |y|)`` with ``|G| <= 1e3 tol``: next to
     a grazing the residual's noise (the integration error times the ``1/|v|`` sensitivities)
     can exceed ``tol`` while the orbit is resolved."""
-    from nsm_continuation.hybrid.shooting import ShootingFailure
-
     def evaluate(zt: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
         mg = margin_gradient(sh, zt)
         if mg is None:

@@ -36,7 +36,7 @@ from nsm_continuation.hybrid.simulate import SimResult, SimulationError, Simulat
 from nsm_continuation.hybrid.system import HybridDeclarationError
 
 if TYPE_CHECKING:
-    from nsm_continuation.hybrid.shooting import HybridShootingProblem
+    from nsm_continuation.hybrid.problem import HybridShootingProblem
 
 #: largest integration step of the recorded orbit: its period over this
 SAMPLES_PER_PERIOD = 1500

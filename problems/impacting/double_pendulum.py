@@ -37,7 +37,7 @@ from pydantic import BaseModel, Field
 
 from nsm_continuation.core.preflight import STRICT
 from nsm_continuation.core.vocabulary import CanonicalNames, CanonicalParameter
-from nsm_continuation.hybrid.shooting import HybridCaseProblem, IntegratorSpec, Section
+from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
 
 PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "restitution", "d")
