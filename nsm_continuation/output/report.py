@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from nsm_continuation.core.records import CORE_EVENT_KINDS
+from nsm_continuation.runs.diagrams import link_text
 
 #: meanings of the core event kinds; a run's report adds its problem's (``event_kinds`` of
 #: ``report.json``, from ``Problem.event_kinds``)
@@ -273,7 +274,9 @@ def _table(rows: list[dict[str, Any]]) -> list[str]:
             + ["| " + " | ".join(_fmt(r.get(c), 12) for c in keys) + " |" for r in rows])
 
 
-def markdown(rep: dict[str, Any]) -> str:
+def _header_lines(rep: dict[str, Any]) -> list[str]:
+    """The title, the case's description, the problem and its window, the system's facts and
+    the warnings."""
     lines = [f"# Bifurcation report: {rep['case']['name']}", ""]
     if rep["case"].get("description"):
         lines += [rep["case"]["description"].strip(), ""]
@@ -298,18 +301,21 @@ def markdown(rep: dict[str, Any]) -> str:
         lines.append("")
     if rep.get("warnings"):
         lines += ["## Warnings", ""] + [f"- {w}" for w in rep["warnings"]] + [""]
+    return lines
+
+
+def _branch_lines(rep: dict[str, Any]) -> list[str]:
+    """The table of branches (with the chart moves and the tree of a diagram)."""
     t = rep["timings"]
     n_failed = sum(1 for b in rep["branches"] if b["n_points"] == 0)
-    from nsm_continuation.runs.diagrams import link_text
-
-    lines += ["## Branches", "",
-              f"{len(rep['branches'])} branches, {t.get('n_points')} points, "
-              f"{_fmt(t.get('total_s'), 3)} s."
-              + (f" **{n_failed} start(s) failed**: their rows give the reason."
-                 if n_failed else ""), "",
-              "| id | label | born at | points | admissible points | parameter range | "
-              "termination |",
-              "|---|---|---|---|---|---|---|"]
+    lines = ["## Branches", "",
+             f"{len(rep['branches'])} branches, {t.get('n_points')} points, "
+             f"{_fmt(t.get('total_s'), 3)} s."
+             + (f" **{n_failed} start(s) failed**: their rows give the reason."
+                if n_failed else ""), "",
+             "| id | label | born at | points | admissible points | parameter range | "
+             "termination |",
+             "|---|---|---|---|---|---|---|"]
     for b in rep["branches"]:
         pr = b["parameter_range"]
         rng = f"{_fmt(pr[0])} .. {_fmt(pr[1])}" if pr else "-"
@@ -323,7 +329,12 @@ def markdown(rep: dict[str, Any]) -> str:
                   "row of the CSV is in the chart its `section_*` column names, and a "
                   "restart reads it there):", ""]
         lines += [f"- branch {i}: {m}" for i, m in moves]
-    lines += ["", *_tree_lines(rep)]
+    return [*lines, "", *_tree_lines(rep)]
+
+
+def _event_lines(rep: dict[str, Any]) -> list[str]:
+    """The table of events, read in increasing parameter where every event knows its
+    direction, and what each kind means."""
     cols = list(rep.get("event_columns") or [])
     par = rep["continuation"].get("case_parameter") or rep["continuation"]["parameter"]
     shown = [(b["id"], e) for b in rep["branches"] for e in b["events"]
@@ -332,11 +343,11 @@ def markdown(rep: dict[str, Any]) -> str:
     # oriented: every event knows the direction of the parameter (report.json written with
     # annotate_parameter_directions); otherwise the changes stay in the continuation order
     oriented = all("parameter_direction" in e for _, e in shown)
-    lines += ["", "## Events", "",
-              "| branch | kind | " + " | ".join(cols) + " | max abs multiplier | "
-              + (f"change (increasing {par})" if oriented else "change (as continued)")
-              + " | detail |",
-              "|---|---|" + "---|" * len(cols) + "---|---|---|"]
+    lines = ["", "## Events", "",
+             "| branch | kind | " + " | ".join(cols) + " | max abs multiplier | "
+             + (f"change (increasing {par})" if oriented else "change (as continued)")
+             + " | detail |",
+             "|---|---|" + "---|" * len(cols) + "---|---|---|"]
     for bid, e in shown:
         e = in_parameter_order(e)
         mults = e.get("multipliers") or []
@@ -363,7 +374,12 @@ def markdown(rep: dict[str, Any]) -> str:
     meaning = {**MEANING, **(rep.get("event_kinds") or {})}
     lines += [f"- **{k}**: {meaning.get(k, '(meaning not declared)')}"
               for k in sorted(kinds | {"endpoint"})]
-    lines += ["", *_continue_lines(rep)]
+    return lines
+
+
+def _extras_lines(rep: dict[str, Any]) -> list[str]:
+    """The problem's own results, the figures and the data files."""
+    lines: list[str] = []
     extras = rep.get("problem_results") or {}
     if extras:
         lines += ["", "## Problem-specific results", ""]
@@ -376,4 +392,11 @@ def markdown(rep: dict[str, Any]) -> str:
         lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in rep["figures"]]
     lines += ["", "Data: " + ", ".join(f"[{b['csv']}]({b['csv']})" for b in rep["branches"])
               + ", [report.json](report.json).", ""]
+    return lines
+
+
+def markdown(rep: dict[str, Any]) -> str:
+    """``report.md`` from the content of ``report.json``."""
+    lines = [*_header_lines(rep), *_branch_lines(rep), *_event_lines(rep), "",
+             *_continue_lines(rep), *_extras_lines(rep)]
     return "\n".join(lines)
