@@ -62,7 +62,7 @@ def outputs(res: Any) -> tuple[str, list[str]]:
     rep["case"]["input"].pop("execution", None)
     csvs = []
     for br in rr.branches:
-        cols, rows = branch_rows(br, rr.problem.variables, rr.problem.csv_head)
+        cols, rows = branch_rows(br, rr.problem.variables, rr.problem.presentation.csv_head)
         fh = io.StringIO()
         w = csv.writer(fh)
         w.writerow(cols)
@@ -98,7 +98,7 @@ def sample_pieces(cells: int, count: int, samples: int) -> tuple[list[float], in
         t0 = time.perf_counter()
         algorithm.seed_piece(case.start, window, pieces[i])
         times.append(time.perf_counter() - t0)
-    nodes = problem.report_extras([]).get("lattice_nodes_evaluated", 0)
+    nodes = problem.presentation.report_extras([]).get("lattice_nodes_evaluated", 0)
     return times, len(pieces), nodes * len(pieces) / len(picks)
 
 
@@ -120,7 +120,7 @@ def main() -> None:
     ts, td = r_ser.run_result.timings, r_dist.run_result.timings
     nb, ns = len(r_ser.run_result.branches), len(r_ser.run_result.skipped)
     N = r_ser.run_result.problem.model.N
-    extras = r_ser.run_result.problem.report_extras(r_ser.run_result.branches)
+    extras = r_ser.run_result.problem.presentation.report_extras(r_ser.run_result.branches)
     n_nodes = int(extras.get("lattice_nodes_evaluated", 0))
     print(f"1. Fig. 12 scan ({CASE.relative_to(ROOT)}, N = {N}, plots off)")
     print(f"   {nb} branches ({ns} seeds skipped), {ts['n_points']} points, {n_nodes} lattice "

@@ -197,7 +197,7 @@ class BranchData:
         self.id = branch.id
         self.label = branch.label
         self.termination = dict(branch.termination)
-        cols, rows = branch_rows(branch, problem.variables, problem.csv_head)
+        cols, rows = branch_rows(branch, problem.variables, problem.presentation.csv_head)
         self.column_names = cols
         self._columns: dict[str, np.ndarray] = {}
         for j, c in enumerate(cols):
@@ -344,8 +344,9 @@ class Result:
     def orbit(self, branch: int = 0, point: int = -1, periods: int = 1) -> OrbitTrace:
         """The periodic orbit at row ``point`` of branch ``branch`` (its id, as in
         ``branch_<id>.csv``; a negative row counts from the end) over ``periods`` periods
-        (1 to :data:`~nsm_continuation.cases.schema.MAX_ORBIT_PERIODS`; :meth:`Problem.orbit
-        <nsm_continuation.core.problem.Problem.orbit>`): time ``t``, named ``signals``, their
+        (1 to :data:`~nsm_continuation.cases.schema.MAX_ORBIT_PERIODS`; :meth:`Presentation.orbit
+        <nsm_continuation.core.presentation.Presentation.orbit>`): time ``t``, named ``signals``,
+        their
         ``labels``, impact ``marks``, sticking ``intervals`` and the family's ``views``.
         ``ValueError`` naming the argument for a branch, row or number of periods the run
         does not have, or if the problem does not draw its orbits."""
@@ -359,10 +360,10 @@ class Result:
             raise ValueError(f"point: {point!r} is not a row of branch {br.id} ({rows} points: "
                              f"rows 0 to {rows - 1}, or -{rows} to -1 from the end)")
         p = br.points[int(point)]
-        trace = problem_of(self.run_result, br, p).orbit(p.y, n)
+        trace = problem_of(self.run_result, br, p).presentation.orbit(p.y, n)
         if trace is None:
             raise ValueError(f"problem {self.problem.name!r} does not draw its orbits "
-                             "(Problem.orbit is not implemented)")
+                             "(Presentation.orbit is not implemented)")
         return trace
 
     def _branch(self, branch: int) -> Branch:
@@ -383,8 +384,9 @@ class Result:
                     log: Sequence[str] = ()) -> Any:
         """An orbit figure as the case key ``output.orbits`` draws it
         (:mod:`nsm_continuation.figures.orbits`): the ``view`` (``time``, ``phase`` or ``manifold``,
-        as the problem draws them: :meth:`Problem.orbit_view_names
-        <nsm_continuation.core.problem.Problem.orbit_view_names>`) of the orbits at ``points``
+        as the problem draws them: :meth:`Presentation.orbit_view_names
+        <nsm_continuation.core.presentation.Presentation.orbit_view_names>`) of the orbits at
+        ``points``
         (``first``, ``last``, ``events``, an event kind or a value of the continued
         parameter), on ``ax`` (a new figure if None; the time view then draws its first signal
         only). Returns the matplotlib Figure; :class:`CaseError` (a ``ValueError``) naming the

@@ -196,7 +196,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
             print(f"warning: {w}", file=sys.stderr)
     if not args.quiet:
         print(_summary(build_report(res), out))
-        for w in problem.warnings():
+        for w in problem.presentation.warnings():
             print(f"warning: {w}")
     if failed:
         print(f"{len(failed)} of {len(res.branches)} starts failed: "
@@ -220,7 +220,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         case, problem = cases.load(path, args.overrides)
         _target(args, case).check()  # where the run would write (nothing is created)
         print(f"{path}: valid ({case.problem}, {len(problem.variables)} unknowns)")
-        for w in problem.warnings():
+        for w in problem.presentation.warnings():
             print(f"warning: {w}")
         return 0
     return _run(args, path)

@@ -269,9 +269,9 @@ def test_no_linear_flat_part_is_drawn_for_g_negative() -> None:
     for g, flat in ((-1.0, 0), (1.0, 5)):
         pr = nsm.problem("ndof_impact", {"chain": chain, "gap": g})
         fig, ax = plt.subplots()
-        pr.plot_decorations(ax, (1.0, 11.0), [])
+        pr.presentation.plot_decorations(ax, (1.0, 11.0), [])
         thick = [ln for ln in ax.get_lines() if ln.get_linewidth() == 3.2]
         plt.close(fig)
         assert len(thick) == flat
-        labels = [h.get_label() for h in pr.legend_handles()]
+        labels = [h.get_label() for h in pr.presentation.legend_handles()]
         assert ("linear (flat) part of a mode" in labels) == (g > 0)

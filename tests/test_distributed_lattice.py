@@ -39,7 +39,7 @@ def outputs(res: Any) -> tuple[dict[str, Any], dict[int, str]]:
     report["case"]["input"].pop("execution")  # where it ran (recorded), not what it computed
     csvs = {}
     for br in rr.branches:
-        cols, rows = branch_rows(br, rr.problem.variables, rr.problem.csv_head)
+        cols, rows = branch_rows(br, rr.problem.variables, rr.problem.presentation.csv_head)
         fh = io.StringIO()
         writer = csv.writer(fh)
         writer.writerow(cols)
@@ -88,8 +88,8 @@ def test_merge_of_independent_branches_reproduces_the_serial_skips() -> None:
     assert [[p.y.tolist() for p in b.points] for b in branches] == \
         [[p.y.tolist() for p in b.points] for b in serial.branches]
     if _replays(master_problem):
-        assert master_problem.report_extras(branches) == serial.problem.report_extras(
-            serial.branches)
+        serial_extras = serial.problem.presentation.report_extras(serial.branches)
+        assert master_problem.presentation.report_extras(branches) == serial_extras
 
 
 @needs_dask

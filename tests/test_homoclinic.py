@@ -54,7 +54,8 @@ def test_period_continuation_unknowns_and_start() -> None:
     pb.parameter_bounds(PERIOD, 7.0, 100.0)
     assert pb.variables == ["q2", "q1dot", "q2dot", "torque", "period"]
     assert pb.parameter == PERIOD and pb.swept_parameter == "torque"
-    assert pb.fep_axes == ("torque", "period") and pb.csv_head[:2] == ["torque", "period"]
+    show = pb.presentation
+    assert show.fep_axes == ("torque", "period") and show.csv_head[:2] == ["torque", "period"]
     assert "torque" in pb.monitor_names() and "period_uncertainty" in pb.monitor_names()
     (sp,) = pb.start_points({"guess": GUESS, "free_parameter": "torque"})
     # the start is the orbit at parameters.torque (corrected there), with its period
@@ -250,4 +251,5 @@ def test_fit_with_the_next_order_on_a_synthetic_law() -> None:
     # continued in the period, the fit applies without a period bound
     pb = _pendulum()
     pb.parameter_bounds(PERIOD, 7.0, 100.0)
-    assert pb.continued_in_period and pb.homoclinic_fit_applies(type("B", (), {"events": []}))
+    assert pb.continued_in_period
+    assert pb.presentation.homoclinic_fit_applies(type("B", (), {"events": []}))

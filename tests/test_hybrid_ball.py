@@ -230,7 +230,7 @@ def test_bouncing_ball_problem_report():
     assert pb.start_points({}) == [] and pb.compiled is None
     with pytest.raises(NotImplementedError, match="simulation case"):
         pb.residual(None)
-    out = pb.report_extras([])["bouncing_ball"]
+    out = pb.presentation.report_extras([])["bouncing_ball"]
     assert out["n_impacts_resolved"] == 15 == out["chatter_map"]["impacts_before_map"]
     assert out["impact_times_max_error"] < 1e-12
     assert abs(out["chatter_map"]["completion_time_error"]) < 1e-12

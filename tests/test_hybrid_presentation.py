@@ -64,26 +64,28 @@ def test_forced_oscillator_in_omega_is_a_frequency_response_curve() -> None:
     pr = nsm.problem("impact_oscillator", {})
     assert pr.hybrid.forcing_frequency == "omega" and pr.parameter == "omega"
     assert pr.response_coordinate == "q"          # H = q - gap depends on q
-    assert pr.diagram_title == "Frequency-response curve"
-    assert pr.fep_axes == ("omega", "amplitude_q")
-    assert pr.fep_labels == ("forcing frequency omega",
+    assert pr.presentation.diagram_title == "Frequency-response curve"
+    assert pr.presentation.fep_axes == ("omega", "amplitude_q")
+    assert pr.presentation.fep_labels == ("forcing frequency omega",
                              "response amplitude of q: (max q - min q) / 2")
-    assert pr.diagram_yscale == "linear"
-    assert pr.csv_head == ["omega", "amplitude_q", "max_q", "min_q", "min_impact_velocity",
-                           "period", "sticking_time", "n_impacts_before_chatter"]
+    assert pr.presentation.diagram_yscale == "linear"
+    assert pr.presentation.csv_head == ["omega", "amplitude_q", "max_q", "min_q",
+                                        "min_impact_velocity", "period", "sticking_time",
+                                        "n_impacts_before_chatter"]
     # the impacting coordinate of the two-mass chain is q2 (H = gap - q2), not q1
     chain = nsm.problem("two_mass_chain", {})
-    assert chain.response_coordinate == "q2" and chain.fep_axes == ("omega", "amplitude_q2")
-    assert chain.diagram_title == "Frequency-response curve"
+    assert chain.response_coordinate == "q2"
+    assert chain.presentation.fep_axes == ("omega", "amplitude_q2")
+    assert chain.presentation.diagram_title == "Frequency-response curve"
 
 
 def test_forced_oscillator_in_the_gap_is_a_bifurcation_diagram_of_the_amplitude() -> None:
     pr = nsm.problem("impact_oscillator", {})
     pr.parameter_bounds("gap", -1.0, 1.0)
-    assert pr.diagram_title == "Bifurcation diagram"
-    assert pr.fep_axes == ("gap", "amplitude_q")
-    assert pr.fep_labels[0] == "gap"              # not a frequency
-    assert pr.csv_head[:2] == ["gap", "amplitude_q"]
+    assert pr.presentation.diagram_title == "Bifurcation diagram"
+    assert pr.presentation.fep_axes == ("gap", "amplitude_q")
+    assert pr.presentation.fep_labels[0] == "gap"              # not a frequency
+    assert pr.presentation.csv_head[:2] == ["gap", "amplitude_q"]
 
 
 def test_amplitude_comes_from_the_extremes_and_degrades_to_nan() -> None:
@@ -110,7 +112,7 @@ def test_short_forced_run_writes_a_frequency_response(fig2_run) -> None:
     with open(out / "branch_0.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) >= 3
-    assert list(rows[0])[:8] == pr.csv_head
+    assert list(rows[0])[:8] == pr.presentation.csv_head
     # the period of a forced period-1 orbit is the forcing period: an independent check that
     # the columns are what they say
     for r in rows:
@@ -128,7 +130,7 @@ def test_short_forced_run_writes_a_frequency_response(fig2_run) -> None:
     fig = plots.diagram(res.run_result)
     ax = fig.axes[0]
     assert ax.get_title() == "Frequency-response curve: impact_oscillator_fig2_sticking"
-    assert (ax.get_xlabel(), ax.get_ylabel()) == pr.fep_labels
+    assert (ax.get_xlabel(), ax.get_ylabel()) == pr.presentation.fep_labels
     assert ax.get_yscale() == "linear"
     kit.plt.close(fig)
 
@@ -163,11 +165,11 @@ def test_pendulum_is_a_bifurcation_diagram_in_its_parameter(parameter: str,
     pr = nsm.problem("double_pendulum", {})
     pr.parameter_bounds(parameter, None, None)
     assert pr.hybrid.forcing_frequency is None and pr.response_key is None
-    assert pr.diagram_title == "Bifurcation diagram"
-    assert pr.fep_axes == (parameter, "period")
-    assert pr.fep_labels == (parameter, "period (return time to the section)")
-    assert pr.diagram_yscale == "log"
-    assert pr.extra_plots(tmp_path, [], (None, None)) == []
+    assert pr.presentation.diagram_title == "Bifurcation diagram"
+    assert pr.presentation.fep_axes == (parameter, "period")
+    assert pr.presentation.fep_labels == (parameter, "period (return time to the section)")
+    assert pr.presentation.diagram_yscale == "log"
+    assert pr.presentation.extra_plots(tmp_path, [], (None, None)) == []
     # drawn: titled and labelled by the parameter, nothing about frequencies
     ip = pr.parameter_index
     pts = []
@@ -205,19 +207,20 @@ def test_homoclinic_fit_only_for_autonomous_branches_ended_by_the_period_bound()
     p_star, mu, c = -31.0017, 0.29, 2.0
     ps = p_star - np.geomspace(0.05, 1e-7, 30)
     Ts = c - np.log(np.abs(ps - p_star)) / mu
-    (rec,) = pend.report_extras([_branch(pend, ps, Ts, ["homoclinic_approach"])])["branches"]
+    (rec,) = pend.presentation.report_extras(
+        [_branch(pend, ps, Ts, ["homoclinic_approach"])])["branches"]
     fit = rec["homoclinic_fit"]
     assert fit["p_star"] == pytest.approx(p_star, abs=1e-8)
     assert fit["mu_unstable"] == pytest.approx(mu, rel=1e-3)
     # the same data without the period bound having ended the branch: no fit
-    (rec,) = pend.report_extras([_branch(pend, ps, Ts)])["branches"]
+    (rec,) = pend.presentation.report_extras([_branch(pend, ps, Ts)])["branches"]
     assert "homoclinic_fit" not in rec
     # forced: period 2 pi / omega doubles as omega halves; the fit would "succeed" (p* ~ 0
     # reported before) but is never attempted, even with a homoclinic_approach event
     osc = nsm.problem("impact_oscillator", {})
     ws = np.linspace(0.6, 0.25, 30)
     assert homoclinic_fit(ws, 2 * np.pi / ws) is not None
-    (rec,) = osc.report_extras([_branch(osc, ws, 2 * np.pi / ws,
+    (rec,) = osc.presentation.report_extras([_branch(osc, ws, 2 * np.pi / ws,
                                         ["homoclinic_approach"])])["branches"]
     assert "homoclinic_fit" not in rec and "amplitude_q_range" in rec
 

@@ -704,7 +704,7 @@ def test_internal_resonance_is_reported_and_does_not_raise() -> None:
     p = NDofImpactProblem({"M": np.eye(2).tolist(), "K": K.tolist(), "gap": 1.0})
     assert p.omega == pytest.approx([1.0, 3.0], rel=1e-12)
     assert np.all(np.abs(p.a) > 1e-3)
-    warnings = p.warnings()
+    warnings = p.presentation.warnings()
     assert any("internal resonance" in w for w in warnings)
     assert any("3 T_2 = 1 T_1" in w for w in warnings)
     start = p.start_points({"mode": 2, "subharmonic": 3})[0]
@@ -715,7 +715,7 @@ def test_internal_resonance_is_reported_and_does_not_raise() -> None:
     for q in br.points:
         assert np.max(np.abs(p.evaluate(q.y))) < 1e-9
     # a non-resonant chain raises no such warning
-    assert not any("internal resonance" in w for w in paper().warnings())
+    assert not any("internal resonance" in w for w in paper().presentation.warnings())
 
 
 def test_alpha_is_static_compliance_and_high_frequency_limit():

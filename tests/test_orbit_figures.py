@@ -46,7 +46,7 @@ def chain_result():
 def test_chain_orbit_is_the_integrated_free_flight(chain_result):
     pr = chain_result.problem
     p = chain_result.run_result.branches[0].points[-1]
-    tr = pr.orbit(p.y, periods=1)
+    tr = pr.presentation.orbit(p.y, periods=1)
     u0, du0, T = pr.state(p.y)
     N = pr.N
     A = np.linalg.solve(pr.M, pr.K)
@@ -67,7 +67,7 @@ def test_chain_orbit_is_periodic_through_the_impact_law(chain_result):
     pr = chain_result.problem
     g, c = pr.g, pr.c
     for p in chain_result.run_result.branches[0].points[::6]:
-        tr = pr.orbit(p.y, periods=2)
+        tr = pr.presentation.orbit(p.y, periods=2)
         n = tr.t.size // 2
         before = np.array([tr.signals[f"u{i + 1}"][n - 1] for i in range(pr.N)])
         vel = np.array([tr.signals[f"du{i + 1}"][n - 1] for i in range(pr.N)])

@@ -116,7 +116,7 @@ def test_fep_each_linear_grazing_is_one_event(fep):
             _, t_max = problem.displacement_sum(ev.point.y).max_on(0.0, T)
             assert 1e-3 < t_max / T < 1 - 1e-3, (br.label, T, t_max / T)
     assert n_linear >= 10
-    listed = problem.report_extras(fep.branches).get("nonlinear_grazing_orbits", [])
+    listed = problem.presentation.report_extras(fep.branches).get("nonlinear_grazing_orbits", [])
     for entry in listed:
         _, t_max = problem.displacement_sum(
             next(ev.point.y for br in fep.branches if br.id == entry["branch"]

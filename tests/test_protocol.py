@@ -162,8 +162,8 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
     assert np.all(ys[:, 0] > 0)
     assert all(p.multipliers is None for p in br.points)
     # declared defaults: the parameter against the other unknown, linear scale
-    assert pr.fep_axes == ("p", "x") and pr.fep_labels == ("p", "x")
-    assert pr.csv_head == ["p", "x"] and pr.event_columns == ["p", "x"]
+    assert pr.presentation.fep_axes == ("p", "x") and pr.presentation.fep_labels == ("p", "x")
+    assert pr.presentation.csv_head == ["p", "x"] and pr.presentation.event_columns == ["p", "x"]
     assert pr.algorithms == ("palc",) and pr.signature_kind is None
 
     out = write_outputs(res, tmp_path / "out", make_all)
@@ -195,12 +195,12 @@ def test_paper_problems_keep_their_presentation() -> None:
     from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
     for cls in (NDofImpactProblem, WfemBarProblem, BarContinuumProblem):
-        assert cls.diagram_title == "Frequency-energy plot"
-        assert cls.diagram_yscale == "log"
+        assert cls.presentation_class.diagram_title == "Frequency-energy plot"
+        assert cls.presentation_class.diagram_yscale == "log"
     chain = NDofImpactProblem({"chain": {"dofs": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0})
-    assert chain.fep_axes == ("omega", "energy")
-    assert chain.fep_labels[0].startswith("frequency")
-    assert chain.csv_head == ["T", "omega", "energy"]
+    assert chain.presentation.fep_axes == ("omega", "energy")
+    assert chain.presentation.fep_labels[0].startswith("frequency")
+    assert chain.presentation.csv_head == ["T", "omega", "energy"]
     assert WfemBarProblem.algorithms == ("lattice",)
     assert WfemBarProblem.character_kinds == {"grazing_instants": "grazing"}
 
@@ -210,10 +210,10 @@ def test_hybrid_problems_label_by_their_parameter_and_period() -> None:
 
     pr = DoublePendulumProblem({})
     pr.parameter_bounds("d", 0.4, 0.6)
-    assert pr.fep_axes == ("d", "period")
-    assert pr.fep_labels == ("d", "period (return time to the section)")
-    assert pr.csv_head[:2] == ["d", "period"]
-    assert pr.diagram_title == "Bifurcation diagram"
+    assert pr.presentation.fep_axes == ("d", "period")
+    assert pr.presentation.fep_labels == ("d", "period (return time to the section)")
+    assert pr.presentation.csv_head[:2] == ["d", "period"]
+    assert pr.presentation.diagram_title == "Bifurcation diagram"
     assert "sticking_lost" in pr.all_event_kinds()
 
 

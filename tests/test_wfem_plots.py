@@ -203,12 +203,13 @@ def test_frequency_response_figure_draws_curves_references_and_backbones(tmp_pat
     curves = response_curves([SimpleNamespace(points=pts, label="s"),
                               SimpleNamespace(points=[], label="empty")])
     assert len(curves) == 1 and curves[0].steady.tolist() == [False, True, False, True]
-    xr, e, a = pr.reference_curve(pr.eta(0.1), (0.5, 2.0), n=50)
+    xr, e, a = pr.presentation.reference_curve(pr.eta(0.1), (0.5, 2.0), n=50)
     assert np.isfinite(e).all() and np.isfinite(a).all()
-    backbones = pr.backbones((0.5, 2.0))
+    backbones = pr.presentation.backbones((0.5, 2.0))
     assert [b[2] for b in backbones] == ["NSM backbone, mode 1"]  # 4/3; mode 2's 16/5 is out
     fig = frequency_response_figure(curves, [(xr, e, a, "zeta_1 = 0.1")], backbones,
-                                    pr.fep_labels[1], pr.reference_label(), title="t")
+                                    pr.presentation.fep_labels[1],
+                                    pr.presentation.reference_label(), title="t")
     ax_e, ax_a = fig.axes
     assert ax_e.get_yscale() == "log" and "omega" in ax_e.get_xlabel()
     assert any(ln.get_linestyle() == "--" for ln in ax_e.lines)  # the linear reference
@@ -217,6 +218,6 @@ def test_frequency_response_figure_draws_curves_references_and_backbones(tmp_pat
               == "none"]
     assert len(hollow) == 1 and len(hollow[0].get_xdata()) == 2
     br = SimpleNamespace(points=pts, label="s")
-    assert pr.extra_plots(tmp_path, [br], (0.5, 2.0)) == ["frequency_response.png"]
+    assert pr.presentation.extra_plots(tmp_path, [br], (0.5, 2.0)) == ["frequency_response.png"]
     assert (tmp_path / "frequency_response.png").stat().st_size > 10_000
-    assert pr.extra_plots(tmp_path / "none", [], (0.5, 2.0)) == []
+    assert pr.presentation.extra_plots(tmp_path / "none", [], (0.5, 2.0)) == []

@@ -117,7 +117,7 @@ def test_every_physical_orbit_seeds_a_branch_unless_cut_with_a_warning() -> None
     def seeds(max_seeds: int | None) -> tuple[list, list[str]]:
         pb = WfemBarProblem({"E": 1.0, "rho": 1.0, "L": 1.0, "cells": 40, "gap": 1e-3})
         spec = {"scan": True} if max_seeds is None else {"scan": True, "max_seeds": max_seeds}
-        return pb.lattice_seeds(spec, (1.0, 4.0), 1e3), pb.warnings()
+        return pb.lattice_seeds(spec, (1.0, 4.0), 1e3), pb.presentation.warnings()
 
     every, quiet = seeds(None)
     # the independent count: the scan's physical orbits below the energy bound

@@ -60,6 +60,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from nsm_continuation.core.palc import NUMERICAL_ERRORS, ContinuationEngine
+from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
@@ -146,6 +147,34 @@ class CodimOneCurve(Problem):
 BASE_SETTINGS = ("newton_tol", "derived_bounds", "step_initial")
 
 
+class LocatedCurvePresentation(Presentation):
+    """A located two-parameter curve: the continued parameter against the free one, each point
+    with its condition."""
+
+    diagram_title: ClassVar[str] = "Two-parameter curve"
+
+    @property
+    def fep_axes(self) -> tuple[str, str]:
+        return (self.problem.parameter, self.problem.free)
+
+    @property
+    def fep_labels(self) -> tuple[str, str]:
+        pr = self.problem
+        return (pr.parameter, f"{pr.free} at the {pr.curve_kind.replace('_', ' ')}")
+
+    @property
+    def csv_head(self) -> list[str]:
+        return [self.problem.parameter, self.problem.free, "condition"]
+
+    def summary(self) -> dict[str, Any]:
+        pr = self.problem
+        return {"curve": f"{pr.curve_kind} points of {pr.base.name} (eq. L1 of "
+                         "nsm_continuation.algorithms.curves: each point a located event)",
+                "continued": pr.parameter, "free": pr.free,
+                "condition": condition_meaning(pr.curve_kind),
+                "unknowns": list(pr.variables)}
+
+
 class LocatedCurve(CodimOneCurve):
     """The points of kind ``kind`` of ``base`` (continued in ``free``) as ``parameter`` varies
     (L1), each located by a continuation of ``base`` at that value of ``parameter``."""
@@ -153,7 +182,7 @@ class LocatedCurve(CodimOneCurve):
     name: ClassVar[str] = "event_curve"
     Parameters: ClassVar[type[BaseModel]] = BaseModel
     algorithms: ClassVar[tuple[str, ...]] = ("located_events",)
-    diagram_title: ClassVar[str] = "Two-parameter curve"
+    presentation_class = LocatedCurvePresentation
 
     def __init__(self, base: Problem, kind: str, free: str, parameter: str,
                  base_settings: dict[str, Any] | None = None) -> None:
@@ -266,19 +295,6 @@ class LocatedCurve(CodimOneCurve):
                   if self.base.monitor_kind(source, name) == kind and np.isfinite(v)]
         return float(min(values)) if values else float("nan")
 
-    # ------------------------------------------------------------------ presentation
-    @property
-    def fep_axes(self) -> tuple[str, str]:
-        return (self.parameter, self.free)
-
-    @property
-    def fep_labels(self) -> tuple[str, str]:
-        return (self.parameter, f"{self.free} at the {self.curve_kind.replace('_', ' ')}")
-
-    @property
-    def csv_head(self) -> list[str]:
-        return [self.parameter, self.free, "condition"]
-
     def monitor_names(self) -> list[str]:
         return [self.free, self.parameter, "condition"]
 
@@ -287,12 +303,6 @@ class LocatedCurve(CodimOneCurve):
         return {**super().restart_curve(), "method": "located",
                 "base_settings": {**self.base_settings, "derived_bounds": bounds}}
 
-    def summary(self) -> dict[str, Any]:
-        return {"curve": f"{self.curve_kind} points of {self.base.name} (eq. L1 of "
-                         "nsm_continuation.algorithms.curves: each point a located event)",
-                "continued": self.parameter, "free": self.free,
-                "condition": condition_meaning(self.curve_kind),
-                "unknowns": list(self.variables)}
 
 
 # ---------------------------------------------------------------------- the algorithm

@@ -160,8 +160,9 @@ Name = Annotated[str, Field(min_length=1, max_length=100, strict=True)]
 
 class OrbitsSpec(BaseModel):
     """``output.orbits``: figures of the periodic orbits at chosen points
-    (:mod:`nsm_continuation.figures.orbits`, from :meth:`Problem.orbit
-    <nsm_continuation.core.problem.Problem.orbit>`). ``points``: ``first`` / ``last`` (of each
+    (:mod:`nsm_continuation.figures.orbits`, from :meth:`Presentation.orbit
+    <nsm_continuation.core.presentation.Presentation.orbit>`). ``points``: ``first`` / ``last`` (of
+    each
     branch), ``events`` (every located event but the branch ends), an event kind (every event
     of that kind) or a number (the point nearest that value of ``continuation.parameter``);
     ``views``: ``time`` (``orbits_time.png``), ``phase`` (``orbits_phase.png``), ``manifold``

@@ -141,8 +141,8 @@ def preflight(problem: Problem, case: Case, start: Any,
 def diagram_quantities(problem: Problem) -> list[str]:
     """The names ``output.axes`` may give: the problem's unknowns, its declared derived
     quantities (``monitor_names``) and the columns of its diagram and CSV head."""
-    names = [*problem.variables, *problem.monitor_names(), *problem.fep_axes,
-             *problem.csv_head]
+    show = problem.presentation
+    names = [*problem.variables, *problem.monitor_names(), *show.fep_axes, *show.csv_head]
     return list(dict.fromkeys(names))
 
 
@@ -188,12 +188,12 @@ def _check_diagram(case: Case, problem: Problem) -> None:
 def check_orbits(points: list[str | float], problem: Problem, key: str,
                  views: Sequence[str] = ()) -> None:
     """Orbit figures (``output.orbits``, ``Result.plot_orbits``) need a problem that draws its
-    orbits (:meth:`Problem.orbit` overridden), each named point is ``first``, ``last``,
+    orbits (:meth:`Presentation.orbit` overridden), each named point is ``first``, ``last``,
     ``events`` or an event kind of the problem, and each of ``views`` is one the problem
     draws (:func:`check_orbit_view`): else a :class:`CaseError` naming ``key``."""
-    if type(problem).orbit is Problem.orbit:
+    if not problem.presentation.draws_orbits:
         raise CaseError(f"{key}: problem {problem.name!r} does not draw its orbits "
-                        "(Problem.orbit is not implemented)")
+                        "(Presentation.orbit is not implemented)")
     kinds = [k for k in problem.all_event_kinds() if k != "endpoint"]
     for i, entry in enumerate(points):
         if isinstance(entry, str) and entry not in ORBIT_POINT_WORDS and entry not in kinds:
@@ -206,9 +206,9 @@ def check_orbits(points: list[str | float], problem: Problem, key: str,
 
 def check_orbit_view(view: str, problem: Problem, key: str) -> None:
     """``view`` is one of :data:`ORBIT_VIEWS` that ``problem``'s orbits have
-    (:meth:`Problem.orbit_view_names`): else a :class:`CaseError` naming ``key`` and the views
+    (:meth:`Presentation.orbit_view_names`): else a :class:`CaseError` naming ``key`` and the views
     it draws."""
-    drawn = problem.orbit_view_names()
+    drawn = problem.presentation.orbit_view_names()
     if view not in ORBIT_VIEWS:
         raise CaseError(f"{key}: {view!r} is not one of {', '.join(ORBIT_VIEWS)}")
     if view not in drawn:

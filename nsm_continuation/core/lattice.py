@@ -147,10 +147,12 @@ class LatticeProblem(Problem):
 
     def asymptote(self, points: list[Point]) -> dict[str, float] | None:
         """Estimate of where the energy grows without bound, from the last points. Default:
-        :func:`~nsm_continuation.core.roots.pole_estimate` of ``energy_quantity`` (else of the
-        diagram's vertical axis ``fep_axes[1]``) against the parameter (the pseudo-arclength
+        :func:`~nsm_continuation.core.roots.pole_estimate` of ``energy_quantity`` (none without
+        one) against the parameter (the pseudo-arclength
         engine's asymptote test); a problem with a known law overrides it."""
-        key = self.energy_quantity or self.fep_axes[1]
+        key = self.energy_quantity
+        if key is None:
+            return None
         last = points[-6:]
         try:
             par = np.array([p.y[self.parameter_index] for p in last], dtype=float)

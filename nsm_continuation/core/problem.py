@@ -23,7 +23,7 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
 
    - *unknowns & parameter*: ``variables``, ``parameter``, ``algorithms`` (the continuation
      algorithms that can continue the problem, :mod:`nsm_continuation.algorithms.base`),
-     ``energy_quantity`` / ``energy_cap``; charts: :meth:`rechart` (the same orbit in
+     ``energy_quantity``; charts: :meth:`rechart` (the same orbit in
      other unknowns, where the present ones degenerate: a forced hybrid system's section
      moved off an impact) and :meth:`in_chart` (the problem a point's ``chart`` belongs to);
    - *residual & Jacobian*: :meth:`residual` or :meth:`evaluate` / :meth:`jacobian`; with
@@ -45,16 +45,11 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      see :mod:`nsm_continuation.core.floquet`), computed unless ``analysis.stability: false``;
      ``conservative`` (Krein signatures); :meth:`multipliers_near` (a few multipliers without
      the rest: Krein collisions are then located on the colliding pair alone);
-   - *presentation*: the diagram's axes, labels, title and scale (``fep_axes``, ``fep_labels``,
-     ``diagram_title``, ``diagram_yscale``), CSV and report columns (``csv_head``,
-     ``event_columns``), figures and report extras, all pure functions of the results
-     (:meth:`plot_decorations`, :meth:`legend_handles`, :meth:`extra_plots`,
-     :meth:`report_extras`, :meth:`summary`, :meth:`warnings`), and the periodic orbit at a
-     point sampled in time (:meth:`orbit`, an :class:`~nsm_continuation.core.records.OrbitTrace`
-     with the family's default views, declared by :meth:`orbit_view_names` so that a view
-     the problem does not draw is refused before computing; default None: no orbit
-     figures), which the generic orbit figures of ``output.orbits`` draw
-     (:mod:`nsm_continuation.figures.orbits`);
+   - *presentation*: ``presentation_class``, a
+     :class:`~nsm_continuation.core.presentation.Presentation` subclass: the diagram's axes,
+     labels, title and scale, CSV and report columns, figures, report extras and the periodic
+     orbit at a point sampled in time, all pure functions of the results and of what the
+     problem was built from (the contract's second part, apart from the numerics);
    - *sweeps* (an optional capability, :class:`~nsm_continuation.algorithms.sweep.Sweep`, YAML
      ``continuation.algorithm: sweep``): a problem that lists ``"sweep"`` in ``algorithms``
      implements :meth:`sweep_seeds` (the sweeps of its ``start:`` block, :class:`SweepSeed`)
@@ -88,7 +83,8 @@ from pydantic import BaseModel, TypeAdapter
 
 from nsm_continuation.core.bordered import BorderedFactor, DenseBorderedFactor
 from nsm_continuation.core.casadi_buffers import BufferedFunction
-from nsm_continuation.core.records import CORE_EVENT_KINDS, OrbitTrace, Point, register_event_kinds
+from nsm_continuation.core.presentation import Presentation
+from nsm_continuation.core.records import CORE_EVENT_KINDS, Point, register_event_kinds
 
 
 class EvaluationError(RuntimeError):
@@ -237,8 +233,6 @@ class Problem(ABC):
     #: the derived quantity that ``continuation.max_energy`` bounds (None: the problem has no
     #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
     energy_quantity: ClassVar[str | None] = None
-    #: the run's ``continuation.max_energy`` (a bound on ``energy_quantity``), set by the runner
-    #: before the starts are built: a problem may skip starts above it (None: no bound)
 
     def __init__(self, params: BaseModel) -> None:
         self.params = params
@@ -539,8 +533,13 @@ class Problem(ABC):
 _locate_collision`)."""
         return None
 
-    # == presentation (pure functions of the results) =========================================
-    #: the figures (branch diagram, multipliers, :meth:`extra_plots`, orbits) depend only on
+    # == presentation ==========================================================================
+    #: how the results are shown: axes, labels, CSV and report columns, figures, orbits
+    #: (:class:`~nsm_continuation.core.presentation.Presentation`, built for each problem
+    #: instance by :attr:`presentation`)
+    presentation_class: ClassVar[type[Presentation]] = Presentation
+    #: the figures (branch diagram, multipliers, the presentation's own figures, orbits) depend
+    #: only on
     #: the run's results and on what the problem was built from, not on state the computation
     #: leaves in the problem: the command line may then draw them in a process forked before
     #: the computation, with its own copy of the problem
@@ -548,83 +547,11 @@ _locate_collision`)."""
     #: that keeps run data for its figures is drawn from the problem the run used. The
     #: bundled problems declare True (``tests/test_figure_process.py`` compares their figures).
     figures_from_inputs: ClassVar[bool] = False
-    #: title of the branch diagram (``fep.png``), followed by ``: <case name>``
-    diagram_title: ClassVar[str] = "Branch diagram"
-    #: scale of the branch diagram's vertical axis: "linear" or "log" (log drops values <= 0)
-    diagram_yscale: ClassVar[str] = "linear"
 
     @property
-    def fep_axes(self) -> tuple[str, str]:
-        """Quantities (derived quantities or unknowns) on the branch diagram's axes and, for
-        the first, on the multiplier plots' horizontal axis. Default: the parameter and the
-        first other unknown."""
-        others = [v for v in self.variables if v != self.parameter]
-        return (self.parameter, others[0] if others else self.parameter)
-
-    @property
-    def fep_labels(self) -> tuple[str, str]:
-        """Axis labels of the two ``fep_axes`` quantities (default: their names)."""
-        return self.fep_axes
-
-    @property
-    def csv_head(self) -> list[str]:
-        """First columns of ``branch_<id>.csv`` (derived quantities or unknowns); the other
-        derived quantities, tests, unknowns and multipliers follow. Default: the parameter
-        and the diagram axes."""
-        return list(dict.fromkeys([self.parameter, *self.fep_axes]))
-
-    @property
-    def event_columns(self) -> list[str]:
-        """Quantities shown for each event in the table of ``report.md`` (default:
-        ``csv_head``)."""
-        return list(self.csv_head)
-
-    def legend_handles(self) -> list[Any]:
-        """Extra legend entries (matplotlib artists) for what :meth:`plot_decorations`
-        draws."""
-        return []
-
-    def plot_decorations(self, ax: Any, x_range: tuple[float, float],
-                         branches: list[Any]) -> None:
-        """Draw problem-specific references on the branch diagram (e.g. linear frequencies);
-        ``branches`` are the run's :class:`~nsm_continuation.core.records.Branch` records. A pure
-        function of its arguments (no state shared with other hooks)."""
-        return None
-
-    def extra_plots(self, out_dir: Any, branches: list[Any],
-                    window: tuple[float | None, float | None]) -> list[str]:
-        """Write problem-specific figures into ``out_dir``; return their file names."""
-        return []
-
-    def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace | None:
-        """The periodic orbit at the unknowns ``y``, sampled densely over ``periods`` periods
-        from ``t = 0`` (the state ``y`` describes): named signals with their axis labels,
-        marked instants (impacts), intervals (sticking) and the family's default views
-        (``time``, ``phase``, optionally ``manifold``), drawn by the orbit figures of
-        ``output.orbits`` (:mod:`nsm_continuation.figures.orbits`) and ``Result.orbit``. May raise
-        :class:`EvaluationError` where the orbit cannot be computed (the figure skips that
-        point). Default None: the problem has no orbit figures (``output.orbits`` is refused
-        before computing). Its ``views`` are those :meth:`orbit_view_names` declares."""
-        return None
-
-    def orbit_view_names(self) -> tuple[str, ...]:
-        """The views (``time``, ``phase``, ``manifold``) that the traces of :meth:`orbit` have:
-        what ``output.orbits.views`` and ``Result.plot_orbits(view=...)`` may ask of this
-        problem, checked before computing. Default none (no orbit figures)."""
-        return ()
-
-    def summary(self) -> dict[str, Any]:
-        """Problem facts for the report (linear frequencies, coefficients, ...)."""
-        return {}
-
-    def warnings(self) -> list[str]:
-        """Warnings about the instance (e.g. a violated assumption) to put in the report."""
-        return []
-
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        """Problem-specific results added to ``report.json`` under ``problem_results``: a pure
-        function of the branches (no state shared with other hooks)."""
-        return {}
+    def presentation(self) -> Presentation:
+        """This problem's :attr:`presentation_class`, reading this instance."""
+        return self.presentation_class(self)
 
     # == restart & branch switching (:mod:`nsm_continuation.cases.restart`) ===============
     def period_multiple(self) -> int:

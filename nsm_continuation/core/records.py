@@ -4,7 +4,7 @@ there), :class:`Event` (a located change along a branch) and :class:`Branch`. Ev
 outputs
 (:mod:`nsm_continuation.output.files`, :mod:`nsm_continuation.figures.branches`) read only them.
 :class:`OrbitTrace` is the periodic orbit at one point, sampled in time
-(:meth:`nsm_continuation.core.problem.Problem.orbit`), drawn by
+(:meth:`nsm_continuation.core.presentation.Presentation.orbit`), drawn by
 :mod:`nsm_continuation.figures.orbits`."""
 
 from __future__ import annotations
@@ -140,7 +140,7 @@ class Branch:
 @dataclass(frozen=True)
 class OrbitTrace:
     """The periodic orbit at one point of a branch, sampled densely in time
-    (:meth:`nsm_continuation.core.problem.Problem.orbit`; drawn by
+    (:meth:`nsm_continuation.core.presentation.Presentation.orbit`; drawn by
     :mod:`nsm_continuation.figures.orbits`).
 
     ``t`` runs from 0 (the state the problem's unknowns describe: the post-impact state of the

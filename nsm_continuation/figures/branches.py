@@ -2,8 +2,8 @@
 impacting systems the frequency-response curve, for autonomous ones a bifurcation diagram in
 the continued parameter. Axes, labels, title and scale come from the problem's declared
 presentation members (``fep_axes``, ``fep_labels``, ``diagram_title``, ``diagram_yscale``,
-:meth:`~nsm_continuation.core.problem.Problem.plot_decorations`,
-:meth:`~nsm_continuation.core.problem.Problem.legend_handles`); styles from
+:meth:`~nsm_continuation.core.presentation.Presentation.plot_decorations`,
+:meth:`~nsm_continuation.core.presentation.Presentation.legend_handles`); styles from
 :mod:`nsm_continuation.figures.kit` (as in Legrand et al. 2017, Fig. 3.2)."""
 
 from __future__ import annotations
@@ -40,8 +40,9 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     frequency-energy plot of Fig. 3.2), admissible/stable/phantom styled as in the papers,
     located events marked; drawn on ``ax`` (a new figure if None). Returns the figure."""
     pr = res.problem
-    xk, yk = pr.fep_axes
-    log = pr.diagram_yscale == "log"
+    show = pr.presentation
+    xk, yk = show.fep_axes
+    log = show.diagram_yscale == "log"
     if ax is None:
         fig, ax = plt.subplots(figsize=DIAGRAM_SIZE)
     else:
@@ -81,12 +82,12 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     if xs and log:
         ax.set_yscale("log")
     ylim = ax.get_ylim()
-    pr.plot_decorations(ax, x_range, res.branches)
+    show.plot_decorations(ax, x_range, res.branches)
     ax.set_ylim(ylim)
-    xl, yl = pr.fep_labels
+    xl, yl = show.fep_labels
     ax.set_xlabel(xl)
     ax.set_ylabel(yl)
-    ax.set_title(f"{pr.diagram_title}: {res.case.name}")
+    ax.set_title(f"{show.diagram_title}: {res.case.name}")
     handles = [Line2D([], [], color="k", lw=2.2, label="admissible, stable"),
                Line2D([], [], color="tab:red", lw=2.2, label="admissible, unstable"),
                Line2D([], [], color="k", lw=2.2, ls=(0, (4, 1.5)),
@@ -96,7 +97,7 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     for k, (m, c) in MARKERS.items():
         if any(ev.kind == k for br in res.branches for ev in br.events):
             handles.append(Line2D([], [], marker=m, color=c, ls="", mec="k", label=k))
-    handles += pr.legend_handles()
+    handles += show.legend_handles()
     ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
               framealpha=0.9)
     ax.grid(alpha=0.25, which="both")

@@ -38,7 +38,7 @@ def make_all(res: RunResult, out: Path) -> list[str]:
         return ["multipliers_complex_plane.png"] if ok else []
 
     def problem_figures() -> list[str]:
-        return list(res.problem.extra_plots(out, res.branches, res.window))
+        return list(res.problem.presentation.extra_plots(out, res.branches, res.window))
 
     def tree() -> list[str]:
         if res.case.output.axes is None and not res.tree:

@@ -32,7 +32,7 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
     """The multipliers (modulus, real and imaginary parts) against the diagram's horizontal
     quantity ``fep_axes[0]`` (the file keeps its historical name)."""
     pr = res.problem
-    xk = pr.fep_axes[0]
+    xk = pr.presentation.fep_axes[0]
     data = [(br, [p for p in br.points if p.multipliers is not None]) for br in res.branches]
     if not any(pts for _, pts in data):
         return False
@@ -61,7 +61,7 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
     axes[0].set_ylabel(r"$|\lambda|$")
     axes[1].set_ylabel(r"Re $\lambda$")
     axes[2].set_ylabel(r"Im $\lambda$")
-    axes[2].set_xlabel(pr.fep_labels[0])
+    axes[2].set_xlabel(pr.presentation.fep_labels[0])
     axes[0].set_title("Floquet multipliers (trivial 0 and 1 removed); unstable zones shaded; "
                       r"colour: $|$Re $\lambda|$")
     for ax in axes:
@@ -74,7 +74,7 @@ def multipliers_vs_frequency(res: RunResult, path: Path) -> bool:
 def multipliers_plane(res: RunResult, path: Path) -> bool:
     """The multipliers in the complex plane, coloured by ``fep_axes[0]``."""
     pr = res.problem
-    xk = pr.fep_axes[0]
+    xk = pr.presentation.fep_axes[0]
     pts = [p for br in res.branches for p in br.points if p.multipliers is not None]
     if not pts:
         return False
@@ -84,7 +84,7 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
     z = np.concatenate([p.multipliers for p in pts])
     w = np.concatenate([np.full(p.multipliers.size, quantity(pr, p, xk)) for p in pts])
     sc = scatter(ax, z.real, z.imag, w, s=5, cmap="plasma")
-    fig.colorbar(sc, ax=ax, label=pr.fep_labels[0])
+    fig.colorbar(sc, ax=ax, label=pr.presentation.fep_labels[0])
     r = min(max(1.6, float(np.percentile(np.abs(z), 98)) * 1.1), 4.0)
     ax.set_xlim(-r, r)
     ax.set_ylim(-r, r)

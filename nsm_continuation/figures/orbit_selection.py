@@ -1,7 +1,8 @@
 """Which orbits the orbit figures of a run draw (``output.orbits``,
 :mod:`nsm_continuation.figures.orbits`):
-the points chosen on the branches, their orbits (:meth:`Problem.orbit
-<nsm_continuation.core.problem.Problem.orbit>`), and what the case asks for that the run cannot
+the points chosen on the branches, their orbits (:meth:`Presentation.orbit
+<nsm_continuation.core.presentation.Presentation.orbit>`), and what the case asks for that the run
+cannot
 draw (:func:`spec_warnings`, part of the report). Without matplotlib: the report is written
 by a process that does not draw (:mod:`nsm_continuation.figures.process`)."""
 
@@ -181,7 +182,8 @@ def traces(res: Any, chosen: list[Chosen], periods: int
     out, failed = [], []
     for ch in chosen:
         try:
-            tr = problem_of(res, ch.branch, ch.point).orbit(ch.point.y, periods)
+            tr = problem_of(res, ch.branch, ch.point).presentation.orbit(ch.point.y,
+                                                                          periods)
         except EvaluationError as exc:
             failed.append(f"{ch.branch.label} {ch.tag}: {str(exc).splitlines()[0][:80]}")
             continue

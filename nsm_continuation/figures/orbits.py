@@ -1,5 +1,6 @@
 """Orbit figures of a run (``output.orbits``): the periodic orbits at chosen points of the
-branches, drawn from :meth:`Problem.orbit <nsm_continuation.core.problem.Problem.orbit>` (an
+branches, drawn from :meth:`Presentation.orbit
+<nsm_continuation.core.presentation.Presentation.orbit>` (an
 :class:`~nsm_continuation.core.records.OrbitTrace`) in the views the problem family declares.
 
 * ``orbits_time.png``: each signal of the ``time`` view against the normalised time ``t / T``

@@ -23,7 +23,7 @@ from nsm_continuation.runs.result import RunResult
 def axes_of(res: RunResult) -> tuple[str, str]:
     """``output.axes``, else the problem's diagram axes."""
     axes = res.case.output.axes
-    return (axes[0], axes[1]) if axes is not None else tuple(res.problem.fep_axes)  # type: ignore[return-value]
+    return (axes[0], axes[1]) if axes is not None else tuple(res.problem.presentation.fep_axes)  # type: ignore[return-value]
 
 
 def figure(res: RunResult, path: Path) -> bool:

@@ -25,6 +25,7 @@ from nsm_continuation.core.vocabulary import as_parameters
 from nsm_continuation.hybrid import brute_force
 from nsm_continuation.hybrid.case_period import PeriodContinuation
 from nsm_continuation.hybrid.case_preflight import CasePreflight
+from nsm_continuation.hybrid.presentation import HybridCasePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
 from nsm_continuation.hybrid.return_map import (
     PERIOD,
@@ -48,6 +49,8 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
     :meth:`section` and :meth:`default_initial`. Everything else (residual, Jacobian,
     multipliers, starts, events) is generic.
     """
+
+    presentation_class = HybridCasePresentation
 
     start_adapter: ClassVar[TypeAdapter] = START_ADAPTER
     symbolic = "SX"
@@ -315,13 +318,3 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         if in_period:
             block["free_parameter"] = self.free_parameter
         return block
-
-    def summary(self) -> dict[str, Any]:
-        sec = self.shooting.section
-        out = {"parameters": dict(self.values), "integrator": self.integrator.model_dump(),
-               "section": {"coordinate": self.hybrid.state_names[sec.index],
-                           "value": sec.value, "shift_per_period": sec.shift},
-               "unknowns": list(self.variables)}
-        if self.parameter == PERIOD:
-            out["continued_in_period"] = {"free_parameter": self.free_parameter}
-        return out

@@ -43,6 +43,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from nsm_continuation.algorithms.curves import CodimOneCurve
+from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import EvaluationError
 from nsm_continuation.hybrid.case import HybridCaseProblem
 from nsm_continuation.hybrid.grazing import margin_gradient
@@ -54,6 +55,34 @@ SHIFT = "_grazing_curve_shift"
 DEFAULT_MARGIN = 1e-9
 
 
+class GrazingCurvePresentation(Presentation):
+    """A grazing curve: the continued parameter against the free one, with the period and the
+    grazing margin."""
+
+    diagram_title: ClassVar[str] = "Grazing curve"
+
+    @property
+    def fep_axes(self) -> tuple[str, str]:
+        return (self.problem.parameter, self.problem.free)
+
+    @property
+    def fep_labels(self) -> tuple[str, str]:
+        return (self.problem.parameter, f"{self.problem.free} at the grazing")
+
+    @property
+    def csv_head(self) -> list[str]:
+        return [self.problem.parameter, self.problem.free, "period", "grazing_margin"]
+
+    def summary(self) -> dict[str, Any]:
+        pr = self.problem
+        return {"curve": f"grazing orbits of {pr.base.name} (eq. C1 of "
+                         "nsm_continuation.hybrid.codim1)",
+                "continued": pr.parameter, "free": pr.free,
+                "margin": f"{pr.margin:g} (1 + |y|): the orbits miss the surface by this",
+                "returns": pr.returns, "parameters": dict(pr.base.values),
+                "unknowns": list(pr.variables)}
+
+
 class GrazingCurve(CodimOneCurve):
     """Grazing orbits of ``base`` with ``free`` solved for and ``parameter`` continued (C1)."""
 
@@ -62,7 +91,7 @@ class GrazingCurve(CodimOneCurve):
     curve_kind: ClassVar[str] = "grazing"
     #: the base problem's parameters are the curve's (its model is the base's)
     Parameters: ClassVar[type[BaseModel]] = BaseModel
-    diagram_title: ClassVar[str] = "Grazing curve"
+    presentation_class = GrazingCurvePresentation
 
     def __init__(self, base: HybridCaseProblem, free: str, parameter: str,
                  margin: float = DEFAULT_MARGIN) -> None:
@@ -209,26 +238,6 @@ class GrazingCurve(CodimOneCurve):
 
     def monitor_names(self) -> list[str]:
         return [self.free, self.parameter, "period", "grazing_margin", "n_impacts"]
-
-    @property
-    def fep_axes(self) -> tuple[str, str]:
-        return (self.parameter, self.free)
-
-    @property
-    def fep_labels(self) -> tuple[str, str]:
-        return (self.parameter, f"{self.free} at the grazing")
-
-    @property
-    def csv_head(self) -> list[str]:
-        return [self.parameter, self.free, "period", "grazing_margin"]
-
-    def summary(self) -> dict[str, Any]:
-        return {"curve": f"grazing orbits of {self.base.name} (eq. C1 of "
-                         "nsm_continuation.hybrid.codim1)",
-                "continued": self.parameter, "free": self.free,
-                "margin": f"{self.margin:g} (1 + |y|): the orbits miss the surface by this",
-                "returns": self.returns, "parameters": dict(self.base.values),
-                "unknowns": list(self.variables)}
 
     def restart_curve(self) -> dict[str, Any]:
         """What a restart record keeps to build this curve again."""

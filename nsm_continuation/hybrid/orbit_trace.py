@@ -1,4 +1,4 @@
-"""Periodic orbits of hybrid shooting problems sampled in time (``Problem.orbit``).
+"""Periodic orbits of hybrid shooting problems sampled in time (``Presentation.orbit``).
 
 From the state on the Poincaré section that the unknowns ``y`` describe, the orbit is simulated
 again (:class:`~nsm_continuation.hybrid.simulate.Simulator`, the problem's tolerances, no

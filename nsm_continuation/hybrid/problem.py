@@ -27,10 +27,10 @@ from nsm_continuation.core.problem import (
     Problem,
     Rechart,
 )
-from nsm_continuation.core.records import OrbitTrace
 from nsm_continuation.hybrid.grazing import locate_grazing, step_beyond, tangent_beyond
-from nsm_continuation.hybrid.orbit_trace import OrbitDeclarations, orbit_trace, views_of
+from nsm_continuation.hybrid.orbit_trace import OrbitDeclarations
 from nsm_continuation.hybrid.presentation import HybridPresentation
+from nsm_continuation.hybrid.response import ResponseQuantities
 from nsm_continuation.hybrid.return_map import (
     AMBIGUOUS_NOISE,
     HybridShooting,
@@ -41,7 +41,7 @@ from nsm_continuation.hybrid.simulate import SimResult, SimulationError
 from nsm_continuation.hybrid.system import HybridDeclarationError
 
 
-class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
+class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
     """Base class of shooting problems on a hybrid system (the concrete problem builds
     ``self.shooting`` in ``__init__`` and sets ``variables`` / ``parameter``).
 
@@ -50,6 +50,8 @@ class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
     transition to incomplete chattering, reported as ``sticking_lost``), and the event signature
     (a change is ``impact_sequence_change``).
     """
+
+    presentation_class = HybridPresentation
 
     shooting: HybridShooting
     event_kinds: ClassVar[dict[str, str]] = {
@@ -253,17 +255,6 @@ class HybridShootingProblem(HybridPresentation, OrbitDeclarations, Problem):
             return None
         return FloquetData(multipliers=mult, trivial_error=triv,
                            matrix_norm=float(np.linalg.norm(P, 2)), noise=float(noise))
-
-    def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace:
-        """The orbit at ``y`` simulated again with its trajectory recorded over ``periods``
-        periods, impacts marked and sticking phases as intervals
-        (:func:`~nsm_continuation.hybrid.orbit_trace.orbit_trace`)."""
-        return orbit_trace(self, y, periods)
-
-    def orbit_view_names(self) -> tuple[str, ...]:
-        """The family's declared ``orbit_views`` (:class:`~.orbit_trace.OrbitDeclarations`),
-        else the default time and phase views (:func:`~.orbit_trace.views_of`)."""
-        return tuple(views_of(self))
 
     def sim(self, y: np.ndarray) -> SimResult | None:
         try:

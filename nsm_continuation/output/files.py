@@ -136,7 +136,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
     """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
     the ``start:`` lines of ``continue_from_here`` (default: ``runs/<case name>``)."""
     pr = res.problem
-    columns = list(pr.event_columns)
+    columns = list(pr.presentation.event_columns)
     branches = []
     for br in res.branches:
         bpr = res.branch_problems.get(br.id, pr)
@@ -167,7 +167,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
             "events": events,
         })
     s = res.settings
-    warnings = list(pr.warnings())
+    warnings = list(pr.presentation.warnings())
     if res.case.output.orbits is not None:
         from nsm_continuation.figures.orbit_selection import spec_warnings
 
@@ -181,7 +181,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
         "case": {"name": res.case.name, "description": res.case.description,
                  "input": res.case.model_dump(mode="json")},
         "problem": pr.name,
-        "problem_summary": pr.summary(),
+        "problem_summary": pr.presentation.summary(),
         "parameters": res.case.parameters,
         "warnings": warnings,
         "continuation": {"parameter": pr.parameter, "window": [_f(w) for w in res.window],
@@ -193,7 +193,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
         "event_columns": columns,
         "event_kinds": pr.all_event_kinds(),
         "branches": branches,
-        "problem_results": pr.report_extras(res.branches),
+        "problem_results": pr.presentation.report_extras(res.branches),
         # versioned, machine-readable: what a later case needs to start from any event or
         # CSV row of this run (start: {from: <this folder>, ...}; nsm_continuation.cases.restart)
         "restart": restart_block(res),
@@ -243,7 +243,8 @@ def write_files(res: RunResult, directory: Path, draw: Draw | None = None,
     drawing = draw is not None and drawer is not None and drawer.send(res, directory)
     rep = build_report(res, run_folder(directory))
     for br in res.branches:
-        cols, rows = branch_rows(br, res.problem.variables, res.problem.csv_head)
+        cols, rows = branch_rows(br, res.problem.variables,
+                                  res.problem.presentation.csv_head)
         with open(directory / f"branch_{br.id}.csv", "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(cols)

@@ -61,6 +61,7 @@ class BarContinuumParameters(CanonicalNames):
     """YAML ``parameters`` of ``problem: bar_continuum`` (cross-section S = 1, as the lattice);
     ``gap`` is the paper's ``g0``."""
 
+
     model_config = STRICT
     E: PosFloat = 1.0
     rho: PosFloat = 1.0
@@ -130,9 +131,13 @@ START_ADAPTER = one_or_many(StartSpec)
 
 
 # -- the problem -----------------------------------------------------------------------------------
-class BarContinuumProblem(BarContinuumPresentation, Problem):
+class BarContinuumProblem(Problem):
     """Continuum nonsmooth modes of the bar: straight branches ``t_f = a T + b``
     (:mod:`problems.bar.continuum_orbits`)."""
+
+    presentation_class = BarContinuumPresentation
+    #: the figures depend on the results and the parameters only
+    figures_from_inputs: ClassVar[bool] = True
 
     name: ClassVar[str] = "bar_continuum"
     energy_quantity: ClassVar[str | None] = "energy_ratio"

@@ -84,6 +84,7 @@ class ForcedBarParameters(CanonicalNames):
     paper's ``N``, ``gap`` its ``g0``, ``wall_amplitude`` its ``w0``, ``force_amplitude`` its
     ``f0``."""
 
+
     model_config = STRICT
     E: PosFloat = 1.0
     rho: PosFloat = 1.0
@@ -140,8 +141,12 @@ def response_kind(multiple: int) -> str:
     return f"period {multiple} T" if multiple > 1 else "not steady"
 
 
-class WfemForcedBarProblem(ForcedBarPresentation, SweepProblem):
+class WfemForcedBarProblem(SweepProblem):
     """Steady forced response of the WFEM bar over a frequency grid (module docstring)."""
+
+    presentation_class = ForcedBarPresentation
+    #: the figures depend on the results and the parameters only
+    figures_from_inputs: ClassVar[bool] = True
 
     name: ClassVar[str] = "wfem_forced_bar"
     Parameters: ClassVar[type[BaseModel]] = ForcedBarParameters

@@ -1,8 +1,8 @@
 """Presentation of the bar's three problems, one class per problem (Yoong, Thorin, Legrand
 2017): what the diagrams, CSV files, reports and extra figures show, all pure functions of the
-results and the parameters. Each class is a mixin placed before the Problem class in its
-problem's bases (it overrides the presentation defaults of
-:class:`~nsm_continuation.core.problem.Problem`) and reads the problem only through ``self``:
+results and the parameters. Each class is its problem's ``presentation_class`` (a
+:class:`~nsm_continuation.core.presentation.Presentation`) and reads the problem through
+``self.problem``:
 
 * :class:`WfemBarPresentation` (``wfem_bar``) and :class:`BarContinuumPresentation`
   (``bar_continuum``): the frequency-energy plot of the paper's figures, in ``omega / omega_1``
@@ -26,16 +26,16 @@ from nsm_continuation.problems.bar.continuum_orbits import (
     subharmonic_asymptote,
 )
 
+from nsm_continuation.core.presentation import Presentation
 
-class WfemBarPresentation:
+
+class WfemBarPresentation(Presentation):
     """Presentation of ``wfem_bar`` (:class:`problems.bar.wfem_bar.WfemBarProblem`): the
     frequency-energy plot, the lattice asymptotes against the paper's formulas, the filter's
-    counters and the orbit figures of :mod:`problems.bar.plots`. Reads ``self.model`` (the
+    counters and the orbit figures of :mod:`problems.bar.plots`. Reads the problem's ``model`` (the
     :class:`~problems.bar.wfem_lattice.BarModel`), the seed notes and the node counters
     (``_seed_notes``, ``filter_counts``, ``node_evaluations``)."""
 
-    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
-    figures_from_inputs: ClassVar[bool] = True
     fep_axes = ("omega_ratio", "energy_ratio")
     fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
     diagram_title: ClassVar[str] = "Frequency-energy plot"
@@ -44,12 +44,12 @@ class WfemBarPresentation:
     event_columns = ["omega", "T", "energy"]
 
     def summary(self) -> dict[str, Any]:
-        md = self.model
+        md = self.problem.model
         return {"c": md.c, "dt": md.dt, "omega_1": md.omega1, "E_ref": md.energy_ref,
                 "cells": md.N, "gap": md.g0}
 
     def warnings(self) -> list[str]:
-        return list(self._seed_notes)
+        return list(self.problem._seed_notes)
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
         formulas = {f"main mode {k} (sec. 6.1)": main_asymptote(k) for k in range(1, 6)}
@@ -63,8 +63,8 @@ class WfemBarPresentation:
                     name, val = min(formulas.items(), key=lambda kv: abs(kv[1] - r))
                     asym.append({"branch": br.id, "label": br.label, "lattice": r,
                                  "nearest_formula": name, "formula": val, "difference": r - val})
-        return {"asymptotes_vs_paper": asym, "filter_removed": dict(self.filter_counts),
-                "lattice_nodes_evaluated": self.node_evaluations,
+        return {"asymptotes_vs_paper": asym, "filter_removed": dict(self.problem.filter_counts),
+                "lattice_nodes_evaluated": self.problem.node_evaluations,
                 "main_asymptotes_omega_ratio": [main_asymptote(k) for k in (1, 2, 3)]}
 
     def plot_decorations(self, ax: Any, x_range: tuple[float, float],
@@ -82,7 +82,7 @@ class WfemBarPresentation:
         """Space-time fields (Fig. 8a, 10a, 13, 17), contact-end series, manifold (Fig. 9)."""
         from nsm_continuation.problems.bar import plots
 
-        return plots.extra_plots(out_dir, branches, self)
+        return plots.extra_plots(out_dir, branches, self.problem)
 
     def legend_handles(self) -> list[Any]:
         from matplotlib.lines import Line2D
@@ -91,14 +91,12 @@ class WfemBarPresentation:
                 Line2D([], [], ls="--", color="0.5", label=r"$g_0=0$ asymptote (sec. 6.1)")]
 
 
-class BarContinuumPresentation:
+class BarContinuumPresentation(Presentation):
     """Presentation of ``bar_continuum`` (:class:`problems.bar.continuum.BarContinuumProblem`):
     the frequency-energy plot and, per branch, its signature, asymptote and end energies.
     Reads the problem's scales (``c``, ``omega1``, ``energy_ref``, ``energy_0``, ``g0``,
     ``L``)."""
 
-    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
-    figures_from_inputs: ClassVar[bool] = True
     fep_axes = ("omega_ratio", "energy_ratio")
     fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
     diagram_title: ClassVar[str] = "Frequency-energy plot"
@@ -107,8 +105,9 @@ class BarContinuumPresentation:
     event_columns = ["omega", "T", "energy"]
 
     def summary(self) -> dict[str, Any]:
-        return {"c": self.c, "omega_1": self.omega1, "E_ref": self.energy_ref,
-                "E_0": self.energy_0, "gap": self.g0, "time_unit_L_over_c": self.L / self.c}
+        pr = self.problem
+        return {"c": pr.c, "omega_1": pr.omega1, "E_ref": pr.energy_ref, "E_0": pr.energy_0,
+                "gap": pr.g0, "time_unit_L_over_c": pr.L / pr.c}
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
         """Per branch: signature, asymptote, admissible interval and the end energies."""
@@ -152,13 +151,13 @@ class BarContinuumPresentation:
                 Line2D([], [], ls="--", color="0.5", label=r"asymptote ($g_0 = 0$ branch)")]
 
 
-class ForcedBarPresentation:
+class ForcedBarPresentation(Presentation):
     """Presentation of ``wfem_forced_bar``
     (:class:`problems.bar.forced_response.WfemForcedBarProblem`): the frequency response of
     section 7 against the linear references (:meth:`linear_reference` of the problem) and the
-    main NSM backbones (:func:`problems.bar.continuum_orbits.main_backbone`). Reads
-    ``self.params``, ``self.bar`` (the :class:`~problems.bar.wfem_stepping.BarParams`), and
-    the problem's ``eta`` and ``linear_reference``."""
+    main NSM backbones (:func:`problems.bar.continuum_orbits.main_backbone`). Reads the
+    problem's ``params``, ``bar`` (the :class:`~problems.bar.wfem_stepping.BarParams`), ``eta``
+    and ``linear_reference``."""
 
     diagram_title: ClassVar[str] = "Frequency response (steady state, section 7)"
     diagram_yscale: ClassVar[str] = "log"
@@ -168,15 +167,15 @@ class ForcedBarPresentation:
     event_columns = ["omega_ratio", "energy_ratio", "amplitude", "multiple", "damping_ratio"]
 
     def reference_label(self) -> str:
-        if self.params.force_amplitude != 0.0:
+        if self.problem.params.force_amplitude != 0.0:
             return "linear, no contact (closed form)"
-        if self.bar.g0 < 0.0:
+        if self.problem.bar.g0 < 0.0:
             return "linear, permanent contact (closed form)"
         return "none (without contact the bar stays at rest)"
 
     @property
     def fep_labels(self) -> tuple[str, str]:  # type: ignore[override]
-        y = (r"period-averaged energy $\bar E/E_{ref}$ (eq. 14)" if self.bar.g0 != 0
+        y = (r"period-averaged energy $\bar E/E_{ref}$ (eq. 14)" if self.problem.bar.g0 != 0
              else r"period-averaged energy $\bar E$ (g0 = 0: absolute)")
         return (r"forcing frequency $\omega/\omega_1$", y)
 
@@ -185,7 +184,8 @@ class ForcedBarPresentation:
         """The linear reference on a fine grid of ``omega / omega_1``: ``(x, E/E_ref,
         amplitude)`` (NaN where there is none)."""
         x = np.linspace(x_range[0], x_range[1], n)
-        ref = np.array([self.linear_reference(xi * self.bar.omega1, eta) for xi in x])
+        pr = self.problem
+        ref = np.array([pr.linear_reference(xi * pr.bar.omega1, eta) for xi in x])
         return x, ref[:, 0], ref[:, 1]
 
     def backbones(self, x_range: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray,
@@ -193,7 +193,7 @@ class ForcedBarPresentation:
         """The main NSM backbones (modes 1, 2) inside ``x_range`` (:func:`main_backbone`)."""
         out = []
         for k in (1, 2):
-            x, y = main_backbone(k, np.sign(self.bar.g0))
+            x, y = main_backbone(k, np.sign(self.problem.bar.g0))
             keep = (x >= x_range[0]) & (x <= x_range[1])
             if keep.any():
                 out.append((x[keep], y[keep], f"NSM backbone, mode {k}"))
@@ -208,8 +208,8 @@ class ForcedBarPresentation:
             draw_linear_resonances,
         )
 
-        for zeta in self.params.damping_ratios:
-            x, e, _ = self.reference_curve(self.eta(zeta), x_range)
+        for zeta in self.problem.params.damping_ratios:
+            x, e, _ = self.reference_curve(self.problem.eta(zeta), x_range)
             ax.plot(x, e, "--", color="0.45", lw=0.9, zorder=1)
         draw_backbones(ax, self.backbones(x_range), color="tab:blue")
         draw_linear_resonances(ax, x_range)
@@ -218,9 +218,9 @@ class ForcedBarPresentation:
         """What :meth:`plot_decorations` draws (the reference only where there is one)."""
         from matplotlib.lines import Line2D
 
-        p = self.params
+        p = self.problem.params
         ref = ([Line2D([], [], ls="--", color="0.45", label=self.reference_label())]
-               if p.force_amplitude != 0.0 or self.bar.g0 < 0.0 else [])
+               if p.force_amplitude != 0.0 or self.problem.bar.g0 < 0.0 else [])
         return ref + [Line2D([], [], color="tab:blue", lw=1.0, label="NSM backbones (modes 1, 2)"),
                       Line2D([], [], ls=":", color="tab:blue", lw=0.8,
                              label=r"$\omega_k$ (fixed-free)"),
@@ -244,8 +244,8 @@ class ForcedBarPresentation:
         xs = np.concatenate([c.x for c in curves])
         x_range = (float(xs.min()), float(xs.max()))
         refs = []
-        for zeta in self.params.damping_ratios:
-            x, e, a = self.reference_curve(self.eta(zeta), x_range)
+        for zeta in self.problem.params.damping_ratios:
+            x, e, a = self.reference_curve(self.problem.eta(zeta), x_range)
             refs.append((x, e, a, rf"$\zeta_1$ = {zeta:g}"))
         fig = frequency_response_figure(curves, refs, self.backbones(x_range),
                                         self.fep_labels[1], self.reference_label(),
@@ -257,22 +257,22 @@ class ForcedBarPresentation:
         return ["frequency_response.png"]
 
     def figure_title(self) -> str:
-        p = self.params
+        p = self.problem.params
         what = ("moving wall" if p.force_amplitude == 0 else "distributed force"
                 if p.wall_amplitude == 0 else "moving wall and distributed force")
         return (f"Forced response, {what} (w0 = {p.wall_amplitude:g}, f0 = "
                 f"{p.force_amplitude:g}), g0 = {p.gap:g}, N = {p.cells}")
 
     def summary(self) -> dict[str, Any]:
-        bar, p = self.bar, self.params
+        bar, p = self.problem.bar, self.problem.params
         return {"omega_1": bar.omega1, "dt": bar.time_step, "E_ref": bar.energy_ref,
                 "cells": bar.N, "gap": bar.g0, "wall_amplitude": p.wall_amplitude,
                 "force_amplitude": p.force_amplitude, "damping_ratios": p.damping_ratios,
-                "eta": [self.eta(z) for z in p.damping_ratios],
+                "eta": [self.problem.eta(z) for z in p.damping_ratios],
                 "linear_reference": self.reference_label(), "switching": p.switching}
 
     def warnings(self) -> list[str]:
-        p = self.params
+        p = self.problem.params
         if p.force_amplitude == 0.0 and 0.0 <= p.wall_amplitude <= p.gap:
             return [f"wall_amplitude = {p.wall_amplitude:g} <= gap = {p.gap:g}: the wall never "
                     "reaches the bar at rest (section 7 takes w0 > g0)"]

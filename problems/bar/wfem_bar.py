@@ -61,6 +61,7 @@ class WfemBarParameters(CanonicalNames):
     """YAML ``parameters`` of ``problem: wfem_bar``: ``cells`` is the paper's ``N``, ``gap`` its
     ``g0`` (contact at ``u(L) = gap``)."""
 
+
     model_config = STRICT
     E: PosFloat = 1.0
     rho: PosFloat = 1.0
@@ -82,12 +83,15 @@ class WfemBarParameters(CanonicalNames):
         return check_gap(v)
 
 
-class WfemBarProblem(WfemBarPresentation, WfemBarPreflight, WfemBarSeeds, WfemLatticeNodes,
-                     LatticeProblem):
+class WfemBarProblem(WfemBarPreflight, WfemBarSeeds, WfemLatticeNodes, LatticeProblem):
     """Nonsmooth modes of the WFEM bar on the (m, p) lattice (module docstring): the starts and
     their seeds (:mod:`.wfem_starts`), the preflight (:mod:`.wfem_preflight`), the node store
     and the scan (:mod:`.wfem_nodes`) and the presentation (:mod:`.presentation`) are mixins;
     this class holds the model, the window and the predictor / corrector."""
+
+    presentation_class = WfemBarPresentation
+    #: the figures depend on the results and the parameters only
+    figures_from_inputs: ClassVar[bool] = True
 
     name = "wfem_bar"
     Parameters = WfemBarParameters

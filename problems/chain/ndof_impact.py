@@ -87,9 +87,13 @@ from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.vocabulary import as_parameters
 
 
-class NDofImpactProblem(ChainPresentation, ChainStability, ChainAdmissibility, ChainClosedForm,
-                        ChainStarts, ChainSizing, Problem):
+class NDofImpactProblem(ChainStability, ChainAdmissibility, ChainClosedForm, ChainStarts,
+                        ChainSizing, Problem):
     """T-parametrised fixed points of the first return map R(T) (Legrand et al. 2017)."""
+
+    presentation_class = ChainPresentation
+    #: the figures depend on the results and the parameters only
+    figures_from_inputs: ClassVar[bool] = True
 
     name: ClassVar[str] = "ndof_impact"
     #: a case continues the frequency unless it says otherwise (its unknown is T)

@@ -2,9 +2,9 @@
 references, the ``w_N`` figure (Fig. 3.1), the orbits (Figs. 5.2-5.10, 7.2, 7.4), the CSV
 columns, the report's facts, warnings and extras (Legrand, Junca, Heng 2017).
 
-:class:`ChainPresentation` holds the presentation members of the Problem contract
-(:mod:`nsm_continuation.core.problem`); pure functions of the results and of what the problem
-was built from, it reads the problem only through ``self``.
+:class:`ChainPresentation` is the chain's
+:class:`~nsm_continuation.core.presentation.Presentation`: pure functions of the results and of
+what the problem was built from, reading the problem through ``self.problem``.
 """
 
 from __future__ import annotations
@@ -14,29 +14,18 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import OrbitTrace
 
 
-class ChainPresentation:
+class ChainPresentation(Presentation):
     """Presentation members of
     :class:`~nsm_continuation.problems.chain.ndof_impact.NDofImpactProblem`. They read from the
-    problem (``self``) the attributes annotated below and the methods ``state``, ``w_N``,
-    ``poles``, ``zeros_of_w_N``, ``grazing_energy``, ``internal_resonances`` and
+    problem its sizes and modal data (``N``, ``c``, ``g``, ``formulation``, ``omega``, ``P``,
+    ``Pinv``, ``M``, ``T_lin``, ``a``) and the methods ``state``, ``w_N``, ``poles``,
+    ``zeros_of_w_N``, ``grazing_energy``, ``internal_resonances`` and
     ``static_grazing_spectrum``."""
 
-    N: int
-    c: int
-    g: float
-    formulation: str
-    omega: np.ndarray
-    P: np.ndarray
-    Pinv: np.ndarray
-    M: np.ndarray
-    T_lin: np.ndarray
-    a: np.ndarray
-
-    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
-    figures_from_inputs: ClassVar[bool] = True
     #: the diagram: the frequency-energy plot of Fig. 3.2
     fep_axes = ("omega", "energy")
     fep_labels = (r"frequency $\omega = 2\pi/T$ [rad/s]",
@@ -64,21 +53,21 @@ class ChainPresentation:
         ``u1..uN``, ``du1..duN``; views: ``u_c`` against ``t / T`` (Figs. 5.2, 5.7), the phase
         portrait ``(u_c, u_c')`` (Fig. 5.10) and the manifold ``(u_{c-1}, u_c, u_c')``
         (Figs. 5.4-5.9, 7.2, 7.4); an impact mark at every ``t = k T``."""
-        u0, du0, T = self.state(y)
-        w = self.omega
-        q, p = self.Pinv @ u0, self.Pinv @ du0
+        u0, du0, T = self.problem.state(y)
+        w = self.problem.omega
+        q, p = self.problem.Pinv @ u0, self.problem.Pinv @ du0
         n = max(self.ORBIT_SAMPLES,
                 int(np.ceil(self.ORBIT_SAMPLES_PER_OSCILLATION * w.max() * T / (2 * np.pi))))
         s = np.linspace(0.0, T, n)
         wt = np.multiply.outer(s, w)
         cw, sw = np.cos(wt), np.sin(wt)
-        U = (cw * q + sw * (p / w)) @ self.P.T
-        dU = (-sw * (w * q) + cw * p) @ self.P.T
+        U = (cw * q + sw * (p / w)) @ self.problem.P.T
+        dU = (-sw * (w * q) + cw * p) @ self.problem.P.T
         k = int(periods)
         t = np.concatenate([s + j * T for j in range(k)])
         signals: dict[str, np.ndarray] = {}
         labels: dict[str, str] = {}
-        for i in range(self.N):
+        for i in range(self.problem.N):
             signals[f"u{i + 1}"] = np.tile(U[:, i], k)
             signals[f"du{i + 1}"] = np.tile(dU[:, i], k)
             labels[f"u{i + 1}"] = rf"displacement $u_{{{i + 1}}}$"
@@ -91,10 +80,11 @@ class ChainPresentation:
         """The views of :meth:`orbit` with their signals: ``u_c`` against ``t / T``, the phase
         portrait ``(u_c, u_c')`` and, for ``N > 1``, the manifold ``(u_{c-1}, u_c, u_c')``
         (the neighbour ``u_2`` for ``c = 1``)."""
-        c = f"{self.c + 1}"
+        c = f"{self.problem.c + 1}"
         views: dict[str, tuple[str, ...]] = {"time": (f"u{c}",), "phase": (f"u{c}", f"du{c}")}
-        if self.N > 1:
-            other = self.c if self.c > 0 else 2  # the neighbour of the impacting dof (1-based)
+        if self.problem.N > 1:
+            # the neighbour of the impacting dof (1-based)
+            other = self.problem.c if self.problem.c > 0 else 2
             views["manifold"] = (f"u{other}", f"u{c}", f"du{c}")
         return views
 
@@ -104,21 +94,22 @@ class ChainPresentation:
 
     # ------------------------------------------------------------------ hooks
     def warnings(self) -> list[str]:
-        w = self.internal_resonances()
-        off = np.delete(self.M[self.c, :], self.c)
+        w = self.problem.internal_resonances()
+        off = np.delete(self.problem.M[self.problem.c, :], self.problem.c)
         if np.any(off != 0.0):
             w.append("M couples the impacting dof to the others (M_ck != 0): the impact law "
                      "u_c'+ = -u_c'- does not conserve energy (Prop. 6.1)")
-        if np.any(np.abs(self.a) < 1e-12):
+        if np.any(np.abs(self.problem.a) < 1e-12):
             w.append("an interaction coefficient a_j vanishes (Assumption 2.1 violated)")
         return w
 
     def summary(self) -> dict[str, Any]:
-        return {"N": self.N, "impacting_dof": self.c + 1, "gap": self.g,
-                "omega_linear": self.omega.tolist(), "T_linear": self.T_lin.tolist(),
-                "interaction_coefficients": self.a.tolist(),
-                "alpha": float(np.sum(self.a / self.omega**2)),
-                "formulation": self.formulation}
+        pr = self.problem
+        return {"N": pr.N, "impacting_dof": pr.c + 1, "gap": pr.g,
+                "omega_linear": pr.omega.tolist(), "T_linear": pr.T_lin.tolist(),
+                "interaction_coefficients": self.problem.a.tolist(),
+                "alpha": float(np.sum(self.problem.a / self.problem.omega**2)),
+                "formulation": self.problem.formulation}
 
     # ------------------------------------------------------------------ report and figure hooks
     def plot_decorations(self, ax: Any, x_range: tuple[float, float],
@@ -133,18 +124,18 @@ class ChainPresentation:
         lo, hi = lo - 0.02 * (hi - lo), hi + 0.02 * (hi - lo)
         colors = plt.get_cmap("tab10")
         kmax = self.SUBHARMONIC_KMAX
-        for j, w in enumerate(self.omega):
+        for j, w in enumerate(self.problem.omega):
             for k in range(1, kmax + 1):
                 if lo <= w / k <= hi:
                     ax.axvline(w / k, color=colors(j % 10), lw=1.6 if k == 1 else 0.5,
                                alpha=0.8 if k == 1 else 0.5, zorder=1)
             # g < 0: no contact-free (linear) orbit exists, u_c = 0 is beyond the wall
             # (sec. 7.1: the spectrum is not connected to the linear one)
-            if lo <= w <= hi and self.g > 0.0:
-                ax.plot([w, w], [1e-300, self.grazing_energy(j)], color=colors(j % 10), lw=3.2,
-                        solid_capstyle="butt", zorder=4)
-        if self.g == 0.0:
-            for T in [s["T"] for s in self.static_grazing_spectrum(branches)]:
+            if lo <= w <= hi and self.problem.g > 0.0:
+                ax.plot([w, w], [1e-300, self.problem.grazing_energy(j)],
+                        color=colors(j % 10), lw=3.2, solid_capstyle="butt", zorder=4)
+        if self.problem.g == 0.0:
+            for T in [s["T"] for s in self.problem.static_grazing_spectrum(branches)]:
                 w = 2 * np.pi / T
                 if lo <= w <= hi:
                     ax.axvline(w, color="tab:green", lw=1.8, ls="--", zorder=2)
@@ -154,17 +145,18 @@ class ChainPresentation:
 
         h = [Line2D([], [], color="tab:blue", lw=1.6, label=r"linear $\omega_j$ (colour = mode)"),
              Line2D([], [], color="tab:blue", lw=0.5, label=r"subharmonics $\omega_j/k$")]
-        if self.g > 0.0:
+        if self.problem.g > 0.0:
             h.append(Line2D([], [], color="tab:blue", lw=3.2, label="linear (flat) part of a mode"))
-        elif self.g == 0.0:
+        elif self.problem.g == 0.0:
             h.append(Line2D([], [], color="tab:green", lw=1.8, ls="--",
                             label=r"roots of $w_N$ (g = 0 spectrum)"))
         return h
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
         out: dict[str, Any] = {
-            "linear_grazing_energies": [float(self.grazing_energy(j)) if self.g != 0 else 0.0
-                                        for j in range(self.N)]}
+            "linear_grazing_energies": [float(self.problem.grazing_energy(j))
+                                        if self.problem.g != 0 else 0.0
+                                        for j in range(self.problem.N)]}
         graz = []
         for br in branches:
             for ev in br.events:
@@ -175,8 +167,8 @@ class ChainPresentation:
                                  "admissible_before": ev.data.get("admissible_before")})
         if graz:
             out["nonlinear_grazing_orbits"] = graz
-        if self.g == 0.0:
-            out["static_grazing_spectrum"] = self.static_grazing_spectrum(branches)
+        if self.problem.g == 0.0:
+            out["static_grazing_spectrum"] = self.problem.static_grazing_spectrum(branches)
         return out
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
@@ -185,20 +177,20 @@ class ChainPresentation:
         import matplotlib.pyplot as plt
 
         lo, hi = window
-        lo = lo if lo is not None else 0.05 * self.T_lin[-1]
-        hi = hi if hi is not None else 1.2 * self.T_lin[0]
+        lo = lo if lo is not None else 0.05 * self.problem.T_lin[-1]
+        hi = hi if hi is not None else 1.2 * self.problem.T_lin[0]
         T = np.linspace(lo, hi, 20000)
-        wn = self.w_N(T)
+        wn = self.problem.w_N(T)
         kmax = self.SUBHARMONIC_KMAX
         # created at the file's dpi: tight_layout and savefig lay the text out once
         fig, ax = plt.subplots(figsize=(9, 4.5), dpi=130)
-        poles = self.poles(lo, hi, kmax)
+        poles = self.problem.poles(lo, hi, kmax)
         wn_plot = np.where(np.abs(wn) > 50 * np.median(np.abs(wn)), np.nan, wn)
         ax.plot(T, wn_plot, color="k", lw=1.0)
         cmap = plt.get_cmap("tab10")
         for Tp, j, k in poles:
             ax.axvline(Tp, color=cmap(j % 10), lw=1.4 if k == 1 else 0.6, alpha=0.8)
-        zeros = self.zeros_of_w_N(lo, hi)
+        zeros = self.problem.zeros_of_w_N(lo, hi)
         ax.plot(zeros, np.zeros_like(zeros), "o", color="tab:green", ms=4, label=r"zeros of $w_N$")
         ax.axhline(0, color="0.5", lw=0.6)
         ax.set_xlabel("period T [s]")

@@ -44,6 +44,7 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from nsm_continuation.core.preflight import STRICT
+from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.vocabulary import CanonicalNames, CanonicalParameter, as_parameters
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
@@ -166,14 +167,135 @@ def impact_times(res: SimResult) -> list[float]:
     return [t for t in out if not t_map or t < t_map[0]]
 
 
+class BallPresentation(Presentation):
+    """The bouncing ball's report (the simulation's results, :meth:`BouncingBallProblem.results`)
+    and its figures: Fig. 1 (position and velocity), Fig. 3(b)-(c) (``H`` and ``h = H/u`` in
+    the tail of the sequence) and Fig. 4 (Jacobian components against time)."""
+
+    fep_axes = ("restitution", "t_star")
+
+    def summary(self) -> dict[str, Any]:
+        return {"parameters": self.problem.p.model_dump(),
+                "kind": "simulation case (no continuation)"}
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        return {"bouncing_ball": self.problem.results()}
+
+    def _dense(self, res: SimResult, n: int = 40) -> tuple[np.ndarray, np.ndarray]:
+        """Dense (t, x1, x2) from the recorded points by the exact flow of F (or F')."""
+        g = self.problem.p.g
+        tr = res.trajectory or []
+        jumps = {(ev.t, ev.info["t_complete"]) for ev in res.events if ev.kind == "chatter"}
+        ts, xs = [], []
+        for (ta, xa), (tb, _xb) in zip(tr[:-1], tr[1:], strict=True):
+            if tb <= ta:
+                ts.append(ta)
+                xs.append(xa[:2])
+                continue
+            if (ta, tb) in jumps:                      # the chatter map's time jump: no flow
+                ts += [ta, 0.5 * (ta + tb)]
+                xs += [xa[:2], np.full(2, np.nan)]
+                continue
+            sticking = abs(xa[0]) < 1e-14 and abs(xa[1]) < 1e-14
+            tt = np.linspace(0.0, tb - ta, n)
+            gg = 0.0 if sticking else g
+            ts += list(ta + tt)
+            xs += list(np.column_stack([xa[0] + xa[1] * tt - gg * tt**2 / 2,
+                                        xa[1] - gg * tt]))
+        return np.array(ts), np.array(xs)
+
+    def extra_plots(self, out_dir: Any, branches: list[Any],
+                    window: tuple[float | None, float | None]) -> list[str]:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        out = Path(out_dir)
+        info = self.problem.results()
+        if "simulation_failed" in info:
+            return []
+        res = self.problem.recorded()
+        assert res is not None  # the simulation succeeded (no "simulation_failed" above)
+        files = []
+        ts, xs = self._dense(res)
+        t_c = (info["chatter_map"] or {}).get("completion_time")
+        # Fig. 1: position and velocity
+        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+        ax[0].plot(ts, xs[:, 0], lw=1)
+        ax[1].plot(ts, xs[:, 1], lw=1)
+        ax[0].set_ylabel("position $x_1 = q$")
+        ax[1].set_ylabel(r"velocity $x_2 = \dot q$")
+        ax[1].set_xlabel("t")
+        if t_c is not None:
+            for a in ax:
+                a.axvline(t_c, color="C3", ls=":", lw=1, label="chatter map: t*")
+            ax[0].legend()
+        p = self.problem.p
+        ax[0].set_title(f"Bouncing ball, e = {p.restitution}, s = {p.s} (Fig. 1)")
+        fig.tight_layout()
+        fig.savefig(out / "ball_fig1_position_velocity.png", dpi=120)
+        plt.close(fig)
+        files.append("ball_fig1_position_velocity.png")
+        # Fig. 3(b)-(c): H and h = H/u in the tail of the sequence
+        imp = info["impact_times"]
+        if len(imp) >= 3:
+            t_from = imp[max(0, len(imp) - 8)]
+            sel = ts >= t_from
+            u = np.full(ts.shape, np.nan)
+            for k in range(len(imp)):
+                t_next = imp[k + 1] if k + 1 < len(imp) else np.inf
+                m = (ts >= imp[k]) & (ts <= t_next)
+                u[m] = self.problem.p.restitution ** (k + 1) * abs(
+                    info["closed_form"]["first_impact_velocity"])
+            t_map = [ev.t for ev in res.events if ev.kind == "chatter"]
+            if t_map:
+                sel &= ts <= t_map[0]
+            fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+            ax[0].plot(ts[sel], xs[sel, 0], lw=1)
+            ax[0].set_title("(b) H(x) in the tail")
+            ax[1].plot(ts[sel], xs[sel, 0] / u[sel], lw=1, color="C1")
+            ax[1].set_title("(c) h = H/u in the tail")
+            for a in ax:
+                a.set_xlabel("t")
+            fig.tight_layout()
+            fig.savefig(out / "ball_fig3bc_H_h_tail.png", dpi=120)
+            plt.close(fig)
+            files.append("ball_fig3bc_H_h_tail.png")
+        # Fig. 4: Jacobian components vs time (one simulation per time)
+        grid = np.linspace(1e-3, self.problem.p.t_end, 240)
+        extra = [t for t0 in imp for t in (t0 - 1e-9, t0 + 1e-9)]
+        if t_c is not None:
+            extra += [t_c - 1e-9, t_c + 1e-9]
+        times = np.unique(np.concatenate([grid, [t for t in extra if 0 < t < p.t_end]]))
+        Js = self.problem.jacobian_history(times)
+        fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+        ax[0].plot(times, Js[:, 0, 0], lw=1)
+        ax[0].set_title(r"$\partial x_1(t) / \partial x_1(0)$")
+        ax[1].plot(times, Js[:, 1, 0], lw=1)
+        ax[1].set_title(r"$\partial x_2(t) / \partial x_1(0)$")
+        for a in ax:
+            a.set_xlabel("t")
+            if t_c is not None:
+                a.axvline(t_c, color="C3", ls=":", lw=1)
+        n_map = (info["chatter_map"] or {}).get("impacts_before_map")
+        fig.suptitle(f"Fig. 4: g = {p.g}, s = {p.s}; chatter map after N = {n_map}")
+        fig.tight_layout()
+        fig.savefig(out / "ball_fig4_jacobian.png", dpi=120)
+        plt.close(fig)
+        files.append("ball_fig4_jacobian.png")
+        return files
+
+
 class BouncingBallProblem(CanonicalParameter, Problem):
     """The bouncing ball as a simulation case (no continuation; see the module docstring)."""
+
+    presentation_class = BallPresentation
 
     name: ClassVar[str] = "bouncing_ball"
     #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
     figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = BouncingBallParameters
-    fep_axes = ("restitution", "t_star")
 
     def __init__(self, params: BaseModel | dict[str, Any]) -> None:
         params = as_parameters(BouncingBallParameters, params)
@@ -219,9 +341,6 @@ class BouncingBallProblem(CanonicalParameter, Problem):
                              "without start points: give start: {})")
         raise ValueError("start: bouncing_ball is a simulation case without start points: "
                          "give start: {}")
-
-    def summary(self) -> dict[str, Any]:
-        return {"parameters": self.p.model_dump(), "kind": "simulation case (no continuation)"}
 
     # -- simulation ---------------------------------------------------------------------------
     def options(self, **kw: Any) -> SimOptions:
@@ -294,109 +413,7 @@ class BouncingBallProblem(CanonicalParameter, Problem):
         self._cache["res"] = res
         return out
 
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        return {"bouncing_ball": self.results()}
-
-    # -- figures ------------------------------------------------------------------------------
-    def _dense(self, res: SimResult, n: int = 40) -> tuple[np.ndarray, np.ndarray]:
-        """Dense (t, x1, x2) from the recorded points by the exact flow of F (or F')."""
-        g = self.p.g
-        tr = res.trajectory or []
-        jumps = {(ev.t, ev.info["t_complete"]) for ev in res.events if ev.kind == "chatter"}
-        ts, xs = [], []
-        for (ta, xa), (tb, _xb) in zip(tr[:-1], tr[1:], strict=True):
-            if tb <= ta:
-                ts.append(ta)
-                xs.append(xa[:2])
-                continue
-            if (ta, tb) in jumps:                      # the chatter map's time jump: no flow
-                ts += [ta, 0.5 * (ta + tb)]
-                xs += [xa[:2], np.full(2, np.nan)]
-                continue
-            sticking = abs(xa[0]) < 1e-14 and abs(xa[1]) < 1e-14
-            tt = np.linspace(0.0, tb - ta, n)
-            gg = 0.0 if sticking else g
-            ts += list(ta + tt)
-            xs += list(np.column_stack([xa[0] + xa[1] * tt - gg * tt**2 / 2,
-                                        xa[1] - gg * tt]))
-        return np.array(ts), np.array(xs)
-
-    def extra_plots(self, out_dir: Any, branches: list[Any],
-                    window: tuple[float | None, float | None]) -> list[str]:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        out = Path(out_dir)
-        info = self.results()
-        if "simulation_failed" in info:
-            return []
-        res: SimResult = self._cache["res"]
-        files = []
-        ts, xs = self._dense(res)
-        t_c = (info["chatter_map"] or {}).get("completion_time")
-        # Fig. 1: position and velocity
-        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-        ax[0].plot(ts, xs[:, 0], lw=1)
-        ax[1].plot(ts, xs[:, 1], lw=1)
-        ax[0].set_ylabel("position $x_1 = q$")
-        ax[1].set_ylabel(r"velocity $x_2 = \dot q$")
-        ax[1].set_xlabel("t")
-        if t_c is not None:
-            for a in ax:
-                a.axvline(t_c, color="C3", ls=":", lw=1, label="chatter map: t*")
-            ax[0].legend()
-        ax[0].set_title(f"Bouncing ball, e = {self.p.restitution}, s = {self.p.s} (Fig. 1)")
-        fig.tight_layout()
-        fig.savefig(out / "ball_fig1_position_velocity.png", dpi=120)
-        plt.close(fig)
-        files.append("ball_fig1_position_velocity.png")
-        # Fig. 3(b)-(c): H and h = H/u in the tail of the sequence
-        imp = info["impact_times"]
-        if len(imp) >= 3:
-            t_from = imp[max(0, len(imp) - 8)]
-            sel = ts >= t_from
-            u = np.full(ts.shape, np.nan)
-            for k in range(len(imp)):
-                t_next = imp[k + 1] if k + 1 < len(imp) else np.inf
-                m = (ts >= imp[k]) & (ts <= t_next)
-                u[m] = self.p.restitution ** (k + 1) * abs(
-                    info["closed_form"]["first_impact_velocity"])
-            t_map = [ev.t for ev in res.events if ev.kind == "chatter"]
-            if t_map:
-                sel &= ts <= t_map[0]
-            fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
-            ax[0].plot(ts[sel], xs[sel, 0], lw=1)
-            ax[0].set_title("(b) H(x) in the tail")
-            ax[1].plot(ts[sel], xs[sel, 0] / u[sel], lw=1, color="C1")
-            ax[1].set_title("(c) h = H/u in the tail")
-            for a in ax:
-                a.set_xlabel("t")
-            fig.tight_layout()
-            fig.savefig(out / "ball_fig3bc_H_h_tail.png", dpi=120)
-            plt.close(fig)
-            files.append("ball_fig3bc_H_h_tail.png")
-        # Fig. 4: Jacobian components vs time (one simulation per time)
-        grid = np.linspace(1e-3, self.p.t_end, 240)
-        extra = [t for t0 in imp for t in (t0 - 1e-9, t0 + 1e-9)]
-        if t_c is not None:
-            extra += [t_c - 1e-9, t_c + 1e-9]
-        times = np.unique(np.concatenate([grid, [t for t in extra if 0 < t < self.p.t_end]]))
-        Js = self.jacobian_history(times)
-        fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
-        ax[0].plot(times, Js[:, 0, 0], lw=1)
-        ax[0].set_title(r"$\partial x_1(t) / \partial x_1(0)$")
-        ax[1].plot(times, Js[:, 1, 0], lw=1)
-        ax[1].set_title(r"$\partial x_2(t) / \partial x_1(0)$")
-        for a in ax:
-            a.set_xlabel("t")
-            if t_c is not None:
-                a.axvline(t_c, color="C3", ls=":", lw=1)
-        n_map = (info["chatter_map"] or {}).get("impacts_before_map")
-        fig.suptitle(f"Fig. 4: g = {self.p.g}, s = {self.p.s}; chatter map after N = {n_map}")
-        fig.tight_layout()
-        fig.savefig(out / "ball_fig4_jacobian.png", dpi=120)
-        plt.close(fig)
-        files.append("ball_fig4_jacobian.png")
-        return files
+    def recorded(self) -> SimResult | None:
+        """The simulation of :meth:`results`, with its trajectory (None if it failed)."""
+        self.results()
+        return self._cache.get("res")

@@ -38,6 +38,7 @@ from pydantic import BaseModel, Field
 from nsm_continuation.core.preflight import STRICT
 from nsm_continuation.core.vocabulary import CanonicalNames, CanonicalParameter
 from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+from nsm_continuation.hybrid.presentation import HybridCasePresentation
 from nsm_continuation.hybrid.system import HybridSystem
 
 PARAMS = ("g", "m1", "m2", "L1", "L2", "D", "torque", "restitution", "d")
@@ -74,12 +75,39 @@ def pendulum_terms(q: Any, qd: Any, p: dict[str, Any]) -> tuple[Any, Any, Any]:
     return M, -coriolis - V + damping, H
 
 
+class PendulumPresentation(HybridCasePresentation):
+    """The double pendulum's report adds the equilibria on the sticking surface (sec. 6.3)."""
+
+    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
+        """Generic hybrid extras plus the equilibria on the sticking surface (sec. 6.3) next to
+        the orbit of largest period of each branch (the one closest to a homoclinic orbit)."""
+        out = super().report_extras(branches)
+        eqs = []
+        for br in branches:
+            pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
+            if not pts:
+                continue
+            p = max(pts, key=lambda q: q.derived["period"])
+            eq = self.problem.sticking_equilibria(p.y)
+            if eq is not None:
+                eqs.append({"branch": br.label, "period": p.derived["period"], **eq})
+        if eqs:
+            out["sticking_equilibria"] = eqs
+            out["sticking_equilibria_paper_sec6_3"] = {
+                "torque": -31.00166609425, "q1": 4.91990567552337, "q2": 0.49899755317827,
+                "lambda_eq60": 10.69293096743960, "eigenvalues": [0.3366, -3.2953],
+                "note": "paper's eigenvalues; ours (two independent linearisations, "
+                        "tests/test_pendulum_model.py) are 0.28879, -3.24752 at that torque"}
+        return out
+
+
 class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
     """Periodic orbits of the forced double pendulum with chattering (sec. 6)."""
 
     name: ClassVar[str] = "double_pendulum"
     #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
     figures_from_inputs: ClassVar[bool] = True
+    presentation_class = PendulumPresentation
     Parameters: ClassVar[type[BaseModel]] = DoublePendulumParameters
     default_parameter: ClassVar[str] = "restitution"
     #: continued in the period (``continuation.parameter: period``, sec. 6.3), the torque is
@@ -176,25 +204,3 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
                 "eigenvalues": [float(v.real) for v in eq["eigenvalues"]],
                 "saddle": eq["saddle"], "converged": eq["converged"],
                 "residual": eq["residual"]}
-
-    def report_extras(self, branches: list[Any]) -> dict[str, Any]:
-        """Generic hybrid extras plus the equilibria on the sticking surface (sec. 6.3) next to
-        the orbit of largest period of each branch (the one closest to a homoclinic orbit)."""
-        out = super().report_extras(branches)
-        eqs = []
-        for br in branches:
-            pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
-            if not pts:
-                continue
-            p = max(pts, key=lambda q: q.derived["period"])
-            eq = self.sticking_equilibria(p.y)
-            if eq is not None:
-                eqs.append({"branch": br.label, "period": p.derived["period"], **eq})
-        if eqs:
-            out["sticking_equilibria"] = eqs
-            out["sticking_equilibria_paper_sec6_3"] = {
-                "torque": -31.00166609425, "q1": 4.91990567552337, "q2": 0.49899755317827,
-                "lambda_eq60": 10.69293096743960, "eigenvalues": [0.3366, -3.2953],
-                "note": "paper's eigenvalues; ours (two independent linearisations, "
-                        "tests/test_pendulum_model.py) are 0.28879, -3.24752 at that torque"}
-        return out
