@@ -36,7 +36,7 @@ LOOSE = {"max_multiplier_step": 10.0}
 
 @pytest.fixture()
 def loose_steps(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(palc, "krein_closing", lambda *a, **k: False)
+    monkeypatch.setattr(palc.step_control, "krein_closing", lambda *a, **k: False)
 
 
 def normal_form_map(w2: float, eps: float) -> tuple[np.ndarray, np.ndarray]:

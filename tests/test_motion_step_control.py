@@ -151,7 +151,7 @@ def test_steps_capped_by_the_ratio_keep_every_event_in_fewer_attempts(
     sized = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_sized = attempts[0]
     attempts[0] = 0
-    monkeypatch.setattr(palc, "_motion_capped_step", lambda h, ratio: np.inf)
+    monkeypatch.setattr(palc.step_control, "_motion_capped_step", lambda h, ratio: np.inf)
     halved = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_halved = attempts[0]
     ev_sized, ev_halved = _events(sized), _events(halved)
