@@ -312,17 +312,15 @@ class ContinuationEngine:
             if not isinstance(step, Step):  # no step: the branch ends here
                 return step if step is not None else self.locator.stop_on_edge(a, events)
             y, t, it, control.why = self._predict_correct(a, step.h, step.edge)
-            if y is None and kink_tried != len(pts):
+            if y is None:
                 # the step may have failed on a kink of the branch ahead (e.g. a grazing
-                # approached from the side where the residual's Jacobian blows up)
+                # approached from the side where the residual's Jacobian blows up): looked
+                # for once from each point
+                crossing = None if kink_tried == len(pts) else self.kinks.ahead(pts, step.h)
                 kink_tried = len(pts)
-                crossing = self.kinks.ahead(pts, step.h)
                 if crossing is not None:
                     crossing.record(pts, events)
-                    continue
-            if y is None:
-                stop = control.fail(step, control.why)
-                if stop is not None:
+                elif (stop := control.fail(step, control.why)) is not None:
                     return stop
                 continue
             trial = control.admit(a, step, y, t, it)
@@ -334,8 +332,7 @@ class ContinuationEngine:
                 control.refuse(step, str(exc))
                 continue
             except NUMERICAL_ERRORS as exc:
-                stop = control.fail(step, describe_error(exc))
-                if stop is not None:
+                if (stop := control.fail(step, describe_error(exc))) is not None:
                     return stop
                 continue
             crossing = self.kinks.in_step(a, found, step.h)
@@ -343,10 +340,9 @@ class ContinuationEngine:
                 crossing.record(pts, events)
                 continue
             if found.stop is not None:
-                stop_point, stop_reason = found.stop
-                events.extend(ev for ev in found.events if ev.point.s <= stop_point.s)
-                pts.append(stop_point)
-                return stop_reason
+                events.extend(found.until_stop())
+                pts.append(found.stop[0])
+                return found.stop[1]
             events.extend(found.events)
             pts.append(b)
             if self.progress is not None:

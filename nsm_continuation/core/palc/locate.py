@@ -71,6 +71,12 @@ class StepEvents:
         """The events found by ``source``."""
         return [ev for src, ev in self.entries if src is source]
 
+    def until_stop(self) -> list[Event]:
+        """The events up to the stop (every event if there is none)."""
+        if self.stop is None:
+            return self.events
+        return [ev for ev in self.events if ev.point.s <= self.stop[0].s]
+
 
 class EventLocator(EnginePart):
     """Locates the events of each step on its arc.
