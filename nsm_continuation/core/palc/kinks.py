@@ -96,13 +96,14 @@ class KinkCrosser(EnginePart):
         s_zero = crossing.events[0].point.s
         # the step's end lies beyond the kink, where the Jacobian jumps: a sign change of
         # det[G_y; t^T] or of the tangent's parameter component located at the kink itself is
-        # that jump, no branch point or fold; the step's signature and event functions are
-        # those beyond the kink, which the crossing records itself
+        # that jump, no branch point or fold; the step's zeros of event functions and changes
+        # of signature are left out: the kink's event records the function and the signatures
+        # on both sides
         at_kink = 1e-6 * h_step
-        before = [ev for src, ev in found.entries if ev.point.s < s_zero - 1e-12
+        before = [e for src, e in found.entries if e.point.s < s_zero - 1e-12
                   and src not in (EventSource.SIGNATURE, EventSource.FUNCTION)
-                  and not (ev.kind in ("branch_point", "fold")
-                           and s_zero - ev.point.s <= at_kink)]
+                  and not (e.kind in ("branch_point", "fold")
+                           and s_zero - e.point.s <= at_kink)]
         return KinkCrossing(crossing.points, before + crossing.events)
 
     def ahead(self, pts: list[Point], h_step: float) -> KinkCrossing | None:
