@@ -5,10 +5,12 @@ For each case, the events located with the default step control are the referenc
 case is run again with
 
 * ``max_multiplier_step: 0.1`` and ``1`` (the closing rule kept, as in the defaults),
-* ``max_multiplier_step: 1`` with the closing rule also removed (``palc.krein_closing``
-  replaced by one that never refuses: not a setting, a test of the safety net alone),
+* ``max_multiplier_step: 1`` with the closing rule also removed
+  (``palc.step_control.krein_closing`` replaced by one that never refuses: not a setting, a
+  test of the safety net alone),
 * the defaults without the cap from the motion ratio on the growth of an accepted step
-  (``palc._motion_capped_step`` replaced: the step grows by the constant factor alone),
+  (``palc.step_control._motion_capped_step`` replaced: the step grows by the constant factor
+  alone),
 
 and each run prints its points, step attempts (predictor-corrector calls), compute time, how
 many of the reference's crossings it finds (same kind on the same branch within 1e-9 in the
@@ -41,6 +43,7 @@ sys.path.insert(0, str(ROOT))
 
 import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation.core import palc  # noqa: E402
+from nsm_continuation.core.palc import step_control  # noqa: E402
 
 CROSSINGS = ("fold", "period_doubling", "neimark_sacker")
 #: (label, analysis overrides, closing rule kept, steps sized by the motion ratio)
@@ -99,11 +102,11 @@ def measure(name: str, case: Callable[[dict[str, Any]], Any], warm: bool = True)
         return predict_correct(self, *args)
 
     for label, analysis, closing, sized in VARIANTS:
-        saved, scaled = palc.krein_closing, palc._motion_capped_step
+        saved, scaled = step_control.krein_closing, step_control._motion_capped_step
         if not closing:
-            palc.krein_closing = lambda *a, **k: False
+            step_control.krein_closing = lambda *a, **k: False
         if not sized:
-            palc._motion_capped_step = _uncapped
+            step_control._motion_capped_step = _uncapped
         engine._predict_correct = counted  # type: ignore[method-assign]
         attempts[0] = 0
         try:
@@ -111,7 +114,7 @@ def measure(name: str, case: Callable[[dict[str, Any]], Any], warm: bool = True)
             run = case(analysis)
             dt = time.perf_counter() - t0
         finally:
-            palc.krein_closing, palc._motion_capped_step = saved, scaled
+            step_control.krein_closing, step_control._motion_capped_step = saved, scaled
             engine._predict_correct = predict_correct  # type: ignore[method-assign]
         got = crossings(run)
         if ref is None:

@@ -1,5 +1,5 @@
 """A multiplier crossing inside a step that also crosses a grazing point
-(:meth:`nsm_continuation.core.palc.ContinuationEngine._multiplier_ends`).
+(:meth:`nsm_continuation.core.palc.crossings.CrossingLocator.ends`).
 
 Past a grazing point a problem may have no multipliers (its return map is not linearised
 there): the end of such a step cannot show a crossing between the last point and the grazing.

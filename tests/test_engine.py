@@ -269,14 +269,14 @@ def test_a_crossing_without_a_kind_is_one_stability_change() -> None:
     """A crossing the multipliers do not classify (kind ``stability_change``) is one event with
     the change in its detail; a classified one (a flip) is the crossing plus its stability
     change (the report listed such a change twice at one point)."""
-    from nsm_continuation.core.palc import _crossing_events
+    from nsm_continuation.core.palc import crossing_events
     from nsm_continuation.core.records import Point
 
     p = Point(y=np.zeros(2), s=0.0, tangent=np.array([0.0, 1.0]), tests={}, multipliers=None,
               trivial_error=0.0, n_unstable=0, derived={}, bordered_det=1.0)
-    (only,) = _crossing_events("stability_change", p, 0.0, 1, 0, np.array([]), None, "count")
+    (only,) = crossing_events("stability_change", p, 0.0, 1, 0, np.array([]), None, "count")
     assert (only.kind, only.detail) == ("stability_change", "unstable -> stable")
-    flip = _crossing_events("period_doubling", p, 0.0, 0, 1, np.array([-1.0 + 0j]), -1.0 + 0j,
+    flip = crossing_events("period_doubling", p, 0.0, 0, 1, np.array([-1.0 + 0j]), -1.0 + 0j,
                             "multiplier_modulus")
     assert [e.kind for e in flip] == ["period_doubling", "stability_change"]
     assert flip[1].detail == "stable -> unstable"

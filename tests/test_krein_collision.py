@@ -1,6 +1,6 @@
 """Krein collisions of a conservative family located on the pair's discriminant (issue 13).
 
-:meth:`ContinuationEngine._locate_collision` locates where two multipliers of a symplectic
+:meth:`CrossingLocator._locate_collision` locates where two multipliers of a symplectic
 return map collide on the unit circle on ``d = (nu_1 - nu_2)^2`` (``lambda = rho e^{i nu}``),
 computing only the pair (:meth:`NDofImpactProblem.multipliers_near`). Oracles: the dense
 eigenvalues of the return map (:meth:`NDofImpactProblem.floquet_dense`) for the pair; the
@@ -53,7 +53,7 @@ def _run(n: int, points: int, discriminant: bool) -> object:
     u0, du0 = pb.closed_form(T)
     eng = ContinuationEngine(pb, st)
     if not discriminant:
-        eng._locate_collision = lambda a, b: None  # the count's bisection only
+        eng.crossings._locate_collision = lambda a, b: None  # the count's bisection only
     return pb, eng.run(StartPoint(pb.y_from_state(u0, du0, T), "b1", -1))
 
 

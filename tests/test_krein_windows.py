@@ -1,6 +1,6 @@
 """Instability windows hidden inside one continuation step of a conservative family, found
 from the Krein words of the step's ends (``nsm_continuation/core/floquet/krein.py``) and
-located on the colliding pair's discriminant (``ContinuationEngine._krein_windows``).
+located on the colliding pair's discriminant (``CrossingLocator.krein_windows``).
 
 Oracles: the linear normal form of a Krein collision (``tests/oracles/krein_normal_form.py``),
 whose window ``(w1^2 - w2^2)^2 < 4 w1 w2 eps^2`` and multipliers are closed forms; for the
@@ -36,7 +36,7 @@ LOOSE = {"max_multiplier_step": 10.0}
 
 @pytest.fixture()
 def loose_steps(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(palc, "krein_closing", lambda *a, **k: False)
+    monkeypatch.setattr(palc.step_control, "krein_closing", lambda *a, **k: False)
 
 
 def normal_form_map(w2: float, eps: float) -> tuple[np.ndarray, np.ndarray]:
@@ -102,7 +102,7 @@ def test_window_hidden_in_a_step_is_located_on_its_closed_form_edges(
     assert any(a < lo and b > hi for a, b in zip(w2[:-1], w2[1:], strict=False))
     md = (res.save(tmp_path / "nf", plots=False) / "report.md").read_text()
     assert md.count("(a window inside one step: found from the Krein signs of its ends)") == 4
-    monkeypatch.setattr(palc.ContinuationEngine, "_krein_windows", lambda self, a, b: [])
+    monkeypatch.setattr(palc.CrossingLocator, "krein_windows", lambda self, a, b: [])
     assert not [e for e in run_normal_form(0.05, **LOOSE).events
                 if e.kind == "neimark_sacker"]
 

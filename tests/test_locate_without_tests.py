@@ -2,7 +2,7 @@
 on the parameter or on a derived quantity, a fold, the bordered determinant) are located on
 trial points analysed without them (``tests=False``), and every zero by the Illinois
 iteration with Dekker's closing step
-(:meth:`nsm_continuation.core.palc.ContinuationEngine._locate_continuous`).
+(:meth:`nsm_continuation.core.palc.locate.EventLocator._locate_continuous`).
 
 Oracle: the fold normal form ``G(x, mu) = mu - x^2``, whose fold is at ``x = 0`` and whose
 derived quantity ``q = x`` reaches a bound ``q = Q`` at ``(Q, Q^2)``, closed forms. Each trial
@@ -53,8 +53,7 @@ def located(monkeypatch: pytest.MonkeyPatch) -> list[tuple[bool, int, int]]:
     """``(tests, trial points, admissibility calls)`` of every ``_locate_continuous`` call of
     the run."""
     calls: list[tuple[bool, int, int]] = []
-    locate, point_at = palc.ContinuationEngine._locate_continuous, \
-        palc.ContinuationEngine._point_at
+    locate, point_at = palc.EventLocator._locate_continuous, palc.ContinuationEngine.point_at
     inside: list[int] = []
 
     def counted_point_at(self: Any, *args: Any, **kwargs: Any) -> Any:
@@ -70,8 +69,8 @@ def located(monkeypatch: pytest.MonkeyPatch) -> list[tuple[bool, int, int]]:
         finally:
             calls.append((tests, inside.pop(), self.problem.test_calls - before))
 
-    monkeypatch.setattr(palc.ContinuationEngine, "_point_at", counted_point_at)
-    monkeypatch.setattr(palc.ContinuationEngine, "_locate_continuous", counted_locate)
+    monkeypatch.setattr(palc.ContinuationEngine, "point_at", counted_point_at)
+    monkeypatch.setattr(palc.EventLocator, "_locate_continuous", counted_locate)
     return calls
 
 

@@ -1,11 +1,12 @@
 """The multiplier-motion step control as a ratio (issue 13, "Krein-aware step control").
 
-A step is refused when its motion ratio exceeds 1 (:meth:`ContinuationEngine._multiplier_motion`);
-the ratio also caps the next step (:func:`nsm_continuation.core.palc._motion_capped_step`), since
-displacements grow linearly with a short step. Oracles:
+A step is refused when its motion ratio exceeds 1 (:meth:`StepController._multiplier_motion`);
+the ratio also caps the next step
+(:func:`nsm_continuation.core.palc.step_control._motion_capped_step`), since displacements grow
+linearly with a short step. Oracles:
 
-* closed forms of the closing rule (:func:`nsm_continuation.core.palc.krein_closing`) on sets of
-  multipliers built by hand: chords between points of the unit circle, displacements of a
+* closed forms of the closing rule (:func:`nsm_continuation.core.palc.motion.krein_closing`) on
+  sets of multipliers built by hand: chords between points of the unit circle, displacements of a
   quadruple off it;
 * the engine with the step control of plain halving (the rule before the ratio): the same
   events on the bundled default case, located to their tolerance, in fewer step attempts.
@@ -150,7 +151,7 @@ def test_steps_capped_by_the_ratio_keep_every_event_in_fewer_attempts(
     sized = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_sized = attempts[0]
     attempts[0] = 0
-    monkeypatch.setattr(palc, "_motion_capped_step", lambda h, ratio: np.inf)
+    monkeypatch.setattr(palc.step_control, "_motion_capped_step", lambda h, ratio: np.inf)
     halved = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
     n_halved = attempts[0]
     ev_sized, ev_halved = _events(sized), _events(halved)

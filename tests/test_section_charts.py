@@ -413,17 +413,18 @@ def test_a_state_deep_inside_the_obstacle_is_named_a_bad_guess() -> None:
 
 
 def test_a_sign_change_located_through_a_pole_is_told_from_a_zero() -> None:
-    """``_locate_continuous`` flags a sign change through a pole (the last values next to it
-    exceed both ends), not one through a zero, even a zero next to an end (the branch point
-    of a pitchfork at its start): what keeps a determinant blowing up at a grazing from being
-    a branch point."""
+    """``EventLocator._locate_continuous`` flags a sign change through a pole (the last
+    values next to it exceed both ends), not one through a zero, even a zero next to an end
+    (the branch point of a pitchfork at its start): what keeps a determinant blowing up at a
+    grazing from being a branch point."""
     engine = ContinuationEngine(PoleAndZero(), toy_settings(direction=1))
     br = engine.run(StartPoint(np.array([0.01, 0.01]), "toy", direction=1))
     a = max((q for q in br.points if q.y[1] < 0.25), key=lambda q: q.y[1])
     b = min((q for q in br.points if q.y[1] > 0.35), key=lambda q: q.y[1])
-    engine._locate_continuous(a, b, lambda q: 1.0 / (float(q.y[1]) - 0.3))
-    assert engine.last_was_pole
-    engine._locate_continuous(a, b, lambda q: float(q.y[1]) - 0.3)
-    assert not engine.last_was_pole
-    engine._locate_continuous(a, b, lambda q: float(q.y[1]) - float(a.y[1]) - 1e-16)
-    assert not engine.last_was_pole
+    locator = engine.locator
+    locator._locate_continuous(a, b, lambda q: 1.0 / (float(q.y[1]) - 0.3))
+    assert locator.last_was_pole
+    locator._locate_continuous(a, b, lambda q: float(q.y[1]) - 0.3)
+    assert not locator.last_was_pole
+    locator._locate_continuous(a, b, lambda q: float(q.y[1]) - float(a.y[1]) - 1e-16)
+    assert not locator.last_was_pole
