@@ -6,7 +6,7 @@ lengths. There is no smooth residual to correct, but a branch is still a one-par
 and the engine's job is the same: predict where the next solution is, correct (here: pick the
 lattice solution that continues the previous one), record events where the branch ends or changes
 character, and stop with a recorded reason. This module does that generically; it produces the
-same :class:`~nsm_continuation.core.palc.Branch` / ``Point`` / ``Event`` records as the
+same :class:`~nsm_continuation.core.records.Branch` / ``Point`` / ``Event`` records as the
 pseudo-arclength engine, so results, reports and plots are shared.
 
 A lattice problem (subclass of :class:`LatticeProblem`) implements:

@@ -529,7 +529,7 @@ class Problem(ABC):
         """The multipliers at ``y`` nearest to ``guesses`` (one each, distinct), computed
         without the rest of the spectrum; None if the problem cannot (the default), or could
         not converge. The engine locates a Krein collision of a conservative family on the
-        pair alone with it (:meth:`nsm_continuation.core.palc.ContinuationEngine.\
+        pair alone with it (:meth:`nsm_continuation.core.palc.crossings.CrossingLocator.\
 _locate_collision`)."""
         return None
 

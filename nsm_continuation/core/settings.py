@@ -45,13 +45,13 @@ class ContinuationSettings:
     multiplier_event_tol: float = 1e-9
     #: largest move of a multiplier near the unit circle in one step (see multiplier_motion);
     #: in a conservative family a multiplier outside the circle may also move by half its
-    #: distance to it (:func:`palc.krein_closing`, :func:`palc._outside_travel`)
+    #: distance to it (:func:`palc.motion.krein_closing`, :func:`palc.motion._outside_travel`)
     max_multiplier_step: float = 0.02
     #: Krein-aware step control for conservative problems (``problem.conservative`` and
     #: multipliers with their Krein definiteness): only a multiplier that moves by at least
     #: ``krein_fraction`` of its distance to a collision partner (of the other Krein signature,
-    #: or off the circle) is held to ``max_multiplier_step`` (:func:`palc.krein_motion`);
-    #: False: every multiplier near the circle is (:func:`palc.multiplier_motion`)
+    #: or off the circle) is held to ``max_multiplier_step`` (:func:`palc.motion.krein_motion`);
+    #: False: every multiplier near the circle is (:func:`palc.motion.multiplier_motion`)
     krein_step_control: bool = True
     krein_fraction: float = 0.25
     #: at most this many halvings of one step for multiplier motion (then the step is taken and

@@ -5,7 +5,7 @@ each eigenvector (:class:`KreinFloquetData`, computed by
 :func:`~nsm_continuation.core.floquet.lowrank.krein_definiteness`), whose sign on the unit
 circle is the Krein signature. :func:`collision_distances` turns signatures into the distance
 of each multiplier to a collision that can open or close an instability window; the engine's
-step control uses it (:func:`nsm_continuation.core.palc.krein_motion`).
+step control uses it (:func:`nsm_continuation.core.palc.motion.krein_motion`).
 
 Krein collisions inside a step: what the multipliers at its two ends say about it.
 In a conservative (symplectic) family, a multiplier on the unit circle with a definite Krein
@@ -26,7 +26,7 @@ which pair collided (one transposition, or one flip at an end) and how it moved;
 then decides on the pair's *discriminant* (:func:`discriminant`), a real analytic function
 of the arclength: positive while the pair is on the circle, negative while it is off it, so
 a window hidden in the step is where its minimum over the step is negative
-(:meth:`nsm_continuation.core.palc.ContinuationEngine._krein_windows`).
+(:meth:`nsm_continuation.core.palc.crossings.CrossingLocator.krein_windows`).
 """
 
 from __future__ import annotations
@@ -347,5 +347,5 @@ def discriminant(l1: complex, l2: complex) -> float:
     ``(theta_1 - theta_2)^2 > 0`` on the circle, ``-4 (log r)^2 < 0`` for the pair
     ``r rho, rho / r`` off it (also a conjugate pair at ``+-1``: ``-r, -1/r``), zero at the
     collision, and analytic through it (eq. of :meth:`~nsm_continuation.core.palc.
-    ContinuationEngine._locate_collision`)."""
+    crossings.CrossingLocator._locate_collision`)."""
     return float((-(np.log(complex(l1) / complex(l2))) ** 2).real)
