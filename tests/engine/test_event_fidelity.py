@@ -383,7 +383,7 @@ def test_narrow_neimark_sacker_window_of_fig_6_1_is_found() -> None:
     from nsm_continuation import cases
     from nsm_continuation.runs.runner import run_case
 
-    path = Path(__file__).resolve().parents[1] / "yaml_cases" / "ndof_fig6_1_stability.yaml"
+    path = Path(__file__).resolve().parents[2] / "yaml_cases" / "ndof_fig6_1_stability.yaml"
     case, problem = cases.load(path)
     res = run_case(case, problem, progress=False)
     ns = [ev.point.derived["omega"] for ev in res.branches[0].events

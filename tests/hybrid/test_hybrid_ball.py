@@ -370,7 +370,7 @@ def test_ball_yaml_case_runs_with_zero_branches(tmp_path):
 
     from nsm_continuation import cli
 
-    case = Path(__file__).resolve().parents[1] / "yaml_cases" / "ball_fig1_fig4_chatter.yaml"
+    case = Path(__file__).resolve().parents[2] / "yaml_cases" / "ball_fig1_fig4_chatter.yaml"
     out = tmp_path / "ball"
     assert cli.main(["run", str(case), "--out", str(out), "--quiet"]) == 0
     rep = json.loads((out / "report.json").read_text())

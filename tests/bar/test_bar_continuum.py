@@ -26,7 +26,7 @@ from nsm_continuation.cases.validation import load
 from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.settings import ContinuationSettings
 
-CASES = Path(__file__).resolve().parents[1] / "yaml_cases"
+CASES = Path(__file__).resolve().parents[2] / "yaml_cases"
 
 
 def lattice_line(N: int, g0: float, sig: Signature, M_range: range

@@ -27,7 +27,7 @@ from nsm_continuation.output.files import write_outputs
 from nsm_continuation.runs.result import RunResult
 from nsm_continuation.runs.runner import run_case
 
-CORE = Path(__file__).resolve().parents[1] / "nsm_continuation"
+CORE = Path(__file__).resolve().parents[2] / "nsm_continuation"
 
 
 # ---------------------------------------------------------------------- (a) no probing

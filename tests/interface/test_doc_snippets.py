@@ -41,7 +41,7 @@ import numpy as np
 import pytest
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 #: the languages of fenced blocks checked here ("" is plain text: the Architecture tree)
 CHECKED = ("python", "yaml", "bash", "toml", "")

@@ -23,7 +23,7 @@ from nsm_continuation.output.files import branch_rows, build_report
 from nsm_continuation.runs.execution import merge_in_seed_order
 from nsm_continuation.runs.setup import rebuild_case
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FIG12 = ROOT / "yaml_cases" / "wfem_fig12_fep.yaml"
 FIG13 = ROOT / "yaml_cases" / "wfem_fig13_subharmonics.yaml"
 QUIET = {"output.plots": False, "output.progress": False}

@@ -30,7 +30,7 @@ import nsm_continuation as nsm
 from nsm_continuation import cases
 from nsm_continuation.core.problem import Problem
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: a forced impact oscillator (sec. 2.2.1) above resonance hitting its stop with finite
 #: velocities (no chattering, no sticking): an attractor that is not periodic, so every

@@ -16,7 +16,7 @@ import pytest
 from nsm_continuation import cases
 from nsm_continuation.runs.runner import run_case
 
-CASES = Path(__file__).resolve().parents[1] / "yaml_cases"
+CASES = Path(__file__).resolve().parents[2] / "yaml_cases"
 
 
 @pytest.fixture(scope="module")

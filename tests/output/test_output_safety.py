@@ -21,7 +21,7 @@ from nsm_continuation import cli
 from nsm_continuation.cases.saved_runs import MARKER
 from nsm_continuation.runs import runner as run_module
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # the default chain, cut short: a run takes well under a second
 CASE = {

@@ -275,7 +275,7 @@ def test_fig2_oscillator_continues_below_0_3465_without_event() -> None:
 
     import nsm_continuation as nsm
 
-    case = Path(__file__).resolve().parents[1] / "yaml_cases" / \
+    case = Path(__file__).resolve().parents[2] / "yaml_cases" / \
         "impact_oscillator_fig2_sticking.yaml"
     res = nsm.run(nsm.load_case(case, {"output.plots": False, "output.progress": False,
                                        "start.direction": "decrease",
@@ -302,7 +302,7 @@ def test_two_mass_chain_grazing_at_0_772_against_fixed_frequency_solves() -> Non
 
     import nsm_continuation as nsm
 
-    case = Path(__file__).resolve().parents[1] / "yaml_cases" / "chain_two_mass_wall.yaml"
+    case = Path(__file__).resolve().parents[2] / "yaml_cases" / "chain_two_mass_wall.yaml"
     res = nsm.run(nsm.load_case(case, {"output.plots": False, "output.progress": False,
                                        "continuation.max": 0.7725}))
     (br,) = res.run_result.branches

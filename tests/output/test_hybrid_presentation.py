@@ -33,7 +33,7 @@ from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.output import report
 from nsm_continuation.output.files import build_report, event_record
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FIG2 = ROOT / "yaml_cases" / "impact_oscillator_fig2_sticking.yaml"
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

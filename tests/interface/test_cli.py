@@ -15,7 +15,7 @@ import yaml
 from nsm_continuation import cli
 from nsm_continuation.output import files as results
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 BASE = {
     "name": "t",

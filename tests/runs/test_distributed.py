@@ -28,7 +28,7 @@ from nsm_continuation import cli  # noqa: E402
 from nsm_continuation.core.records import Branch  # noqa: E402
 from nsm_continuation.runs.execution import merge_in_seed_order  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: a frequency-energy plot of a 3-dof chain: 12 independent branches
 CASE: dict[str, Any] = {

@@ -33,7 +33,7 @@ from nsm_continuation import cli
 from nsm_continuation.algorithms.switching import other_direction
 from nsm_continuation.core.problem import Problem
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # ------------------------------------------------------------------ closed-form test problems

@@ -25,7 +25,7 @@ from nsm_continuation.output.files import hint_context, write_outputs
 from nsm_continuation.output.report import continue_hints
 from nsm_continuation.runs.runner import run_case
 
-CORE = Path(__file__).resolve().parents[1] / "nsm_continuation"
+CORE = Path(__file__).resolve().parents[2] / "nsm_continuation"
 
 
 class ToyParameters(BaseModel):

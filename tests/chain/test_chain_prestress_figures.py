@@ -32,7 +32,7 @@ import nsm_continuation as nsm
 from nsm_continuation.core.records import Event, Point
 from nsm_continuation.figures.orbits import Chosen, bounds_admissible_part, colour_quantity, traces
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FIG72 = ROOT / "yaml_cases" / "ndof_fig7_2_prestress_manifolds.yaml"
 FIG74 = ROOT / "yaml_cases" / "ndof_fig7_4_static_grazing_manifolds.yaml"
 QUIET = {"output.progress": False}

@@ -24,7 +24,7 @@ from nsm_continuation.cases import registry
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.vocabulary import ParameterDeprecationWarning, as_parameters
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "yaml_cases"
 CHAIN = {"chain": {"dofs": 3, "mass": 1.0, "stiffness": [1.0, 2.0, 1.5]}, "gap": 0.7}
 

@@ -18,7 +18,7 @@ import pytest
 
 from nsm_continuation.figures import process as figure_process
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not figure_process.FORKS or figure_process.usable_cores() < 2,
                                 reason="the figures are drawn by a forked child on Linux "

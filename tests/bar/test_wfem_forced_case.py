@@ -28,7 +28,7 @@ from nsm_continuation.problems.bar.wfem_simulation import BarParams, forced_resp
 import nsm_continuation as nsm
 from nsm_continuation import cli
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "yaml_cases"
 FORCE = CASES / "wfem_fig20_force_positive_gap.yaml"
 WALL = CASES / "wfem_fig20_wall_positive_gap.yaml"

@@ -23,7 +23,7 @@ import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.cases.saved_runs import RESTART_FORMAT, RESTART_VERSION
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: the default chain case (Fig. 5.1, branch 1) cut to omega in [1.42, 1.49]: the linear grazing
 #: start, the fold (pair through +1) at 1.4517 and four period doublings
 CHAIN_OVERRIDES = {"continuation.min": 1.42, "continuation.max": 1.49, "output.plots": False,

@@ -198,7 +198,7 @@ def test_a_chain_curve_from_a_point_that_is_no_grazing_is_refused(tmp_path: Path
     """The chain (``ndof_impact``, not a hybrid system) has located grazing curves
     (:mod:`nsm_continuation.algorithms.curves`); one asked from the branch's end point (no grazing
     there) is refused before computing, naming start.curve."""
-    res = nsm.run(Path(__file__).resolve().parents[1] / "yaml_cases" / "ndof_default.yaml",
+    res = nsm.run(Path(__file__).resolve().parents[2] / "yaml_cases" / "ndof_default.yaml",
                   {"continuation.min": 1.42, "continuation.max": 1.49,
                    "continuation.max_points": 3, "output.plots": False,
                    "output.progress": False})

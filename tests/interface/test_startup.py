@@ -11,7 +11,7 @@ from pathlib import Path
 
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: packages the command line must not load unless a run needs them
 HEAVY = ("matplotlib", "dask", "distributed", "casadi", "pydantic", "scipy")

@@ -46,7 +46,7 @@ from hypothesis import strategies as st
 from nsm_continuation import cli
 from nsm_continuation.cases import registry
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "yaml_cases"
 TRACEBACK = "Traceback (most recent call last)"
 #: wall-clock bound of one in-process call of the command line

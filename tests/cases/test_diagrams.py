@@ -28,7 +28,7 @@ import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.cases import registry
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def iterate(x: float, r: float, n: int) -> float:
