@@ -8,10 +8,9 @@ sec. 6.1 and eq. (16).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import CASES
 from nsm_continuation.problems.bar.continuum import (
     BarContinuumProblem,
     Signature,
@@ -25,8 +24,6 @@ from nsm_continuation.problems.bar.wfem_lattice import BarModel, classify, solve
 from nsm_continuation.cases.validation import load
 from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.settings import ContinuationSettings
-
-CASES = Path(__file__).resolve().parents[2] / "yaml_cases"
 
 
 def lattice_line(N: int, g0: float, sig: Signature, M_range: range

@@ -4,9 +4,9 @@ the ``sweep`` algorithm (problems/bar/forced_response.py, nsm_continuation/algor
 Oracles:
 
 * far from contact (gap 1, force 4e-3: the end moves by at most ~1e-2) the bar is the linear
-  damped clamped-free bar, whose steady state is computed here from its modal series
+  damped clamped-free bar, whose steady state comes from its modal series
   (``q_k'' + (eta/rho) q_k' + omega_k^2 q_k = 2 f0 / (rho L beta_k) sin(omega t)``, no code
-  shared with the package);
+  shared with the package: ``oracles/wfem_bar.py``);
 * the sweep through the YAML case must give the same numbers as calling
   :func:`forced_response_sweep` directly (a second entry point into the same time stepping);
 * the main NSM backbone overlaid on the figures against the closed form of the lattice energy
@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CASES
 from nsm_continuation.problems.bar.forced_response import main_backbone
 from nsm_continuation.problems.bar.wfem_simulation import BarParams, forced_response_sweep
+from oracles.wfem_bar import modal_steady_state
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
 
-ROOT = Path(__file__).resolve().parents[2]
-CASES = ROOT / "yaml_cases"
 FORCE = CASES / "wfem_fig20_force_positive_gap.yaml"
 WALL = CASES / "wfem_fig20_wall_positive_gap.yaml"
 FIG_CASES = sorted(CASES.glob("wfem_fig2[0-2]_*.yaml"))
@@ -40,18 +40,6 @@ FIG_CASES = sorted(CASES.glob("wfem_fig2[0-2]_*.yaml"))
 #: ratios (a transient beating with period 3T is classified as "period 3 T")
 FAR = ["parameters.gap=1.0", "parameters.cells=50", "parameters.damping_ratio=0.1",
        "continuation.max_points=4", "continuation.min=0.55", "continuation.max=2.35"]
-
-
-def modal_steady_state(p: BarParams, f0: float, omega: float, eta: float,
-                       n_modes: int = 4000) -> tuple[float, float]:
-    """``|U(L)|`` and the period-averaged energy of the linear bar, from its modal series."""
-    k = np.arange(1, n_modes + 1)
-    beta = (2 * k - 1) * np.pi / (2 * p.L)
-    om_k = p.c * beta
-    Q = (2 * f0 / (p.rho * p.L * beta)) / (om_k**2 - omega**2 + 1j * eta / p.rho * omega)
-    m_k = p.rho * p.S * p.L / 2
-    return (abs(complex(np.sum(Q * (-1.0) ** (k + 1)))),
-            float(np.sum(m_k / 4 * (omega**2 + om_k**2) * np.abs(Q) ** 2)))
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
@@ -81,7 +69,9 @@ def test_cli_run_far_from_contact_is_the_linear_response(tmp_path: Path) -> None
     eta = 2 * p.omega1 * 0.1
     np.testing.assert_allclose(col["omega_ratio"], np.linspace(0.55, 2.35, 4), rtol=1e-15)
     np.testing.assert_allclose(col["omega"], col["omega_ratio"] * p.omega1, rtol=1e-15)
-    oracle = np.array([modal_steady_state(p, 4e-3, om, eta) for om in col["omega"]])
+    # |U(L)| and the period-averaged energy of the linear bar, from its modal series
+    oracle = np.array([(abs(U_L), energy) for U_L, energy in
+                       (modal_steady_state(p, 4e-3, om, eta) for om in col["omega"])])
     np.testing.assert_allclose(col["energy"], oracle[:, 1], rtol=1e-3)
     np.testing.assert_allclose(col["energy_ratio"], oracle[:, 1] / p.energy_ref, rtol=1e-3)
     np.testing.assert_allclose(col["amplitude"], oracle[:, 0], rtol=2e-3)

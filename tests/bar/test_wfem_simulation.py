@@ -11,9 +11,9 @@ Oracles independent of :mod:`problems.bar.wfem_simulation`:
   by hand: impact at ``t1 = sqrt(2 rho g0 / F0) = 1`` with speed 10, contact phases of ``2L/c``,
   rigid rebound at speed 10, period ``2 (2L/c) + 2 (2V / (F0/rho)) = 16/3``, energy plus the
   body-force potential constant;
-* the damped forced linear bar (no contact): steady state from a modal series written here
-  (``q_k'' + (eta/rho) q_k' + omega_k^2 q_k = 2 f0 / (rho L beta_k) sin(omega t)``), also checked
-  against the closed form of the module.
+* the damped forced linear bar (no contact): steady state from its modal series
+  (``q_k'' + (eta/rho) q_k' + omega_k^2 q_k = 2 f0 / (rho L beta_k) sin(omega t)``,
+  ``oracles/wfem_bar.py``), also checked against the closed form of the module.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from nsm_continuation.problems.bar.wfem_simulation import (
     steady_multiple,
     steady_state_rule,
 )
-from oracles.wfem_bar import falling_bar_exact
+from oracles.wfem_bar import falling_bar_exact, modal_steady_state
 
 TABLE1 = {"E": 900.0, "rho": 1.0, "L": 10.0, "g0": 5.0, "F0": 10.0}
 
@@ -205,19 +205,6 @@ def test_field_force_midpoint_equals_uniform_for_constant_force() -> None:
 
 
 # -- forced linear bar -----------------------------------------------------------------------------
-def modal_steady_state(p: BarParams, f0: float, omega: float, eta: float,
-                       n_modes: int = 4000) -> tuple[complex, float]:
-    """``U(L)`` and the period-averaged energy from the modal series (module docstring)."""
-    k = np.arange(1, n_modes + 1)
-    beta = (2 * k - 1) * np.pi / (2 * p.L)
-    om_k = p.c * beta
-    Q = (2 * f0 / (p.rho * p.L * beta)) / (om_k**2 - omega**2 + 1j * eta / p.rho * omega)
-    U_L = complex(np.sum(Q * (-1.0) ** (k + 1)))
-    m_k = p.rho * p.S * p.L / 2
-    energy = float(np.sum(m_k / 4 * (omega**2 + om_k**2) * np.abs(Q) ** 2))
-    return U_L, energy
-
-
 def test_linear_forced_response_matches_closed_form() -> None:
     p = BarParams(N=100, g0=1e3)  # the gap never closes
     f0, eta = 1.0, 0.3

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
+from helpers import CASES
 from oracles.normal_forms import (
     LogisticMap,
     LogisticParameters,
@@ -32,8 +32,6 @@ import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.algorithms.switching import other_direction
 from nsm_continuation.core.problem import Problem
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 # ------------------------------------------------------------------ closed-form test problems
@@ -86,22 +84,23 @@ def test_switch_follows_the_closed_form_other_branch(cls: type[Problem], other: 
 
 
 # ------------------------------------------------------------------ the chain at g = 0
-def test_chain_static_grazing_branch_point_gives_the_vertical_family(tmp_path: Path) -> None:
+def test_chain_static_grazing_branch_point_gives_the_vertical_family(tmp_path: Path,
+                                                                    write_case: Any) -> None:
     """Fig. 7.3 (g = 0): the trivial branch has a branch point at each root of w_N; the
     switched branch (a YAML case from the saved run) is the vertical family of Prop. 7.2: T
     equal to the closed-form root at every point, (u(0), u_c'(0+)) proportional to
     (w(T*), 1), on both sides of u = 0."""
-    base = nsm.run(ROOT / "yaml_cases" / "ndof_fig7_3_static_grazing.yaml",
+    base = nsm.run(CASES / "ndof_fig7_3_static_grazing.yaml",
                    {"continuation.min": 1.55, "continuation.max": 1.7, "output.plots": False,
                     "output.progress": False})
     base.save(tmp_path / "g0", plots=False)
     bps = [e for e in base.events if e.kind == "branch_point"]
     assert len(bps) == 3
-    case = tmp_path / "switch.yaml"
-    case.write_text(yaml.safe_dump({
+    case = write_case({
         "start": {"from": str(tmp_path / "g0"), "event": {"kind": "branch_point", "index": 1},
                   "switch": True},
-        "continuation": {"max_points": 15}, "output": {"plots": False, "progress": False}}))
+        "continuation": {"max_points": 15}, "output": {"plots": False, "progress": False}},
+        "switch.yaml")
     out = tmp_path / "vertical"
     assert cli.main(["run", str(case), "--out", str(out), "--quiet"]) == 0
     rep = json.loads((out / "report.json").read_text())
@@ -155,21 +154,9 @@ def simulate(state: np.ndarray, omega: float, periods: int, phase: float = 0.0
     return x
 
 
-@pytest.fixture(scope="module")
-def flip(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    res = nsm.run(ROOT / "yaml_cases" / "chain_two_mass_wall.yaml",
-                  {"parameters.omega": 0.69, "continuation.min": 0.69,
-                   "continuation.max": 0.695, "continuation.direction": "increase",
-                   "continuation.step.initial": 0.005, "output.plots": False,
-                   "output.progress": False})
-    folder = tmp_path_factory.mktemp("runs") / "flip"
-    res.save(folder, plots=False)
-    return res, folder
-
-
-def test_period_doubling_switch_gives_genuine_period_two_orbits(flip: tuple[Any, Path]
+def test_period_doubling_switch_gives_genuine_period_two_orbits(flip_run: tuple[Any, Path]
                                                                 ) -> None:
-    res, folder = flip
+    res, folder = flip_run
     [pd] = [e for e in res.events if e.kind == "period_doubling"]
     omega_pd = pd.parameter
     assert omega_pd == pytest.approx(0.6927610, abs=1e-7)

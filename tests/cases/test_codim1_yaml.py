@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from helpers import CASES
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
@@ -177,37 +178,31 @@ BAD = [
 
 @pytest.mark.parametrize(("label", "start", "cont", "needle"), BAD, ids=[b[0] for b in BAD])
 def test_bad_curve_one_line_exit_2_nothing_written(undamped: tuple[float, Any, Path],
-                                                   tmp_path: Path, capsys: Any, label: str,
+                                                   write_case: Any,
+                                                   refused_before_computing: Any, label: str,
                                                    start: dict[str, Any],
                                                    cont: dict[str, Any], needle: str) -> None:
     _, _, folder = undamped
-    path = tmp_path / "case.yaml"
-    path.write_text(yaml.safe_dump({"start": {"from": str(folder), **start},
-                                    "continuation": cont, "output": {"progress": False}}))
-    before = sorted(p.name for p in tmp_path.iterdir())
-    for command in ("validate", "run"):
-        assert cli.main([command, str(path), "--out", str(tmp_path / "out")]) == 2
-        err = capsys.readouterr().err.strip()
-        assert "\n" not in err, err
-        assert err.startswith(f"error: {needle}"), err
-    assert sorted(p.name for p in tmp_path.iterdir()) == before
+    path = write_case({"start": {"from": str(folder), **start},
+                       "continuation": cont, "output": {"progress": False}})
+    refused_before_computing(path, needle)
 
 
 def test_a_chain_curve_from_a_point_that_is_no_grazing_is_refused(tmp_path: Path,
+                                                                  write_case: Any,
                                                                   capsys: Any) -> None:
     """The chain (``ndof_impact``, not a hybrid system) has located grazing curves
     (:mod:`nsm_continuation.algorithms.curves`); one asked from the branch's end point (no grazing
     there) is refused before computing, naming start.curve."""
-    res = nsm.run(Path(__file__).resolve().parents[2] / "yaml_cases" / "ndof_default.yaml",
+    res = nsm.run(CASES / "ndof_default.yaml",
                   {"continuation.min": 1.42, "continuation.max": 1.49,
                    "continuation.max_points": 3, "output.plots": False,
                    "output.progress": False})
     res.save(tmp_path / "chain", plots=False)
-    path = tmp_path / "case.yaml"
-    path.write_text(yaml.safe_dump({"start": {"from": str(tmp_path / "chain"),
-                                              "event": {"kind": "endpoint", "index": 0},
-                                              "curve": "grazing"},
-                                    "continuation": {"parameter": "stiffness"}}))
+    path = write_case({"start": {"from": str(tmp_path / "chain"),
+                                 "event": {"kind": "endpoint", "index": 0},
+                                 "curve": "grazing"},
+                       "continuation": {"parameter": "stiffness"}})
     assert cli.main(["validate", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err == ("error: start.curve: a grazing curve starts from a grazing event of the run "

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from helpers import CASES
 from oracles.normal_forms import LogisticMap as Logistic
 from oracles.normal_forms import LogisticParameters, MuParameters, Transcritical
 from scipy.optimize import fsolve
@@ -27,8 +28,6 @@ from scipy.optimize import fsolve
 import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.cases import registry
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def iterate(x: float, r: float, n: int) -> float:
@@ -240,7 +239,7 @@ def test_bad_diagram_input_one_line_exit_2_nothing_written(tmp_path: Path, capsy
                                                            needle: str) -> None:
     out = tmp_path / "out"
     for command in ("validate", "run"):
-        args = [command, str(ROOT / "yaml_cases" / case), "--out", str(out)]
+        args = [command, str(CASES / case), "--out", str(out)]
         for o in overrides:
             args += ["--set", o]
         assert cli.main(args) == 2
@@ -252,7 +251,7 @@ def test_bad_diagram_input_one_line_exit_2_nothing_written(tmp_path: Path, capsy
 
 def test_yaml_reference_keys_are_in_the_schema() -> None:
     """The cascade case validates as written (its keys are the documented ones)."""
-    raw = yaml.safe_load((ROOT / "yaml_cases" / "pendulum_sec6_2_cascade.yaml").read_text())
+    raw = yaml.safe_load((CASES / "pendulum_sec6_2_cascade.yaml").read_text())
     case = nsm.load_case(raw)
     spec = case.analysis.branch_switching
     assert (spec.depth, spec.kinds) == (3, ["period_doubling"])

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import ROOT
 from nsm_continuation.problems.bar.continuum import BarContinuumProblem
 from nsm_continuation.problems.bar.wfem_bar import WfemBarParameters, WfemBarProblem
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
@@ -22,7 +23,6 @@ from pydantic import ValidationError
 from nsm_continuation import cases
 from nsm_continuation.core.preflight import GAP_MAX, GAP_MIN, MEMORY_ENV, TIME_ENV
 
-ROOT = Path(__file__).resolve().parents[2]
 CASES = sorted((ROOT / "yaml_cases").glob("*.yaml"))
 
 CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
@@ -428,7 +428,7 @@ def test_chain_frequency_window_must_be_positive(key, value):
 def test_hybrid_start_state_of_absurd_size_is_refused():
     """A guess q2 = 1e300 was "corrected" to an orbit with residual 44 (Newton's tolerance is
     relative to 1 + |y|) and reported as an admissible point."""
-    root = Path(__file__).resolve().parents[2] / "yaml_cases"
+    root = ROOT / "yaml_cases"
     case = root / "pendulum_sec6_1_complete_to_incomplete.yaml"
     with pytest.raises(cases.CaseError, match=r"^start\.guess: a state component of 1e\+300"):
         cases.load(case, ["start.guess.q2=1.0e300"])

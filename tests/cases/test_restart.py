@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
+from helpers import CASES
+from oracles.scaled_chain import closed_form_y
 
 import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.cases.saved_runs import RESTART_FORMAT, RESTART_VERSION
 
-ROOT = Path(__file__).resolve().parents[2]
 #: the default chain case (Fig. 5.1, branch 1) cut to omega in [1.42, 1.49]: the linear grazing
 #: start, the fold (pair through +1) at 1.4517 and four period doublings
 CHAIN_OVERRIDES = {"continuation.min": 1.42, "continuation.max": 1.49, "output.plots": False,
@@ -32,15 +32,10 @@ CHAIN_OVERRIDES = {"continuation.min": 1.42, "continuation.max": 1.49, "output.p
 
 @pytest.fixture(scope="module")
 def chain_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    res = nsm.run(ROOT / "yaml_cases" / "ndof_default.yaml", CHAIN_OVERRIDES)
+    res = nsm.run(CASES / "ndof_default.yaml", CHAIN_OVERRIDES)
     folder = tmp_path_factory.mktemp("runs") / "chain"
     res.save(folder, plots=False)
     return res, folder
-
-
-def closed_form_y(problem: Any, T: float) -> np.ndarray:
-    u0, du0 = problem.closed_form(T)
-    return problem.y_from_state(u0, du0, T)
 
 
 def first_point(result: Any) -> Any:
@@ -201,7 +196,8 @@ BAD = [
 
 @pytest.mark.parametrize(("label", "start", "extra", "needle"), BAD, ids=[b[0] for b in BAD])
 def test_bad_restart_one_line_exit_2_nothing_written(chain_run: tuple[Any, Path],
-                                                     tmp_path: Path, capsys: Any, label: str,
+                                                     tmp_path: Path, write_case: Any,
+                                                     refused_before_computing: Any, label: str,
                                                      start: Any, extra: dict[str, Any],
                                                      needle: str) -> None:
     _, folder = chain_run
@@ -222,27 +218,18 @@ def test_bad_restart_one_line_exit_2_nothing_written(chain_run: tuple[Any, Path]
         return v
 
     case = {"name": "again", "start": fill(start), "output": {"progress": False}, **extra}
-    (tmp_path / "case.yaml").write_text(yaml.safe_dump(case))
-    before = sorted(p.name for p in tmp_path.iterdir())
-    out = tmp_path / "out"
-    for command in ("validate", "run"):
-        assert cli.main([command, str(tmp_path / "case.yaml"), "--out", str(out)]) == 2
-        err = capsys.readouterr().err.strip()
-        assert "\n" not in err, err
-        assert err.startswith(f"error: {fill(needle)}"), err
-    assert sorted(p.name for p in tmp_path.iterdir()) == before
+    refused_before_computing(write_case(case), fill(needle))
 
 
-def test_yaml_restart_writes_a_restartable_run(chain_run: tuple[Any, Path],
-                                               tmp_path: Path) -> None:
+def test_yaml_restart_writes_a_restartable_run(chain_run: tuple[Any, Path], tmp_path: Path,
+                                               write_case: Any) -> None:
     """A restart case written by the CLI is itself a run with a restart record: its problem
     and parameters are the inherited ones, and restarting from its own fold gives the same
     point again (one Newton iteration)."""
     _, folder = chain_run
-    case = tmp_path / "case.yaml"
-    case.write_text(yaml.safe_dump({"start": {"from": str(folder), "event": "fold"},
-                                    "continuation": {"max_points": 6},
-                                    "output": {"plots": False, "progress": False}}))
+    case = write_case({"start": {"from": str(folder), "event": "fold"},
+                       "continuation": {"max_points": 6},
+                       "output": {"plots": False, "progress": False}})
     out = tmp_path / "second"
     assert cli.main(["run", str(case), "--out", str(out), "--quiet"]) == 0
     rep = json.loads((out / "report.json").read_text())
@@ -263,20 +250,6 @@ def test_yaml_restart_writes_a_restartable_run(chain_run: tuple[Any, Path],
 
 
 # ----------------------------------------------------------------------- a hybrid orbit
-@pytest.fixture(scope="module")
-def flip_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    """The two-mass chain's period-1 orbit from omega = 0.69 up to 0.695: through its flip at
-    omega = 0.6927610 (yaml_cases/chain_two_mass_wall.yaml)."""
-    res = nsm.run(ROOT / "yaml_cases" / "chain_two_mass_wall.yaml",
-                  {"parameters.omega": 0.69, "continuation.min": 0.69,
-                   "continuation.max": 0.695, "continuation.direction": "increase",
-                   "continuation.step.initial": 0.005, "output.plots": False,
-                   "output.progress": False})
-    folder = tmp_path_factory.mktemp("runs") / "flip"
-    res.save(folder, plots=False)
-    return res, folder
-
-
 def test_hybrid_restart_in_another_parameter(flip_run: tuple[Any, Path]) -> None:
     """Restarted at the flip in the wall position ``gap``: omega takes its value at the flip
     (in ``parameters``), the unknowns are the section state and gap, the first point is the

@@ -10,12 +10,12 @@ import os
 import subprocess
 import sys
 import warnings
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from helpers import CASES
 from pydantic import ValidationError
 
 from nsm_continuation import cases, cli
@@ -24,8 +24,6 @@ from nsm_continuation.cases import registry
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.vocabulary import ParameterDeprecationWarning, as_parameters
 
-ROOT = Path(__file__).resolve().parents[2]
-CASES = ROOT / "yaml_cases"
 CHAIN = {"chain": {"dofs": 3, "mass": 1.0, "stiffness": [1.0, 2.0, 1.5]}, "gap": 0.7}
 
 #: (problem, parameters with the current keys, the same with an old key, old, new)
@@ -138,11 +136,10 @@ def test_errors_of_a_renamed_key_name_the_new_key():
     assert str(err.value).startswith("parameters.restitution: Input should be less than 1")
 
 
-def test_validate_refuses_both_keys_with_one_line(tmp_path, capsys):
+def test_validate_refuses_both_keys_with_one_line(write_case, capsys):
     raw = case_with("impact_oscillator_fig2_sticking.yaml",
                     {"zeta": 0.1, "omega": 0.4, "sigma": 0.0, "gap": 0.0})
-    path = tmp_path / "both.yaml"
-    path.write_text(yaml.safe_dump(raw))
+    path = write_case(raw, "both.yaml")
     capsys.readouterr()
     assert cli.main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
@@ -151,12 +148,11 @@ def test_validate_refuses_both_keys_with_one_line(tmp_path, capsys):
     assert lines[0].startswith("error: parameters.sigma and parameters.gap given together")
 
 
-def test_cli_prints_the_deprecation_once(tmp_path):
+def test_cli_prints_the_deprecation_once(tmp_path, write_case):
     raw = case_with("impact_oscillator_fig2_sticking.yaml",
                     {"zeta": 0.1, "omega": 0.4, "sigma": 0.0, "e": 0.6},
                     parameter="sigma", min=-0.1, max=0.1)
-    path = tmp_path / "old.yaml"
-    path.write_text(yaml.safe_dump(raw))
+    path = write_case(raw, "old.yaml")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
     proc = subprocess.run([sys.executable, "-m", "nsm_continuation.cli", "validate", str(path),
                            "--out", str(tmp_path / "out")],

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CASES
 from nsm_continuation.problems.chain.ndof_impact import simulate_first_return
 from scipy.optimize import brentq, minimize_scalar
 
@@ -32,9 +33,8 @@ import nsm_continuation as nsm
 from nsm_continuation.core.records import Event, Point
 from nsm_continuation.figures.orbits import Chosen, bounds_admissible_part, colour_quantity, traces
 
-ROOT = Path(__file__).resolve().parents[2]
-FIG72 = ROOT / "yaml_cases" / "ndof_fig7_2_prestress_manifolds.yaml"
-FIG74 = ROOT / "yaml_cases" / "ndof_fig7_4_static_grazing_manifolds.yaml"
+FIG72 = CASES / "ndof_fig7_2_prestress_manifolds.yaml"
+FIG74 = CASES / "ndof_fig7_4_static_grazing_manifolds.yaml"
 QUIET = {"output.progress": False}
 
 

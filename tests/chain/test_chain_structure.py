@@ -19,34 +19,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import msd
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
-from scipy.optimize import linear_sum_assignment
+from oracles.scaled_chain import closed_form_point, scaled_chain
 
 from nsm_continuation.core.floquet import KREIN_DEFINITE, krein_of
 
 
-def msd(x: np.ndarray, y: np.ndarray) -> float:
-    """Largest distance of an optimal pairing of two multisets of complex numbers."""
-    cost = np.abs(np.asarray(x)[:, None] - np.asarray(y)[None, :])
-    r, c = linear_sum_assignment(cost)
-    return float(cost[r, c].max())
-
-
 def chain(n: int, structured: bool = True) -> NDofImpactProblem:
     """The paper's scaling (2.17): ``m = 1/N``, ``k = N`` (N = 5: the paper's chain)."""
-    pb = NDofImpactProblem({"chain": {"dofs": n, "mass": 1.0 / n, "stiffness": float(n)},
-                            "gap": 1.0})
+    pb = scaled_chain(n)
     if structured:
         pb.DENSE_MULTIPLIERS_UP_TO = 0  # the O(N^2) iteration at every size
     return pb
-
-
-def point(pb: NDofImpactProblem, T: float) -> tuple[np.ndarray, np.ndarray]:
-    """The closed-form orbit (4.2) at ``T`` and the unit tangent of the branch there."""
-    u0, du0 = pb.closed_form(T)
-    y = pb.y_from_state(u0, du0, T)
-    t = np.linalg.svd(pb.jacobian(y))[2][-1]
-    return y, t
 
 
 def dense_energy_map(pb: NDofImpactProblem, y: np.ndarray) -> np.ndarray:
@@ -75,7 +60,7 @@ def test_structured_multipliers_equal_dense_eigenvalues(n: int, frac: float) -> 
     <= 1.2e-10, the largest next to the linear grazing orbit where ``|DF| ~ 1/v``); the
     removed 0 and 1 are not among them; ``DF t = t`` holds to 1e-10."""
     pb = chain(n)
-    y, t = point(pb, frac * pb.T_lin[0])
+    y, t = closed_form_point(pb, frac * pb.T_lin[0])
     fs, fd = pb.floquet(y, t), pb.floquet_dense(y, t)
     assert fs.multipliers.shape == (2 * n - 2,)
     assert msd(fs.multipliers, fd.multipliers) <= 1e-9
@@ -90,7 +75,7 @@ def test_near_the_fold_at_plus_one(dT: float) -> None:
     pair is 3e-3 ... 3e-2 from 1; structured and dense agree to 1e-8, and the pair's moduli to
     1e-8 (measured <= 2e-10)."""
     pb = chain(5)
-    y, t = point(pb, 4.328300508516754 + dT)
+    y, t = closed_form_point(pb, 4.328300508516754 + dT)
     fs, fd = pb.floquet(y, t), pb.floquet_dense(y, t)
     assert msd(fs.multipliers, fd.multipliers) <= 1e-8
     near = lambda m: np.sort(np.abs(m[np.argsort(np.abs(m - 1.0))[:2]]))  # noqa: E731
@@ -105,7 +90,7 @@ def test_near_the_krein_collisions_of_the_narrow_window(edge: float, dT: float) 
     on the stable side the colliding pair is on the circle with definite, opposite
     signatures, on the unstable side it is off the circle with zero definiteness."""
     pb = chain(5)
-    y, t = point(pb, edge + dT)
+    y, t = closed_form_point(pb, edge + dT)
     fs, fd = pb.floquet(y, t), pb.floquet_dense(y, t)
     assert msd(fs.multipliers, fd.multipliers) <= 1e-8
     m, k = fs.multipliers, krein_of(fs)
@@ -122,7 +107,7 @@ def test_krein_definiteness_against_dense_eigenvectors(n: int, frac: float) -> N
     others (an eigenvector is only defined to its distance to the nearest eigenvalue); it is
     in ``[-1, 1]``, flips sign under conjugation, and vanishes off the circle."""
     pb = chain(n)
-    y, t = point(pb, frac * pb.T_lin[0])
+    y, t = closed_form_point(pb, frac * pb.T_lin[0])
     fs = pb.floquet(y, t)
     DFz = dense_energy_map(pb, y)
     lam, V = np.linalg.eig(DFz)
@@ -152,7 +137,7 @@ def test_return_map_is_symplectic_on_the_energy_level_of_the_section(n: int) -> 
     energy level (``grad E . a = 0``): the symplectic form the Krein signatures refer to; and
     in energy coordinates ``grad E = z0`` (the left eigenvector of the trivial 1)."""
     pb = chain(n)
-    y, _ = point(pb, 0.995 * pb.T_lin[0])
+    y, _ = closed_form_point(pb, 0.995 * pb.T_lin[0])
     DFz = dense_energy_map(pb, y)
     st = pb.return_map_structure(y)
     z0 = st["z0"]
@@ -172,7 +157,7 @@ def test_structure_reproduces_the_dense_return_map() -> None:
     """``(I + U V^T) D`` (:meth:`return_map_apply`) equals the dense (A.8) in energy
     coordinates, column by column (the saltation form of the derivation)."""
     pb = chain(7)
-    y, _ = point(pb, 0.97 * pb.T_lin[0])
+    y, _ = closed_form_point(pb, 0.97 * pb.T_lin[0])
     st = pb.return_map_structure(y)
     DFz = dense_energy_map(pb, y)
     cols = np.stack([pb.return_map_apply(st, e) for e in np.eye(14)], axis=1)
@@ -185,7 +170,7 @@ def test_small_chain_krein_from_dense_eigenvectors_equals_secular(frac: float) -
     eigenvectors of ``(I + U V^T) D``; it equals the secular null-vector formula (the large-N
     path) to 1e-7 for multipliers 1e-4 apart from the others."""
     dense, sec = chain(5, structured=False), chain(5)
-    y, t = point(dense, frac * dense.T_lin[0])
+    y, t = closed_form_point(dense, frac * dense.T_lin[0])
     fd, fs = dense.floquet(y, t), sec.floquet(y, t)
     kd, ks = krein_of(fd), krein_of(fs)
     md, ms = fd.multipliers, fs.multipliers

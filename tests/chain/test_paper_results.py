@@ -8,15 +8,12 @@ all three scenarios: multipliers leaving at +1, at -1 and as a complex pair).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import CASES
 
 from nsm_continuation import cases
 from nsm_continuation.runs.runner import run_case
-
-CASES = Path(__file__).resolve().parents[2] / "yaml_cases"
 
 
 @pytest.fixture(scope="module")

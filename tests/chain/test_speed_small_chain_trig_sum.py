@@ -22,41 +22,9 @@ import numpy as np
 import pytest
 from nsm_continuation.problems.chain import trig_sum
 from nsm_continuation.problems.chain.trig_sum import TrigSum
-from scipy.optimize import brentq
+from oracles.trig_sum import EPS, fprime, fsecond, fvalue, grid_roots
 
 from nsm_continuation import api
-
-EPS = np.finfo(float).eps
-
-
-def fprime(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: np.ndarray | float) -> np.ndarray:
-    t = np.asarray(t, dtype=float)
-    wt = np.multiply.outer(t, w)
-    return np.sum(w * (b * np.cos(wt) - a * np.sin(wt)), axis=-1)
-
-
-def fsecond(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: np.ndarray | float) -> np.ndarray:
-    t = np.asarray(t, dtype=float)
-    wt = np.multiply.outer(t, w)
-    return -np.sum(w**2 * (a * np.cos(wt) + b * np.sin(wt)), axis=-1)
-
-
-def fvalue(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: np.ndarray | float) -> np.ndarray:
-    t = np.asarray(t, dtype=float)
-    wt = np.multiply.outer(t, w)
-    return np.sum(a * np.cos(wt) + b * np.sin(wt), axis=-1)
-
-
-def grid_roots(a, b, w, t0, t1, per_radian=200.0):
-    """Roots of ``f'`` in ``(t0, t1)``: dense sign-change grid + brentq."""
-    n = int(np.ceil((t1 - t0) * np.max(w) * per_radian)) + 2000
-    grid = np.linspace(t0, t1, n)
-    vals = fprime(a, b, w, grid)
-    roots = [float(grid[i]) for i in range(1, n - 1) if vals[i] == 0.0]
-    for i in np.nonzero(vals[:-1] * vals[1:] < 0)[0]:
-        roots.append(brentq(lambda t: float(fprime(a, b, w, t)), grid[i], grid[i + 1],
-                            xtol=1e-15, rtol=4 * EPS))
-    return np.sort(np.array(roots))
 
 
 @pytest.fixture
@@ -101,7 +69,7 @@ def test_small_path_finds_the_oracle_roots(seed: int) -> None:
     rng = np.random.default_rng(7000 + seed)
     a, b, w, t0, t1 = random_sum(rng)
     found = TrigSum(a, b, w).critical_points(t0, t1)
-    expected = grid_roots(a, b, w, t0, t1)
+    expected = grid_roots(a, b, w, t0, t1, per_radian=200.0)
     assert found.size == expected.size, (found, expected)
     if found.size:
         assert np.max(np.abs(found - expected)) <= 1e-10
@@ -145,7 +113,7 @@ def test_small_path_exact_double_root_and_edge_cases(vectorised) -> None:
         near = found[np.abs(found - ts) < 1e-3]
         assert 1 <= near.size <= 64 and np.max(np.abs(near - ts)) < 1e-6
         others = found[np.abs(found - ts) >= 1e-3]
-        exp = grid_roots(a, b, w, 0.0, 4.0)
+        exp = grid_roots(a, b, w, 0.0, 4.0, per_radian=200.0)
         exp = exp[np.abs(exp - ts) >= 1e-3]
         assert others.size == exp.size and np.max(np.abs(others - exp), initial=0) < 1e-10
     # sin t: roots of f' at pi/2 + k pi; the window (pi/2, 5 pi/2) excludes its ends
@@ -174,7 +142,7 @@ def test_small_path_symmetric_orbit_root_on_a_grid_edge(seed: int) -> None:
     a, b = c * np.cos(w * T / 2), c * np.sin(w * T / 2)
     found = TrigSum(a, b, w).critical_points(0.0, T)
     assert np.min(np.abs(found - T / 2)) <= 4 * EPS * T
-    expected = grid_roots(a, b, w, 0.0, T)
+    expected = grid_roots(a, b, w, 0.0, T, per_radian=200.0)
     assert found.size == expected.size and np.max(np.abs(found - expected)) <= 1e-9
 
 
@@ -215,7 +183,7 @@ def test_large_sums_keep_the_vectorised_path(monkeypatch: pytest.MonkeyPatch) ->
     a, b, w = rng.normal(size=n), rng.normal(size=n), np.sort(rng.uniform(0.5, 8.0, n))
     found = TrigSum(a, b, w).critical_points(0.0, 4.0)
     assert grids
-    expected = grid_roots(a, b, w, 0.0, 4.0)
+    expected = grid_roots(a, b, w, 0.0, 4.0, per_radian=200.0)
     assert found.size == expected.size and np.max(np.abs(found - expected)) <= 1e-10
 
 
@@ -295,7 +263,7 @@ def test_small_path_double_roots_anywhere_in_a_cell(vectorised, seed: int) -> No
         near = found[np.abs(found - ts) < 1e-3]
         assert 1 <= near.size <= 64, (near, found)
         assert np.max(np.abs(near - ts)) < 1e-6
-        exp = grid_roots(a, b, w, 0.0, 4.0)
+        exp = grid_roots(a, b, w, 0.0, 4.0, per_radian=200.0)
         exp = exp[np.abs(exp - ts) >= 1e-3]
         others = found[np.abs(found - ts) >= 1e-3]
         assert others.size == exp.size and np.max(np.abs(others - exp), initial=0) < 1e-10

@@ -18,40 +18,8 @@ import time
 import numpy as np
 import pytest
 from nsm_continuation.problems.chain.trig_sum import TrigSum
+from oracles.trig_sum import EPS, fprime, fvalue, grid_roots
 from scipy.optimize import brentq
-
-EPS = np.finfo(float).eps
-
-
-def fprime(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: np.ndarray | float) -> np.ndarray:
-    """``f'(t)`` written independently of TrigSum."""
-    t = np.asarray(t, dtype=float)
-    return np.sum(w * (b * np.cos(np.multiply.outer(t, w)) - a * np.sin(np.multiply.outer(t, w))),
-                  axis=-1)
-
-
-def fvalue(a: np.ndarray, b: np.ndarray, w: np.ndarray, t: np.ndarray | float) -> np.ndarray:
-    t = np.asarray(t, dtype=float)
-    wt = np.multiply.outer(t, w)
-    return np.sum(a * np.cos(wt) + b * np.sin(wt), axis=-1)
-
-
-def grid_roots(a, b, w, t0, t1, per_radian=100.0, skip=None):
-    """Roots of ``f'`` in ``(t0, t1)`` by a dense sign-change grid + brentq.
-
-    ``skip = (lo, hi)``: a sub-interval left out of the grid (handled by construction).
-    """
-    n = int(np.ceil((t1 - t0) * np.max(w) * per_radian)) + 2000
-    grid = np.linspace(t0, t1, n)
-    vals = fprime(a, b, w, grid)
-    roots = [float(grid[i]) for i in range(1, n - 1) if vals[i] == 0.0]
-    for i in np.nonzero(vals[:-1] * vals[1:] < 0)[0]:
-        lo, hi = grid[i], grid[i + 1]
-        if skip is not None and hi > skip[0] and lo < skip[1]:
-            continue
-        roots.append(brentq(lambda t: float(fprime(a, b, w, t)), lo, hi, xtol=1e-15,
-                            rtol=4 * EPS))
-    return np.sort(np.array(roots))
 
 
 def assert_roots_match(found: np.ndarray, expected: np.ndarray, tol: float) -> None:

@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 import pytest
+from helpers import NoParameters
 from pydantic import BaseModel
 
 from nsm_continuation.core.palc import ContinuationEngine
@@ -19,17 +20,13 @@ from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.core.settings import ContinuationSettings
 
 
-class _Params(BaseModel):
-    pass
-
-
 class _Toy(Problem):
     """One unknown x and the parameter p."""
 
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
 
@@ -56,10 +53,10 @@ class Line(Problem):
     """x = p, with multipliers and a test function given as functions of p."""
 
     name: ClassVar[str] = "line"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, mult=None, test=None) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self._mult = mult
@@ -197,12 +194,12 @@ class KreinPair(Problem):
     pass through each other. ``conservative`` is the declared capability the engine reads."""
 
     name: ClassVar[str] = "krein_pair"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
     conservative = True
 
     def __init__(self, opposite: bool, w: float = 1e-3, c: float = 1.0,
                  krein: bool = True) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self.opposite, self.w, self.c, self.krein = opposite, w, c, krein

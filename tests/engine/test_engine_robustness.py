@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 import pytest
+from helpers import NoParameters
 from pydantic import BaseModel
 
 from nsm_continuation.core.lattice import LatticeContinuation, LatticeProblem, LatticeSeed
@@ -25,19 +26,15 @@ from nsm_continuation.core.settings import ContinuationSettings
 SIM_MESSAGE = "simulation: time limit: no end condition reached by t = 1000 (state s6)"
 
 
-class _Params(BaseModel):
-    pass
-
-
 class Circle(Problem):
     """x^2 + p^2 = 1, with hooks that can be told to raise at their k-th call."""
 
     name: ClassVar[str] = "circle"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, hook: str | None = None, k: int = 0, exc: Exception | None = None,
                  persistent: bool = False) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self.hook, self.k, self.exc, self.persistent = hook, k, exc, persistent
@@ -81,10 +78,10 @@ class Line(Problem):
     """x = p; ``tests`` and ``derived`` given as functions of p (a missing name: None)."""
 
     name: ClassVar[str] = "line"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, tests=None, derived=None, fail_beyond: float | None = None) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self._tests, self._derived, self.fail_beyond = tests, derived, fail_beyond
@@ -109,11 +106,11 @@ class Pole(Problem):
     as the impacting chain's at a zero of w_N), p* = 2."""
 
     name: ClassVar[str] = "pole"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
     P_STAR = 2.0
 
     def __init__(self) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
 
@@ -362,10 +359,10 @@ def test_pole_estimate_exact_on_a_power_law():
 # ------------------------------------------------------------------ lattice engine
 class _BadLattice(LatticeProblem):
     name: ClassVar[str] = "bad_lattice"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, exc: Exception) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self.exc = exc

@@ -29,16 +29,13 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 import pytest
+from helpers import CASES, NoParameters
 from pydantic import BaseModel
 
 from nsm_continuation.core.palc import ContinuationEngine, multiplier_motion
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event
 from nsm_continuation.core.settings import ContinuationSettings
-
-
-class _Params(BaseModel):
-    pass
 
 
 def _run(problem: Problem, y0: Any, direction: int = 1, start_direction: int | None = None,
@@ -74,10 +71,10 @@ class MapFamily(Problem):
     """
 
     name: ClassVar[str] = "map_family"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, kind: str) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x1", "x2", "mu"]
         self.parameter = "mu"
         self.kind = kind
@@ -114,10 +111,10 @@ class FoldMap(Problem):
     passes +1 (the other is 1/2): unstable for ``x1 < 0``, stable for ``x1 > 0``."""
 
     name: ClassVar[str] = "fold_map"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x1", "x2", "mu"]
         self.parameter = "mu"
         x, mu = ca.SX.sym("x", 2), ca.SX.sym("mu")
@@ -185,13 +182,13 @@ class Line(Problem):
     ``p`` (a function returning None: the name is missing there)."""
 
     name: ClassVar[str] = "line"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
     event_kinds: ClassVar[dict[str, str]] = {
         "fidelity_test_crossing": "an event function of the event-fidelity tests vanishes"}
     event_function_kinds: ClassVar[dict[str, str]] = {"g": "fidelity_test_crossing"}
 
     def __init__(self, mult: Any = None, tests: Any = None, functions: Any = None) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self._mult, self._tests, self._functions = mult, tests, functions
@@ -271,10 +268,10 @@ def test_two_mass_chain_flip_against_fixed_frequency_root() -> None:
 
 # ======================================================================== 2. branch points
 class _Curve(Problem):
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "mu"]
         self.parameter = "mu"
 
@@ -378,12 +375,11 @@ def test_narrow_neimark_sacker_window_of_fig_6_1_is_found() -> None:
     """Fig. 6.1 (5-dof chain, branch 1): the complex-pair window [1.503588, 1.504449], 8.6e-4
     wide in omega, hides inside a step when multipliers may move 0.05 per step; the default
     limit 0.02 finds it, at the omega a 4x finer limit (0.005) gives (README table)."""
-    from pathlib import Path
 
     from nsm_continuation import cases
     from nsm_continuation.runs.runner import run_case
 
-    path = Path(__file__).resolve().parents[2] / "yaml_cases" / "ndof_fig6_1_stability.yaml"
+    path = CASES / "ndof_fig6_1_stability.yaml"
     case, problem = cases.load(path)
     res = run_case(case, problem, progress=False)
     ns = [ev.point.derived["omega"] for ev in res.branches[0].events

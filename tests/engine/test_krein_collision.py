@@ -14,7 +14,7 @@ import collections
 
 import numpy as np
 import pytest
-from oracles.scaled_chain import closed_form_y, scaled_chain
+from oracles.scaled_chain import closed_form_point, scaled_chain
 
 from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.problem import StartPoint
@@ -24,10 +24,7 @@ from nsm_continuation.core.settings import ContinuationSettings
 @pytest.mark.parametrize("n", [60, 200])
 def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
     pb = scaled_chain(n)
-    T = pb.T_lin[0] * 0.999
-    u0, du0 = pb.closed_form(T)
-    y = pb.y_from_state(u0, du0, T)
-    t = np.linalg.svd(pb.jacobian(y))[2][-1]
+    y, t = closed_form_point(pb, pb.T_lin[0] * 0.999)
     dense = np.asarray(pb.floquet_dense(y, t).multipliers)
     rng = np.random.default_rng(n)
     for i in rng.choice(dense.size, 4, replace=False):
@@ -39,8 +36,7 @@ def test_multipliers_near_are_dense_eigenvalues(n: int) -> None:
         assert np.abs(np.sort_complex(near) - np.sort_complex(dense[[i, j]])).max() <= 1e-9
     # small chains: the dense eigenvalues nearest to the guesses
     small = scaled_chain(5)
-    ys = closed_form_y(small, small.T_lin[0] * 0.999)
-    ts = np.linalg.svd(small.jacobian(ys))[2][-1]
+    ys, ts = closed_form_point(small, small.T_lin[0] * 0.999)
     m5 = np.asarray(small.floquet_dense(ys, ts).multipliers)
     assert np.array_equal(small.multipliers_near(ys, ts, m5[[1, 0]] + 1e-9), m5[[1, 0]])
 

@@ -14,17 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import msd
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from oracles.scaled_chain import closed_form_point
 from scipy.optimize import linear_sum_assignment
 
 from nsm_continuation.core.floquet import krein_definiteness, low_rank_update_eigen, lowrank
-
-
-def msd(x: np.ndarray, y: np.ndarray) -> float:
-    """Largest distance of an optimal pairing of two multisets of complex numbers."""
-    cost = np.abs(np.asarray(x)[:, None] - np.asarray(y)[None, :])
-    r, c = linear_sum_assignment(cost)
-    return float(cost[r, c].max())
 
 
 def exactly_closed(lam: np.ndarray) -> bool:
@@ -160,10 +155,7 @@ def test_a_complex_map_is_not_taken_for_a_real_one() -> None:
 # ---------------------------------------------------------------- Krein collisions of the chain
 def _chain_structure(pb: NDofImpactProblem, frac: float
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple]:
-    T = frac * pb.T_lin[0]
-    u0, du0 = pb.closed_form(T)
-    y = pb.y_from_state(u0, du0, T)
-    t = np.linalg.svd(pb.jacobian(y))[2][-1]
+    y, t = closed_form_point(pb, frac * pb.T_lin[0])
     st = pb.return_map_structure(y)
     X, Y, removed = pb._deflated_update(st, pb._family_direction(y, t))
     return y, t, st["mu"], X, Y, removed

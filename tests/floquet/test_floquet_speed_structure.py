@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import msd
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
-from scipy.optimize import linear_sum_assignment
+from oracles.scaled_chain import closed_form_point, scaled_chain
 
 from nsm_continuation.core.floquet import (
     collision_distances,
@@ -133,13 +134,6 @@ def _krein_definiteness_reference(mu: np.ndarray, X: np.ndarray, Y: np.ndarray,
     return np.where(den > 0, num / den, np.sign(s[star]))
 
 
-def msd(x: np.ndarray, y: np.ndarray) -> float:
-    """Largest distance of an optimal pairing of two multisets of complex numbers."""
-    cost = np.abs(np.asarray(x)[:, None] - np.asarray(y)[None, :])
-    r, c = linear_sum_assignment(cost)
-    return float(cost[r, c].max())
-
-
 def _multipliers(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
     """A symplectic-looking set: most on the circle (radius within rounding or ``1e-9``),
     some off it, some with indefinite Krein definiteness, with conjugates."""
@@ -251,12 +245,9 @@ def test_secular_roots_and_krein_equal_dense(on_circle: bool) -> None:
 
 # ---------------------------------------------------------------- the chain
 def _chain_point(n: int, T: float) -> tuple[NDofImpactProblem, np.ndarray, np.ndarray]:
-    pb = NDofImpactProblem({"chain": {"dofs": n, "mass": 1.0 / n, "stiffness": float(n)},
-                            "gap": 1.0})
+    pb = scaled_chain(n)
     pb.DENSE_MULTIPLIERS_UP_TO = 0
-    u0, du0 = pb.closed_form(T)
-    y = pb.y_from_state(u0, du0, T)
-    t = np.linalg.svd(pb.jacobian(y))[2][-1]
+    y, t = closed_form_point(pb, T)
     return pb, y, t
 
 

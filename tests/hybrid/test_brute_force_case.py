@@ -24,13 +24,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pytest
+from helpers import CASES
 from scipy.integrate import solve_ivp
 
 import nsm_continuation as nsm
 from nsm_continuation import cases
 from nsm_continuation.core.problem import Problem
-
-ROOT = Path(__file__).resolve().parents[2]
 
 #: a forced impact oscillator (sec. 2.2.1) above resonance hitting its stop with finite
 #: velocities (no chattering, no sticking): an attractor that is not periodic, so every
@@ -129,7 +128,7 @@ def test_brute_force_collapses_on_the_continued_stable_orbit() -> None:
 
 
 def test_cli_refuses_record_outside_a_sweep(tmp_path: Path) -> None:
-    case = ROOT / "yaml_cases" / "pendulum_sec6_1_complete_to_incomplete.yaml"
+    case = CASES / "pendulum_sec6_1_complete_to_incomplete.yaml"
     proc = subprocess.run([sys.executable, "-m", "nsm_continuation.cli", "validate",
                            str(case), "--set", "start.record=5"],
                           capture_output=True, text=True, cwd=tmp_path)
@@ -142,7 +141,7 @@ def test_cli_refuses_record_outside_a_sweep(tmp_path: Path) -> None:
 @pytest.mark.parametrize("name", ["pendulum_fig8b_brute_force.yaml",
                                   "pendulum_fig9bc_brute_force.yaml"])
 def test_bundled_cases_validate(name: str) -> None:
-    case, problem = cases.validate(cases.load_raw(ROOT / "yaml_cases" / name))
+    case, problem = cases.validate(cases.load_raw(CASES / name))
     assert case.continuation.algorithm == "sweep" and "sweep" in problem.algorithms
 
 

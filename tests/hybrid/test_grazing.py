@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import CASES
 from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 from scipy.optimize import fsolve
 
@@ -271,11 +272,10 @@ def test_fig2_oscillator_continues_below_0_3465_without_event() -> None:
     acceleration at the first impact changes sign near 0.338, which is no change of the
     orbit), and the orbit's structure, simulated again at both ends, is the same: complete
     chattering and one sticking phase per period."""
-    from pathlib import Path
 
     import nsm_continuation as nsm
 
-    case = Path(__file__).resolve().parents[2] / "yaml_cases" / \
+    case = CASES / \
         "impact_oscillator_fig2_sticking.yaml"
     res = nsm.run(nsm.load_case(case, {"output.plots": False, "output.progress": False,
                                        "start.direction": "decrease",
@@ -298,11 +298,10 @@ def test_two_mass_chain_grazing_at_0_772_against_fixed_frequency_solves() -> Non
     one-impact orbits at fixed frequencies just below it (Newton in the section unknowns at
     fixed omega, from the located point): the line through their grazing margins vanishes
     within 1e-9 of the located omega."""
-    from pathlib import Path
 
     import nsm_continuation as nsm
 
-    case = Path(__file__).resolve().parents[2] / "yaml_cases" / "chain_two_mass_wall.yaml"
+    case = CASES / "chain_two_mass_wall.yaml"
     res = nsm.run(nsm.load_case(case, {"output.plots": False, "output.progress": False,
                                        "continuation.max": 0.7725}))
     (br,) = res.run_result.branches

@@ -12,6 +12,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from helpers import CASES
 from nsm_continuation.problems.impacting.bouncing_ball import (
     BouncingBallProblem,
     ball_chatter_jacobian,
@@ -366,11 +367,10 @@ def test_ball_yaml_case_runs_with_zero_branches(tmp_path):
     """``nsm-continuation run yaml_cases/ball_fig1_fig4_chatter.yaml``: a simulation case with
     no branch; the results and the three figures are written."""
     import json
-    from pathlib import Path
 
     from nsm_continuation import cli
 
-    case = Path(__file__).resolve().parents[2] / "yaml_cases" / "ball_fig1_fig4_chatter.yaml"
+    case = CASES / "ball_fig1_fig4_chatter.yaml"
     out = tmp_path / "ball"
     assert cli.main(["run", str(case), "--out", str(out), "--quiet"]) == 0
     rep = json.loads((out / "report.json").read_text())

@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pytest
+from helpers import NoParameters
 from oracles.impact_oscillator import orbits, section_state
 from pydantic import BaseModel
 from scipy.integrate import solve_ivp
@@ -241,10 +242,6 @@ def test_restart_from_a_point_in_a_moved_chart(impact_through_the_section: Any) 
 
 
 # ---------------------------------------------------------------------- the engine, on toys
-class _Params(BaseModel):
-    pass
-
-
 def toy_settings(direction: int = 0) -> ContinuationSettings:
     """Steps of 0.05 over p in [0, 1], no multipliers."""
     return ContinuationSettings(param_min=0.0, param_max=1.0, step_initial=0.05, step_max=0.05,
@@ -256,10 +253,10 @@ class ShiftedLine(Problem):
     ``p > 0.5`` in every chart below 1: the engine's bookkeeping on an exact answer."""
 
     name: ClassVar[str] = "shifted_line"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, c: float = 0.0) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self.c = c
@@ -302,10 +299,10 @@ class PoleAndZero(Problem):
     event), ``p - 0.7`` through a zero (an event at 0.7)."""
 
     name: ClassVar[str] = "pole_and_zero"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
 
@@ -332,10 +329,10 @@ class KinkAt(Problem):
     wrong one: a point where the function is not zero, or a step back onto the approach)."""
 
     name: ClassVar[str] = "kink_at"
-    Parameters: ClassVar[type[BaseModel]] = _Params
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
 
     def __init__(self, zero: float, beyond: float) -> None:
-        super().__init__(_Params())
+        super().__init__(NoParameters())
         self.variables = ["x", "p"]
         self.parameter = "p"
         self.zero, self.beyond = zero, beyond

@@ -10,12 +10,10 @@ import sys
 from pathlib import Path
 
 import pytest
-import yaml
+from helpers import CASES
 
 from nsm_continuation import cli
 from nsm_continuation.output import files as results
-
-ROOT = Path(__file__).resolve().parents[2]
 
 BASE = {
     "name": "t",
@@ -27,12 +25,6 @@ BASE = {
     "analysis": {"stop_on_inadmissible": True},
     "output": {"progress": False},
 }
-
-
-def _write(tmp_path: Path, case: dict | str, name: str = "case.yaml") -> Path:
-    p = tmp_path / name
-    p.write_text(case if isinstance(case, str) else yaml.safe_dump(case))
-    return p
 
 
 def _with(path: list[str], value) -> dict:
@@ -82,17 +74,17 @@ def test_default_case_runs_and_writes_the_contract(tmp_path, capsys):
         assert (out / fig).stat().st_size > 10_000
 
 
-def test_console_script_list_and_validate(tmp_path):
+def test_console_script_list_and_validate(write_case):
     exe = [sys.executable, "-m", "nsm_continuation.cli"]
     r = subprocess.run(exe + ["list"], capture_output=True, text=True, check=True)
     assert "ndof_impact" in r.stdout
-    case = _write(tmp_path, BASE)
+    case = write_case(BASE)
     r = subprocess.run(exe + ["validate", str(case)], capture_output=True, text=True)
     assert r.returncode == 0 and "valid" in r.stdout
 
 
-def test_set_override_applies(tmp_path):
-    case = _write(tmp_path, BASE)
+def test_set_override_applies(tmp_path, write_case):
+    case = write_case(BASE)
     out = tmp_path / "o"
     assert cli.main(["run", str(case), "--out", str(out), "--quiet",
                      "--set", "continuation.max_points=7", "--set", "output.plots=false"]) == 0
@@ -125,8 +117,9 @@ BAD = [
 
 
 @pytest.mark.parametrize("label, case, needle", BAD, ids=[b[0] for b in BAD])
-def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, label, case, needle):
-    path = _write(tmp_path, case)
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, write_case, capsys, label, case,
+                                                   needle):
+    path = write_case(case)
     out = tmp_path / "out"
     assert cli.main(["run", str(path), "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
@@ -136,23 +129,23 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, label, case
     assert [p.name for p in tmp_path.iterdir()] == ["case.yaml"]
 
 
-def test_missing_file_and_invalid_yaml(tmp_path, capsys):
+def test_missing_file_and_invalid_yaml(tmp_path, write_case, capsys):
     assert cli.main(["run", str(tmp_path / "nope.yaml"), "--quiet"]) == 2
     assert "does not exist" in capsys.readouterr().err
-    bad = _write(tmp_path, "problem: [unclosed\n")
+    bad = write_case("problem: [unclosed\n")
     assert cli.main(["validate", str(bad)]) == 2
     assert "not valid YAML" in capsys.readouterr().err
-    assert cli.main(["validate", str(_write(tmp_path, BASE, "c2.yaml")), "--set", "noequals"]) == 2
+    assert cli.main(["validate", str(write_case(BASE, "c2.yaml")), "--set", "noequals"]) == 2
 
 
-def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys):
+def test_failed_run_leaves_no_half_written_folder(tmp_path, write_case, monkeypatch, capsys):
     from nsm_continuation.figures import make as plots
 
     def boom(*a, **k):
         raise RuntimeError("plotting failed")
 
     monkeypatch.setattr(plots, "make_all", boom)
-    case = _write(tmp_path, BASE)
+    case = write_case(BASE)
     out = tmp_path / "out"
     # an exception that should not happen is a bug: exit 1, one line, traceback in a file
     assert cli.main(["run", str(case), "--out", str(out), "--quiet"]) == 1
@@ -168,7 +161,7 @@ def test_failed_run_leaves_no_half_written_folder(tmp_path, monkeypatch, capsys)
 def test_every_bundled_case_validates():
     from nsm_continuation import cases
 
-    files = sorted((ROOT / "yaml_cases").glob("*.yaml"))
+    files = sorted(CASES.glob("*.yaml"))
     assert len(files) >= 6
     for f in files:
         case, problem = cases.load(f)

@@ -16,6 +16,7 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 import pytest
+from helpers import PACKAGE
 from pydantic import BaseModel, ConfigDict
 
 from nsm_continuation.cases.schema import Case
@@ -24,8 +25,6 @@ from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.output.files import hint_context, write_outputs
 from nsm_continuation.output.report import continue_hints
 from nsm_continuation.runs.runner import run_case
-
-CORE = Path(__file__).resolve().parents[2] / "nsm_continuation"
 
 
 class ToyParameters(BaseModel):
@@ -81,11 +80,11 @@ def test_core_reads_no_undeclared_hybrid_member() -> None:
     """results / restart / report name neither the hybrid class nor its ``values``, and do not
     probe for attributes through AttributeError."""
     for mod in ("output/files.py", "cases/restart.py", "output/report.py"):
-        text = (CORE / mod).read_text()
+        text = (PACKAGE / mod).read_text()
         assert "HybridCaseProblem" not in text, mod
         assert "except AttributeError" not in text, mod
         assert "problem.values" not in text and "pr.values" not in text, mod
-    assert "CURVE_PREFERENCE" not in (CORE / "output" / "report.py").read_text()
+    assert "CURVE_PREFERENCE" not in (PACKAGE / "output" / "report.py").read_text()
 
 
 # ---------------------------------------------------------------------- (b) the hints

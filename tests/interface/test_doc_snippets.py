@@ -34,14 +34,13 @@ import re
 import shlex
 import tomllib
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from helpers import CASES, ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 #: the languages of fenced blocks checked here ("" is plain text: the Architecture tree)
 CHECKED = ("python", "yaml", "bash", "toml", "")
@@ -90,7 +89,7 @@ def test_snippet_runs(code, tmp_path, monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
-    (tmp_path / "yaml_cases").symlink_to(ROOT / "yaml_cases")
+    (tmp_path / "yaml_cases").symlink_to(CASES)
     monkeypatch.chdir(tmp_path)
     exec(compile(code, "<snippet>", "exec"), {"__name__": "__snippet__"})
 
@@ -116,7 +115,7 @@ def test_yaml_block_parses_and_validates(text, monkeypatch, tmp_path):
     data = yaml.safe_load(text)
     assert isinstance(data, dict) and data, "a YAML block of the docs is a mapping of keys"
     data = cases.parse_yaml(text, "block")  # the case loader: duplicate keys refused
-    (tmp_path / "yaml_cases").symlink_to(ROOT / "yaml_cases")
+    (tmp_path / "yaml_cases").symlink_to(CASES)
     monkeypatch.chdir(tmp_path)  # nothing is written, but a relative path resolves here
     if rs.is_restart(data.get("start")):
         rs.parse_spec(data["start"])

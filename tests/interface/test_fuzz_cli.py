@@ -40,14 +40,13 @@ from typing import Any
 
 import pytest
 import yaml
+from helpers import CASES
 from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
 from nsm_continuation import cli
 from nsm_continuation.cases import registry
 
-ROOT = Path(__file__).resolve().parents[2]
-CASES = ROOT / "yaml_cases"
 TRACEBACK = "Traceback (most recent call last)"
 #: wall-clock bound of one in-process call of the command line
 CALL_BOUND_S = 20.0

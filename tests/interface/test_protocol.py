@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 import casadi as ca
 import numpy as np
 import pytest
+from helpers import PACKAGE
 from pydantic import BaseModel, ConfigDict
 
 from nsm_continuation.cases.schema import Case
@@ -26,8 +27,6 @@ from nsm_continuation.figures.make import make_all
 from nsm_continuation.output.files import write_outputs
 from nsm_continuation.runs.result import RunResult
 from nsm_continuation.runs.runner import run_case
-
-CORE = Path(__file__).resolve().parents[2] / "nsm_continuation"
 
 
 # ---------------------------------------------------------------------- (a) no probing
@@ -67,12 +66,12 @@ def _probes(tree: ast.AST) -> list[tuple[int, str, str]]:
 
 
 def test_no_core_module_probes_a_problem() -> None:
-    files = sorted(CORE.rglob("*.py"))
+    files = sorted(PACKAGE.rglob("*.py"))
     assert len(files) > 15
     offenders = []
     for path in files:
         for line, fn, attr in _probes(ast.parse(path.read_text(), str(path))):
-            offenders.append(f"{path.relative_to(CORE.parent)}:{line}: {fn}(..., {attr!r})")
+            offenders.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {fn}(..., {attr!r})")
     assert offenders == [], "undeclared members probed:\n" + "\n".join(offenders)
 
 

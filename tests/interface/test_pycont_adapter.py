@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 import pytest
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from oracles.scaled_chain import closed_form_y
 from pydantic import BaseModel
 
 from nsm_continuation.adapters.pycont import (
@@ -34,11 +35,6 @@ TOL = 1e-10  # pycont's corrector tolerance (max norm of the extended residual)
 @pytest.fixture(scope="module")
 def paper_problem() -> NDofImpactProblem:
     return NDofImpactProblem(PAPER_CHAIN)
-
-
-def closed_form_y(problem: NDofImpactProblem, T: float) -> np.ndarray:
-    u0, du0 = problem.closed_form(T)
-    return problem.y_from_state(u0, du0, T)
 
 
 def distance_to_closed_form(problem: NDofImpactProblem, ys: np.ndarray) -> np.ndarray:

@@ -5,13 +5,10 @@ is asserted (machines differ: ``benchmarks/bench_startup.py`` measures the times
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import yaml
-
-ROOT = Path(__file__).resolve().parents[2]
+from helpers import CASES, ROOT, run_fresh
 
 #: packages the command line must not load unless a run needs them
 HEAVY = ("matplotlib", "dask", "distributed", "casadi", "pydantic", "scipy")
@@ -25,10 +22,7 @@ def _loaded_after(code: str) -> dict:
         "import json, sys\nout = {}\n" + code + "\n"
         f"out['loaded'] = sorted({{m.partition('.')[0] for m in sys.modules}} & {set(HEAVY)!r})\n"
         "print(json.dumps(out))\n")
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          cwd=ROOT, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return json.loads(run_fresh(script, ROOT).strip().splitlines()[-1])
 
 
 def test_importing_the_cli_and_listing_problems_loads_no_heavy_package():
@@ -44,12 +38,11 @@ def test_importing_the_cli_and_listing_problems_loads_no_heavy_package():
     assert out["loaded"] == []
 
 
-def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path):
-    case = yaml.safe_load((ROOT / "yaml_cases" / "ndof_default.yaml").read_text())
+def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path, write_case):
+    case = yaml.safe_load((CASES / "ndof_default.yaml").read_text())
     case["output"] = {"plots": False, "progress": False}
     case["continuation"]["max_points"] = 40  # the import graph is that of the full run
-    path = tmp_path / "case.yaml"
-    path.write_text(yaml.safe_dump(case))
+    path = write_case(case)
     run = tmp_path / "run"
     out = _loaded_after(
         "from nsm_continuation.cli import main\n"
@@ -70,20 +63,11 @@ def test_a_run_without_plots_imports_neither_matplotlib_nor_dask(tmp_path):
     assert json.loads((run / "report.json").read_text())["figures"] == []
 
 
-def _fresh(code: str, tmp_path) -> str:
-    """Run ``code`` in a fresh interpreter (no thread but the main one: this test process
-    may hold Dask's, which turn the fork off); its stdout."""
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          cwd=tmp_path, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return proc.stdout
-
-
 def test_figures_drawn_in_two_processes_are_those_of_one(tmp_path):
     """``figure_process.in_two_processes`` (a forked child draws every other figure): the same
     files, in the same order in ``report.json``, byte for byte the PNGs of a single process;
     and the child was used (its pid differs)."""
-    out = _fresh(
+    out = run_fresh(
         "import json, os\n"
         "import nsm_continuation as nsm\n"
         "from nsm_continuation import cli\n"
@@ -115,7 +99,7 @@ def test_a_figure_failing_in_the_child_process_is_raised_here(tmp_path):
     """A job that raises in the forked child: ``RuntimeError`` naming it, the parent's own
     jobs done, the child reaped; the order of the names is the jobs' order; a process that
     runs another thread is not forked."""
-    out = _fresh(
+    out = run_fresh(
         "from nsm_continuation.figures import process as figure_process\n"
         "def fails():\n"
         "    raise ValueError('no data for this panel')\n"

@@ -7,7 +7,10 @@ integral of the end velocity (vs the stress sum of
 :mod:`nsm_continuation.problems.bar.plots`); ``falling_bar_exact``: the Table 1 bouncing bar
 from the back-traced characteristics of
 :class:`~nsm_continuation.problems.bar.bouncing_bar_exact.BouncingBarExact` (vs
-:mod:`nsm_continuation.problems.bar.wfem_simulation`)."""
+:mod:`nsm_continuation.problems.bar.wfem_simulation`); ``modal_steady_state``: the steady state
+of the damped, forced, clamped-free linear bar from its modal series
+``q_k'' + (eta/rho) q_k' + omega_k^2 q_k = 2 f0 / (rho L beta_k) sin(omega t)`` (no code shared
+with the package)."""
 
 from __future__ import annotations
 
@@ -15,6 +18,7 @@ import numpy as np
 from nsm_continuation.problems.bar.bouncing_bar_exact import BouncingBarExact
 from nsm_continuation.problems.bar.plots import end_velocity
 from nsm_continuation.problems.bar.wfem_lattice import LatticeSolution
+from nsm_continuation.problems.bar.wfem_simulation import BarParams
 
 
 def ring_basis(N: int, Z: float) -> np.ndarray:
@@ -49,3 +53,16 @@ def falling_bar_exact(t: np.ndarray | float, t_end: float | None = None,
     sol = BouncingBarExact(t_end=horizon, **params)  # type: ignore[arg-type]
     en = np.array([sol.energy(float(ti)) for ti in tt])
     return sol.u_end(tt), sol.v_end(tt), sol.contact_force(tt), en
+
+
+def modal_steady_state(p: BarParams, f0: float, omega: float, eta: float,
+                       n_modes: int = 4000) -> tuple[complex, float]:
+    """``U(L)`` and the period-averaged energy from the modal series of the bar ``p``."""
+    k = np.arange(1, n_modes + 1)
+    beta = (2 * k - 1) * np.pi / (2 * p.L)
+    om_k = p.c * beta
+    Q = (2 * f0 / (p.rho * p.L * beta)) / (om_k**2 - omega**2 + 1j * eta / p.rho * omega)
+    U_L = complex(np.sum(Q * (-1.0) ** (k + 1)))
+    m_k = p.rho * p.S * p.L / 2
+    energy = float(np.sum(m_k / 4 * (omega**2 + om_k**2) * np.abs(Q) ** 2))
+    return U_L, energy

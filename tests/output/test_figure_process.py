@@ -15,21 +15,13 @@ import time
 from pathlib import Path
 
 import pytest
+from helpers import ROOT, run_fresh
 
 from nsm_continuation.figures import process as figure_process
-
-ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not figure_process.FORKS or figure_process.usable_cores() < 2,
                                 reason="the figures are drawn by a forked child on Linux "
                                        "with two cores")
-
-
-def _fresh(code: str, cwd: Path) -> str:
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          cwd=cwd, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return proc.stdout
 
 
 #: one case per problem family that declares ``figures_from_inputs`` and per kind of figure:
@@ -49,7 +41,7 @@ def test_figures_drawn_while_computing_are_those_drawn_after(tmp_path, name, poi
     figure list in ``report.json`` and the same bytes in every PNG; the figures were drawn
     by other processes, and the main process never imported matplotlib."""
     case = ROOT / "yaml_cases" / name
-    out = _fresh(
+    out = run_fresh(
         "import json, os, sys\n"
         "from nsm_continuation import cli\n"
         "from nsm_continuation.figures import process as figure_process\n"
@@ -81,7 +73,7 @@ def test_a_problem_that_does_not_declare_figures_from_inputs_is_drawn_here(tmp_p
     """A problem class without ``figures_from_inputs`` (the default: its figures may use
     state the run leaves in it) starts no child: the figures are drawn by the process that
     computed, from the problem the run used (a figure reading that state sees it)."""
-    out = _fresh(
+    out = run_fresh(
         "import json, os\n"
         "from nsm_continuation import cli\n"
         "from nsm_continuation.figures import multipliers as plots\n"
@@ -123,7 +115,7 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
     drawn by the caller: ``send`` returns False and the child is gone; without fork, with one
     core for this process (its affinity), or when the system refuses a process, nothing is
     started."""
-    out = _fresh(
+    out = run_fresh(
         "import dataclasses, json, os\n"
         "import nsm_continuation as nsm\n"
         "from nsm_continuation.figures import process as figure_process\n"
@@ -178,7 +170,7 @@ def test_the_child_is_ended_when_it_does_not_draw(tmp_path):
 def test_a_failure_in_the_child_is_reported_by_the_run(tmp_path):
     """A figure that raises in the child: the run ends with the command line's bug report
     (exit 1, the message names the figure's error), nothing is written, the child reaped."""
-    out = _fresh(
+    out = run_fresh(
         "import contextlib, io, json, os\n"
         "from nsm_continuation import cli\n"
         "from nsm_continuation.figures import multipliers as plots\n"
@@ -201,7 +193,7 @@ def test_a_failure_while_the_child_draws_ends_it(tmp_path):
     """The run fails after the child received the branches (writing the report raises): exit
     1 with the error named, nothing written, and the child that was drawing is killed and
     reaped (it does not go on writing into the removed folder)."""
-    out = _fresh(
+    out = run_fresh(
         "import contextlib, io, json, os\n"
         "from nsm_continuation import cli\n"
         "from nsm_continuation.figures import process as figure_process\n"

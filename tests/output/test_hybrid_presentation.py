@@ -24,6 +24,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from helpers import CASES
 
 import nsm_continuation as nsm
 from nsm_continuation.core.records import Branch, Event, Point
@@ -33,8 +34,7 @@ from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.output import report
 from nsm_continuation.output.files import build_report, event_record
 
-ROOT = Path(__file__).resolve().parents[2]
-FIG2 = ROOT / "yaml_cases" / "impact_oscillator_fig2_sticking.yaml"
+FIG2 = CASES / "impact_oscillator_fig2_sticking.yaml"
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -335,7 +335,7 @@ def test_before_after_on_a_real_run_agree_with_the_branch_points() -> None:
     """The default chain case runs towards decreasing T (the continued parameter): each
     stability change, read in increasing T in report.md, must match the stability of the
     branch points on either side of it (the point of lower T before, higher T after)."""
-    res = nsm.run(ROOT / "yaml_cases" / "ndof_default.yaml", {"output.plots": False})
+    res = nsm.run(CASES / "ndof_default.yaml", {"output.plots": False})
     rr = res.run_result
     pr = rr.problem
     ip = pr.parameter_index

@@ -16,12 +16,11 @@ from pathlib import Path
 
 import pytest
 import yaml
+from helpers import CASES
 
 from nsm_continuation import cli
 from nsm_continuation.cases.saved_runs import MARKER
 from nsm_continuation.runs import runner as run_module
-
-ROOT = Path(__file__).resolve().parents[2]
 
 # the default chain, cut short: a run takes well under a second
 CASE = {
@@ -214,7 +213,7 @@ def test_signal_mid_run_leaves_previous_result_intact(tmp_path, sig, code):
     assert cli.main(["run", str(quick), "--out", str(out), "--quiet"]) == 0
     before = _snapshot(out)
     # a long run (the full frequency-energy plot), interrupted while it computes
-    slow = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
+    slow = CASES / "ndof_fig3_2_fep.yaml"
     proc = subprocess.Popen(
         [sys.executable, "-m", "nsm_continuation.cli", "run", str(slow), "--out", str(out),
          "--overwrite", "--quiet", "--set", "output.progress=false"],

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from helpers import CASES
 
 pytest.importorskip("distributed")
 
@@ -27,8 +28,6 @@ import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation import cli  # noqa: E402
 from nsm_continuation.core.records import Branch  # noqa: E402
 from nsm_continuation.runs.execution import merge_in_seed_order  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[2]
 
 #: a frequency-energy plot of a 3-dof chain: 12 independent branches
 CASE: dict[str, Any] = {
@@ -336,7 +335,7 @@ def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any,
     serial run's (before the fix: another branch, from omega = 1.0949697 instead of
     1.0949765)."""
     address, _ = cluster
-    base = nsm.run(str(ROOT / "yaml_cases" / "impact_oscillator_period_doubling.yaml"),
+    base = nsm.run(str(CASES / "impact_oscillator_period_doubling.yaml"),
                    {"output.plots": False, "output.progress": False})
     base.save(tmp_path / "base", plots=False)
     case = {"name": "switch", "start": {"from": str(tmp_path / "base"),
@@ -356,7 +355,7 @@ def test_a_two_parameter_curve_is_two_tasks_with_the_serial_result(tmp_path: Pat
     with ``workers=2`` the two halves are two tasks (the restart's curve problem rebuilt on
     each worker), joined into the serial branch: every point, event, termination, the
     branch's counts of base runs and the run's counters."""
-    base = nsm.run(str(ROOT / "yaml_cases" / "impact_oscillator_period_doubling.yaml"),
+    base = nsm.run(str(CASES / "impact_oscillator_period_doubling.yaml"),
                    {"output.plots": False, "output.progress": False})
     base.save(tmp_path / "base", plots=False)
     case = nsm.load_case({

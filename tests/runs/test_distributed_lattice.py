@@ -12,10 +12,10 @@ import csv
 import io
 import json
 from importlib.util import find_spec
-from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import CASES
 
 import nsm_continuation as nsm
 from nsm_continuation.core.lattice import LatticeProblem
@@ -23,9 +23,8 @@ from nsm_continuation.output.files import branch_rows, build_report
 from nsm_continuation.runs.execution import merge_in_seed_order
 from nsm_continuation.runs.setup import rebuild_case
 
-ROOT = Path(__file__).resolve().parents[2]
-FIG12 = ROOT / "yaml_cases" / "wfem_fig12_fep.yaml"
-FIG13 = ROOT / "yaml_cases" / "wfem_fig13_subharmonics.yaml"
+FIG12 = CASES / "wfem_fig12_fep.yaml"
+FIG13 = CASES / "wfem_fig13_subharmonics.yaml"
 QUIET = {"output.plots": False, "output.progress": False}
 needs_dask = pytest.mark.skipif(find_spec("distributed") is None,
                                 reason="dask.distributed is not installed")
