@@ -251,7 +251,7 @@ def test_homoclinic_torque_from_the_period_continuation():
     (:func:`~nsm_continuation.hybrid.homoclinic.homoclinic_fit`) and extrapolated to p*.
     At the default tolerances (rtol = chatter_tol = 1e-10) the last periodic torque found by
     bisection on direct simulations is -31.0016660945425 (benchmarks/README.md); converged
-    (rtol <= 1e-12, chatter_tol <= 1e-12) p* = -31.0016660941 (tests/test_homoclinic.py,
+    (rtol <= 1e-12, chatter_tol <= 1e-12) p* = -31.0016660941 (tests/hybrid/test_homoclinic.py,
     the bundled case): all within 1e-9 of the paper's torque."""
     from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 

@@ -106,8 +106,9 @@ def test_a_non_hybrid_problem_declaring_curve_parameters_gets_the_grazing_curve_
         tmp_path: Path) -> None:
     """The toy continued in ``a`` grazes twice (x = 1/2); declaring ``curve_parameters`` its
     grazing hints are the grazing curve freeing ``a`` and continuing the first other declared
-    parameter (``c``), in the same form as a hybrid problem's (tests/test_codim1_yaml.py);
-    without the declaration, the orbit restarted."""
+    parameter (``c``), in the same form as a hybrid problem's
+    (tests/cases/test_grazing_curves_from_yaml.py); without the declaration, the orbit
+    restarted."""
     rep = toy_report(ToyWithCurves(), tmp_path / "with")
     folder = tmp_path / "with" / "out"
     grazing = [h for h in rep["continue_from_here"] if h["kind"] == "grazing"]

@@ -25,7 +25,7 @@ solution). The point masses then have ``r_i(q1)``, so
 ``U'(q1*) = 0``; linearising ``m q1'' + m'/2 q1'^2 + U' = -D q1'`` there gives
 ``m(q1*) mu^2 + D mu + U''(q1*) = 0``: the two non-trivial eigenvalues ``mu1 > 0 > mu2`` (saddle
 for ``U'' < 0``). The other two eigenvalues of the 4-dim sticking field are ``0, 0`` (one Jordan
-block: ``H' = v``, ``v' = 0`` off the manifold; tests/test_pendulum_model.py).
+block: ``H' = v``, ``v' = 0`` off the manifold; tests/hybrid/test_pendulum_model.py).
 
 Paper values (``T = -31.00166609425``, ``g = 9.81``, ``m1 = 1``, ``m2 = 2``, ``L1 = L2 = 1``,
 ``D = 10``, our ``d = 0.5``; the paper prints ``d = -0.5``, but its ``q*`` has ``X(q*) = -0.5``):

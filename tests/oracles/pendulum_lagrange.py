@@ -37,7 +37,7 @@ Result of the comparison with the printed eq. (53)
   the second component has the opposite sign. The velocity terms are fixed by ``M`` (Christoffel
   symbols), and the printed ones are not those of this ``M``: they break energy conservation
   (``D = T = 0``, 10 time units, DOP853 at 1e-12: relative drift 4.4e-1 vs 7.8e-12 for the
-  derived model from the same state; tests/test_pendulum_model.py).
+  derived model from the same state; tests/hybrid/test_pendulum_model.py).
   Eq. (59) inherits the printed ``L``. With ``m1 = m2`` the first component would be right but the
   sign error in the second remains; the sign error alone already destroys conservation.
 
