@@ -180,9 +180,9 @@ def test_asymptotes() -> None:
 def test_engine_stops_where_the_strain_limit_is_reached_before_the_asymptote() -> None:
     """Without an energy bound the branch ends just before the asymptote, where the strain
     margin ``cond3 = mu^2/4 - |g0||mu|/(2L)`` vanishes: ``|mu| = 2|g0|/L``, with ``mu(T)``
-    affine (closed form ``Signature.mu``). (An earlier engine jumped over this short
-    inadmissible interval, ``4.4e-4`` wide in omega/omega_1 for mode 1, and stopped at the
-    asymptote itself; the step cap on the test functions now finds it.)"""
+    affine (closed form ``Signature.mu``). The inadmissible interval is short, ``4.4e-4`` wide
+    in omega/omega_1 for mode 1: the step cap on the test functions keeps a step from jumping
+    over it to the asymptote."""
     for k, g0 in ((1, 1e-3), (2, -1e-3)):
         pr = BarContinuumProblem({"gap": g0})
         sig = main_signature(k)

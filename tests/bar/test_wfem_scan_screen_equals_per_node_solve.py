@@ -1,6 +1,6 @@
-"""The bar's lattice scan at less than O(N^3) (issue 13, item 5): the kernel dimensions of a
-period in closed form, the batch COND2 screen and the per-cycle sign test of ``h > q`` nodes,
-each against the per-node computation it replaces."""
+"""The bar's lattice scan at less than O(N^3): the kernel dimensions of a period in closed
+form, the batch COND2 screen and the per-cycle sign test of ``h > q`` nodes, each against the
+per-node computation."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Branch switching (issue 12, item 2; ``nsm_continuation/switching.py``).
+"""Branch switching (``nsm_continuation/algorithms/switching.py``).
 
 Oracles: closed forms (the transcritical ``x (mu - x) = 0`` and the pitchfork
 ``x (mu - x^2) = 0``; the chain at ``g = 0``, whose families are vertical at the roots of

@@ -1,4 +1,4 @@
-"""Bifurcation diagrams in one run (issue 12, items 4-5; ``nsm_continuation/diagrams.py``) and
+"""Bifurcation diagrams in one run (``nsm_continuation/runs/diagrams.py``) and
 the report's links and "continue from here" lines.
 
 Oracles: the logistic map's doublings computed here by a second method (Newton on the period-

@@ -1,5 +1,5 @@
-"""Two-parameter curves of located events (issue 12, item 3; nsm_continuation/event_curves.py,
-eq. L1): period-doubling and grazing curves of the undamped forced impact oscillator.
+"""Two-parameter curves of located events (nsm_continuation/algorithms/curves.py, eq. L1):
+period-doubling and grazing curves of the undamped forced impact oscillator.
 
 Oracle, independent of the simulator and the engine: the closed-form period-1 orbit and its
 period-doubling condition (tests/oracles/impact_oscillator.py, eqs. O1-O2), whose zero set in

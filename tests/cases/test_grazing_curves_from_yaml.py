@@ -1,4 +1,4 @@
-"""Two-parameter grazing curves from YAML (issue 12, item 3; ``start: {..., curve: grazing}``,
+"""Two-parameter grazing curves from YAML (``start: {..., curve: grazing}``,
 ``nsm_continuation/hybrid/codim1.py``, eq. C1).
 
 Oracle: the forced impact oscillator ``q'' + 2 zeta q' + q = cos(omega t)``, ``q >= gap``,

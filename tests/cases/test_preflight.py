@@ -1,4 +1,4 @@
-"""Preflight of every problem (issue 9): each bad input that can be recognised without computing
+"""Preflight of every problem: each bad input that can be recognised without computing
 is refused with one line starting with the key (``start.mode: ...``, ``parameters.cells: ...``),
 sizes whose memory or time estimate exceeds the limits are refused before anything large is
 built, and every bundled case passes."""
@@ -426,8 +426,9 @@ def test_chain_frequency_window_must_be_positive(key, value):
 
 
 def test_hybrid_start_state_of_absurd_size_is_refused():
-    """A guess q2 = 1e300 was "corrected" to an orbit with residual 44 (Newton's tolerance is
-    relative to 1 + |y|) and reported as an admissible point."""
+    """A guess q2 = 1e300 is refused before computing: Newton's tolerance is relative to
+    1 + |y|, so from there it would "correct" the guess to an orbit with residual 44 and report
+    it as an admissible point."""
     root = ROOT / "yaml_cases"
     case = root / "pendulum_sec6_1_complete_to_incomplete.yaml"
     with pytest.raises(cases.CaseError, match=r"^start\.guess: a state component of 1e\+300"):

@@ -1,4 +1,4 @@
-"""Restart from any saved point of a run (issue 12, item 1; ``nsm_continuation/restart.py``).
+"""Restart from any saved point of a run (``nsm_continuation/cases/restart.py``).
 
 Oracles: the closed form (4.2) of the chain's branch (every restarted point is
 ``u(0) = (g / w_N) w(T)`` at its own ``T``; the chain is linear in the gap); the run's own

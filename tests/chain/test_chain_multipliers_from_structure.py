@@ -1,4 +1,4 @@
-"""Multipliers of the N-dof chain from the structure of its return map (issue 13, items 1-2).
+"""Multipliers of the N-dof chain from the structure of its return map.
 
 ``DF`` (eq. 3.5 / A.8) in energy coordinates is a block rotation plus a rank-two term
 (:meth:`NDofImpactProblem.return_map_structure`); its non-trivial multipliers are the roots of

@@ -756,7 +756,7 @@ def test_direction_is_along_the_continued_parameter(direction: str, sign: int) -
 
 
 # ---------------------------------------------------------------------------------------------
-# h. Structured multipliers and the declared conservative capability (issue 13)
+# h. Structured multipliers and the declared conservative capability
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("formulation", FORMULATIONS)
 def test_structured_floquet_equals_dense_for_both_formulations(formulation: str) -> None:

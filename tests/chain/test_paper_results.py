@@ -95,10 +95,10 @@ def test_fep_each_linear_grazing_is_one_event(fep):
     zero), so the grazing is one event, merged (``vanish together``) or the velocity's alone.
     A ``clearance`` zero of its own is a nonlinear grazing: its maximum lies inside the period
     (``max_on``, independent of the clearance's evaluation), far from every linear one.
-    Before the clearance was computed as a rise from the impact (``TrigSum.rise``), four
-    branches of this case reported a second ``clearance`` zero 5e-10 ... 4e-9 in T away
-    from their linear grazing, located on rounding noise, and ``report.json`` listed them as
-    nonlinear grazing orbits."""
+    The clearance is computed as a rise from the impact (``TrigSum.rise``): computed
+    otherwise, four branches of this case would show a second ``clearance`` zero 5e-10 ...
+    4e-9 in T away from their linear grazing, located on rounding noise, and ``report.json``
+    would list them as nonlinear grazing orbits."""
     problem = fep.problem
     n_linear = 0
     for br in fep.branches:

@@ -1,6 +1,7 @@
-"""The 5-dof chain's return map structure and dense Krein definiteness after issue 13's
-trimming (:meth:`NDofImpactProblem.return_map_structure` built on :meth:`_saltation`,
-:meth:`NDofImpactProblem._krein_dense` without ``np.block`` nor a second structure).
+"""The 5-dof chain's return map structure and dense Krein definiteness
+(:meth:`NDofImpactProblem.return_map_structure` built on :meth:`_saltation`,
+:meth:`NDofImpactProblem._krein_dense` without ``np.block`` nor a second structure) equal
+their direct formulas.
 
 Oracles, independent of the code under test:
 
@@ -10,8 +11,8 @@ Oracles, independent of the code under test:
   and ``z0 = S x0``;
 * the Krein definiteness ``kappa = 2 sum Im(conj xi eta) / w / sum (|xi|^2 + |eta|^2) / w`` of
   the eigenvectors of ``S DF S^-1`` (numpy), for well separated multipliers;
-* the previous implementations, kept here (:func:`_structure_reference`,
-  :func:`_krein_dense_reference`): the new ones give the same bits.
+* reference implementations of the direct formulas, kept here (:func:`_structure_reference`,
+  :func:`_krein_dense_reference`): the package's give the same bits.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ def _points(p: NDofImpactProblem, count: int = 40) -> list[np.ndarray]:
 
 
 def _structure_reference(p: NDofImpactProblem, y: np.ndarray) -> dict[str, np.ndarray]:
-    """:meth:`return_map_structure` as it was before issue 13's trimming."""
+    """:meth:`return_map_structure` by its direct formulas (the reference)."""
     u0, du0, T = p.state(y)
     w, Pi = p.omega, p.Pinv
     a = p.P[p.c, :]
@@ -68,7 +69,7 @@ def _structure_reference(p: NDofImpactProblem, y: np.ndarray) -> dict[str, np.nd
 
 def _krein_dense_reference(p: NDofImpactProblem, y: np.ndarray, mult: np.ndarray
                            ) -> np.ndarray:
-    """:meth:`_krein_dense` as it was before issue 13's trimming."""
+    """:meth:`_krein_dense` by its direct formulas (the reference)."""
     st = _structure_reference(p, y)
     n = p.N
     c, s = np.cos(st["angles"]), np.sin(st["angles"])
@@ -123,7 +124,7 @@ def test_structure_is_the_physical_return_map(formulation: str) -> None:
 
 def test_krein_dense_equals_the_eigenvectors_of_the_physical_map() -> None:
     """``_krein_dense`` at the multipliers of :meth:`floquet_dense`: the same bits as the
-    previous implementation, and the definiteness of the eigenvectors of ``S DF S^-1`` for
+    reference implementation, and the definiteness of the eigenvectors of ``S DF S^-1`` for
     every multiplier separated from the others (elsewhere the eigenvector is not defined);
     in ``[-1, 1]``, opposite for conjugates, and 0 off the circle (to 1e-6)."""
     p = _problem()

@@ -1,5 +1,5 @@
-"""The routines a run of the chain uses instead of SciPy's (issue 13: importing
-``scipy.linalg`` and ``scipy.optimize`` cost 0.3 s of the default case), checked against the
+"""The routines a run of the chain uses instead of SciPy's (importing ``scipy.linalg`` and
+``scipy.optimize`` costs 0.3 s of the default case), checked against the
 SciPy originals: Brent's bounded minimisation step for step, the generalised symmetric
 eigenproblem of the modal analysis (2.9), and the roots of ``w_N`` (Illinois instead of
 ``brentq``)."""

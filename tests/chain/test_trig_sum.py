@@ -2,8 +2,9 @@
 
 Oracles (independent of :mod:`problems.chain.trig_sum`):
 
-* ``f'`` is re-implemented here and its roots are found by a dense sign-change grid (at least
-  100 samples per radian of the highest frequency) refined by :func:`scipy.optimize.brentq`;
+* ``f'`` is re-implemented (``oracles/trig_sum.py``) and its roots are found by a dense
+  sign-change grid (at least 100 samples per radian of the highest frequency) refined by
+  :func:`scipy.optimize.brentq`;
 * (near-)double roots are built by construction (coefficients projected onto the subspace with
   ``f'(t*) = f''(t*) = 0``, or ``f'(t1) = f'(t2) = 0`` for two close points), so their location is
   known in closed form;
@@ -205,9 +206,9 @@ def test_root_on_a_grid_edge_costs_no_bisection(seed: int) -> None:
     """A symmetric orbit ``f(t) = sum a_l cos(w_l (t - T/2))`` on ``(0, T)`` has a critical point
     at ``T / 2``, an edge of the first pass's grid when its cell count is even. ``f'`` vanishes
     there to rounding, so its sign (hence which cell brackets the root) is noise, and Newton
-    from inside that cell overshoots the end every time: the safeguard used to bisect towards
-    it, one bit per evaluation (14-19 evaluations). The root is at ``T / 2`` exactly (closed
-    form) and costs no iteration; every other root is located as before (grid oracle)."""
+    from inside that cell overshoots the end every time: a safeguard bisecting towards it would
+    gain one bit per evaluation (14-19 evaluations). The root is at ``T / 2`` exactly (closed
+    form) and costs no iteration; every other root is located too (grid oracle)."""
     rng = np.random.default_rng(300 + seed)
     n = int(rng.integers(2, 6))
     w = np.sort(rng.uniform(0.5, 6.0, n))

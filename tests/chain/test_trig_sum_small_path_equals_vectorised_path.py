@@ -1,16 +1,17 @@
-"""The small-sum path of :meth:`TrigSum.critical_points` (issue 13: "Fig. 3.2 FEP < 3 s"): a
-pointwise first pass and, after it, the Newton iteration and the subdivision on Python floats.
+"""The small-sum path of :meth:`TrigSum.critical_points` (what keeps the frequency-energy plot
+of Fig. 3.2 under 3 s): a pointwise first pass and, after it, the Newton iteration and the
+subdivision on Python floats.
 
 Oracles, independent of the code under test:
 
-* ``f'`` and ``f''`` re-implemented here; the roots of ``f'`` by a dense sign-change grid
-  (at least 200 samples per radian of the highest frequency) refined by
+* ``f'`` and ``f''`` re-implemented (``oracles/trig_sum.py``); the roots of ``f'`` by a dense
+  sign-change grid (at least 200 samples per radian of the highest frequency) refined by
   :func:`scipy.optimize.brentq`; a double root built by construction (coefficients projected
   onto ``f'(t*) = f''(t*) = 0``); ``T / 2`` of a symmetric orbit known in closed form;
 * the maximum of ``u_c`` of the chain's closed-form orbits by 200 001 samples polished by a
   parabola.
 
-And the vectorised path (the large sums' path, the code this one replaced for small sums),
+And the vectorised path (the large sums' path),
 forced by setting the thresholds to 0: both give the same roots to the rounding of ``f'``
 (within the Newton iteration's own acceptance band ``noise / |f''|``), the same number of them,
 and the same maxima to rounding.

@@ -1,4 +1,4 @@
-"""The engine's linear algebra (issue 13): CasADi results read through function buffers, and the
+"""The engine's linear algebra: CasADi results read through function buffers, and the
 chain's bordered systems solved from their structure (:mod:`nsm_continuation.core.bordered`).
 
 Oracles: CasADi's own evaluation (``Function.__call__``, a ``DM`` converted by numpy) for the

@@ -1,4 +1,4 @@
-"""BufferedFunction with its argument (and small result) memory bound once (issue 13, session 9).
+"""BufferedFunction with its argument (and small result) memory bound once.
 
 Oracle: CasADi's own call (``np.asarray`` of its ``DM`` results) on the same arguments. The
 checks are about what binding the memory once could break: results of one call overwritten by

@@ -3,10 +3,9 @@
 
 Past a grazing point a problem may have no multipliers (its return map is not linearised
 there): the end of such a step cannot show a crossing between the last point and the grazing.
-Found on the 200-dof chain of ``benchmarks/bench_chain_large.py``: a Neimark-Sacker crossing
-1.4e-9 in T before the grazing that ends the branch's instability windows was lost whenever one
-step spanned both. The crossing is now located between the step's start and the near side of
-the grazing event.
+The crossing is located between the step's start and the near side of the grazing event (on
+the 200-dof chain of ``benchmarks/bench_chain_large.py``, a Neimark-Sacker crossing 1.4e-9 in T
+before the grazing that ends the branch's instability windows, whenever one step spans both).
 
 Oracle: the logistic map's fixed point ``x = 1 - 1/r`` has the multiplier ``2 - r``, through
 ``-1`` (a period doubling) at ``r = 3`` exactly; the problem below declares a grazing at

@@ -180,7 +180,7 @@ def test_both_directions_merge_with_signed_arclength():
 
 
 # ---------------------------------------------------------------------------------------------
-# Krein-aware step control (issue 13 item 2): a synthetic conservative family
+# Krein-aware step control: a synthetic conservative family
 # ---------------------------------------------------------------------------------------------
 class KreinPair(Problem):
     """x = p with two multiplier pairs of a symplectic 4-d map, prescribed in closed form:

@@ -1,4 +1,4 @@
-"""Issue 9, engine part: never crash, no silent wrong result.
+"""The engine never crashes and gives no silent wrong result.
 
 Toy problems with closed-form curves (the circle x^2 + p^2 = 1, the line x = p) whose hooks
 fail on purpose; oracles are exact properties: no exception escapes ``engine.run``, the
@@ -216,7 +216,7 @@ def test_test_function_undefined_inside_a_step_is_located_not_a_keyerror():
     """The test 'tau' exists only where (p - 0.5)^2 > 1e-4 (like the sticking time, defined
     only while the orbit sticks); with steps of 0.1 its gap (0.49, 0.51) lies inside one step,
     both ends defined and positive. The engine locates where it ceases and where it is
-    defined again (was: KeyError in _events_between)."""
+    defined again (no KeyError)."""
     def tau(p: float) -> dict[str, float]:
         v = (p - 0.5) ** 2 - 1e-4
         return {"tau": v} if v > 0 else {}
@@ -233,7 +233,7 @@ def test_test_function_undefined_inside_a_step_is_located_not_a_keyerror():
 
 def test_test_function_that_disappears_is_an_event():
     """A test that exists at one end of a step only (sticking lost) is reported where it
-    ceases to exist (it used to vanish silently)."""
+    ceases to exist (it does not vanish silently)."""
     br = _run(Line(tests=lambda p: {"tau": 0.3 - p} if p < 0.3 else {}), [0.0, 0.0],
               param_max=0.6)
     ev = [e for e in br.events if e.data.get("test") == "tau"]
@@ -257,9 +257,9 @@ def test_huge_steps_never_leave_the_window(direction):
 
 
 def test_huge_steps_on_the_paper_chain_stop_at_the_nonlinear_grazing_point():
-    """Default case (5-dof chain, branch 1) with steps of 5..10: was a point outside the window
-    labelled 'bound: T = min' past the grazing point B; now B is located, as with small steps,
-    and every point lies in the window."""
+    """Default case (5-dof chain, branch 1) with steps of 5..10: the grazing point B is
+    located, as with small steps, and every point lies in the window (no point outside it
+    labelled 'bound: T = min' past B)."""
     from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
     pb = NDofImpactProblem({"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0})
@@ -298,10 +298,10 @@ class Band(Line):
 
 
 def test_no_bound_reported_off_the_bound():
-    """A step of 5 from p = 0 used to land at p = 3.5, beyond the window edge 0.5 and beyond a
-    band where the problem cannot evaluate; the bound could not be located and a point at
-    p < 0.1 was recorded as 'bound: p = max'. Now the step is capped at the edge, and the branch
-    ends where the problem stops evaluating, with that reason."""
+    """A step of 5 from p = 0 would land at p = 3.5, beyond the window edge 0.5 and beyond a
+    band where the problem cannot evaluate, where the bound cannot be located (and a point at
+    p < 0.1 would be recorded as 'bound: p = max'). The step is capped at the edge, and the
+    branch ends where the problem stops evaluating, with that reason."""
     br = _run(Band(), [0.0, 0.0], param_max=0.5, step_initial=5.0, step_max=10.0)
     reason = br.termination["forward"]
     ps = [p.y[1] for p in br.points]

@@ -1,4 +1,4 @@
-"""Issue 11 item 3: events located on their true condition, and steps that slow only near one.
+"""Events located on their true condition, and steps that slow only near one.
 
 Oracles (closed forms, or a second method):
 
@@ -307,8 +307,8 @@ class Circle(_Curve):
 @pytest.mark.parametrize("direction", [1, -1, 0])
 def test_no_branch_point_at_the_start(direction: int, how: str) -> None:
     """A curve whose Jacobian has full rank everywhere has no branch point, whatever the
-    direction: det[G_y; t^T] keeps its sign along each half-branch (the start was reported as
-    a branch point when ``direction: decrease`` reversed the tangent alone)."""
+    direction: det[G_y; t^T] keeps its sign along each half-branch, and the start is no branch
+    point, also when ``direction: decrease`` reverses the tangent."""
     kw: dict[str, Any] = ({"direction": direction} if how == "settings"
                           else {"start_direction": direction})
     if how == "start" and direction == 0:

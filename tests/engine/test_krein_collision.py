@@ -1,4 +1,4 @@
-"""Krein collisions of a conservative family located on the pair's discriminant (issue 13).
+"""Krein collisions of a conservative family located on the pair's discriminant.
 
 :meth:`CrossingLocator._locate_collision` locates where two multipliers of a symplectic
 return map collide on the unit circle on ``d = (nu_1 - nu_2)^2`` (``lambda = rho e^{i nu}``),

@@ -1,4 +1,4 @@
-"""The multiplier-motion step control as a ratio (issue 13, "Krein-aware step control").
+"""The multiplier-motion step control as a ratio (the Krein-aware step control).
 
 A step is refused when its motion ratio exceeds 1 (:meth:`StepController._multiplier_motion`);
 the ratio also caps the next step
@@ -8,7 +8,7 @@ linearly with a short step. Oracles:
 * closed forms of the closing rule (:func:`nsm_continuation.core.palc.motion.krein_closing`) on
   sets of multipliers built by hand: chords between points of the unit circle, displacements of a
   quadruple off it;
-* the engine with the step control of plain halving (the rule before the ratio): the same
+* the engine with the step control of plain halving (no ratio): the same
   events on the bundled default case, located to their tolerance, in fewer step attempts.
 """
 
@@ -97,7 +97,7 @@ def test_an_allowed_outside_motion_never_reaches_the_circle() -> None:
         if abs(x - y) > allowance:
             continue
         path = x + np.linspace(0.0, 1.0, 401) * (y - x)
-        # within ``match`` of the circle only the old absolute rule holds: nothing to check
+        # within ``match`` of the circle only the absolute rule holds: nothing to check
         if min(abs(x), abs(y)) - 1.0 > 2 * MATCH:
             assert np.abs(path).min() > 1.0
     # out and back in one step: the multiplier at 1.2 e^{0.3i} reached the circle at 0.3i

@@ -159,7 +159,7 @@ def test_classify_crossing_without_leaving_multiplier() -> None:
 
 
 # ---------------------------------------------------------------------------------------------
-# Structured spectra (issue 13 item 1): diagonal plus low rank, Krein definiteness
+# Structured spectra: diagonal plus low rank, Krein definiteness
 # ---------------------------------------------------------------------------------------------
 from nsm_continuation.core.floquet import (  # noqa: E402
     KREIN_DEFINITE,

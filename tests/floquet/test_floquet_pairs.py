@@ -1,7 +1,8 @@
-"""Multipliers of real maps by conjugate pairs (issue 13, "N = 1000: < 0.1 s per continuation
-point with multipliers"): :func:`nsm_continuation.core.floquet.low_rank_update_eigen` iterates one
-member of each conjugate pair and the real roots, and returns an exactly conjugate-closed
-spectrum; :func:`nsm_continuation.core.floquet.krein_definiteness` computes one member of each pair.
+"""Multipliers of real maps by conjugate pairs (what keeps a point of the N = 1000 chain with
+its multipliers under 0.1 s): :func:`nsm_continuation.core.floquet.low_rank_update_eigen`
+iterates one member of each conjugate pair and the real roots, and returns an exactly
+conjugate-closed spectrum; :func:`nsm_continuation.core.floquet.krein_definiteness` computes
+one member of each pair.
 
 Oracles, independent of the code under test: ``numpy.linalg.eigvals`` of the real matrix
 ``(I + U V^T) D`` (LAPACK returns its real eigenvalues with a zero imaginary part and its

@@ -1,13 +1,14 @@
-"""The small-spectrum paths of the Krein step control's distances (issue 13: "Fig. 3.2 FEP
-< 3 s"): :func:`collision_distances` and :func:`definite_sign` on Python lists up to
-``_SMALL_SPECTRUM`` multipliers, and :func:`nearest_distances`' one-shot dense formula.
+"""The small-spectrum paths of the Krein step control's distances (what keeps the
+frequency-energy plot of Fig. 3.2 under 3 s): :func:`collision_distances` and
+:func:`definite_sign` on Python lists up to ``_SMALL_SPECTRUM`` multipliers, and
+:func:`nearest_distances`' one-shot dense formula.
 
 Oracles, independent of the code under test:
 
 * the definitions computed densely here: the on-circle test and the definite signature; the
   chord ``2 sin(|phi_i - phi_j| / 2)`` (angles wrapped with ``numpy.mod``) to every multiplier
   of the other signature; ``|m_i - m_j|`` over all pairs; the partner ``|m - 1/conj(m)|``;
-* the large-spectrum path (the code the small path replaced, forced by setting
+* the large-spectrum path (the one large spectra take, forced by setting
   ``_SMALL_SPECTRUM`` to 0): *exactly* equal, the small path computing the same numbers by the
   same numpy formulas (only the bookkeeping moved to Python lists).
 

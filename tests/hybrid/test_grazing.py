@@ -82,7 +82,7 @@ def test_simulates_arbitrarily_close_to_grazing(dw: float) -> None:
 
 def test_section_at_an_event_is_not_missed() -> None:
     """The turn of q (v = 0) falls on the phase-pi section within round-off: the section must
-    still end the return (it was missed, and the simulation ran to its time limit)."""
+    still end the return (not missed: the simulation does not run to its time limit)."""
     pb = problem()
     res = pb.shooting.simulate(np.array([0.5 + 6e-9, 1.5e-9, OMEGA_G]))
     assert res.ended_by == "section" and res.t == pytest.approx(2 * np.pi / OMEGA_G, rel=1e-8)
@@ -154,7 +154,7 @@ def test_step_beyond_lands_on_the_closed_form_orbits(ds: float) -> None:
 # --------------------------------------------------------------------------- sequences
 def test_sequence_notation_is_structural() -> None:
     """A single impact after which the flight is integrated in the scaled system (a < 0 at
-    the impact) is ``I``, as one with a > 0: no false sequence change (was ``IB1``)."""
+    the impact) is ``I``, as one with a > 0: no false sequence change (not ``IB1``)."""
     from nsm_continuation.problems.impacting.two_mass_chain import TwoMassChainProblem
     base = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "gap": 0.5,
             "restitution": 0.8}
@@ -266,12 +266,11 @@ def test_grazing_curve_is_the_closed_form(zeta: float) -> None:
 
 
 def test_fig2_oscillator_continues_below_0_3465_without_event() -> None:
-    """Issue 11: the bundled sticking oscillator (Fig. 2 case) used to end near omega =
-    0.3465 with "Newton did not converge" after a false ``impact_sequence_change``. Continued
-    down from 0.4 to 0.33 it now reaches the window's bound with no event in between (the
-    acceleration at the first impact changes sign near 0.338, which is no change of the
-    orbit), and the orbit's structure, simulated again at both ends, is the same: complete
-    chattering and one sticking phase per period."""
+    """The bundled sticking oscillator (Fig. 2 case) continued down from 0.4 to 0.33 reaches
+    the window's bound with no event in between: no false ``impact_sequence_change`` and no
+    Newton failure near omega = 0.3465 (the acceleration at the first impact changes sign near
+    0.338, which is no change of the orbit), and the orbit's structure, simulated again at both
+    ends, is the same: complete chattering and one sticking phase per period."""
 
     import nsm_continuation as nsm
 
@@ -292,9 +291,9 @@ def test_fig2_oscillator_continues_below_0_3465_without_event() -> None:
 
 
 def test_two_mass_chain_grazing_at_0_772_against_fixed_frequency_solves() -> None:
-    """Issue 11: the bundled two-mass chain used to end at omega = 0.772 with "Newton did not
-    converge". Its branch now reaches the grazing there (a second, low-velocity impact is
-    born: sequence ``I -> II``) and goes on past it to the window's bound. Second method:
+    """The bundled two-mass chain's branch reaches the grazing at omega = 0.772 (a second,
+    low-velocity impact is born: sequence ``I -> II``, no Newton failure) and goes on past it
+    to the window's bound. Second method:
     one-impact orbits at fixed frequencies just below it (Newton in the section unknowns at
     fixed omega, from the located point): the line through their grazing margins vanishes
     within 1e-9 of the located omega."""

@@ -181,7 +181,7 @@ def test_tiny_impact_velocity_from_tiny_height():
     """Released from 1e-10: impact velocity 4.4e-5, chattering completes at the closed-form
     time (a sequence 1e5 times faster than the s = 1 one)."""
     s = 1e-10
-    # chatter_order 2: the former simulator default, at which these numbers were computed
+    # chatter_order 2: the order these numbers are computed at
     res = Simulator(ball(0.8), SimOptions(chatter_order=2)).run(np.array([s, 0.0]), t_end=1.0)
     ch = [ev for ev in res.events if ev.kind == "chatter"]
     assert len(ch) == 1 and res.state == "s4"
@@ -352,8 +352,8 @@ def test_turning_lower_bar_periodic_modulo_two_pi():
 def test_start_at_rest_where_the_force_balances_still_sees_the_impact() -> None:
     """The forced oscillator from its default start (q, q') = (gap + 1, 0) at phase 0, where
     v = a = jerk = 0 (the force -q + cos(0) balances): the flight falls onto the stop, and the
-    first impact is where an independent ``solve_ivp`` meets ``q = gap`` (it used to be
-    missed, the flight taken for one moving away, and q passed through the stop to -0.9)."""
+    first impact is where an independent ``solve_ivp`` meets ``q = gap`` (not missed: the
+    flight is not taken for one moving away, and q does not pass through the stop)."""
     import dataclasses
 
     import nsm_continuation as nsm

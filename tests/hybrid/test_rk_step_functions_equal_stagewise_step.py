@@ -1,4 +1,4 @@
-"""The Runge-Kutta step Functions of the hybrid simulator (issue 13, session 9 speed-ups).
+"""The Runge-Kutta step Functions of the hybrid simulator equal the step they compile.
 
 Three oracles, each independent of how the step Functions are compiled:
 

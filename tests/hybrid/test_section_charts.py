@@ -1,5 +1,5 @@
 """Charts: a branch moved to other unknowns where its own degenerate (``Problem.rechart``), and
-event functions whose sign changes through a pole (issue 11, findings F1 and F2).
+event functions whose sign changes through a pole.
 
 The unknowns of a forced hybrid orbit are its state at a stroboscopic section. Where an impact
 or a grazing of the orbit reaches the section's phase, the section state jumps along the branch
@@ -79,8 +79,8 @@ def test_grazing_at_the_section_phase_is_located_with_no_false_event(
         grazing_on_the_section: Any) -> None:
     """The same events as with the section away from the grazing (README, case
     ``impact_oscillator_grazing``): the fold, the grazing at sqrt(3) to 1e-10 with the
-    sequence ``I -> -``, the stability changes there, and nothing else (the section at the
-    grazing phase used to give a branch point, a false fold and a sequence change)."""
+    sequence ``I -> -``, the stability changes there, and nothing else (no branch point, no
+    false fold, no sequence change from the section at the grazing phase)."""
     res = grazing_on_the_section
     (br,) = res.run_result.branches
     kinds = sorted(e.kind for e in br.events)
@@ -396,8 +396,7 @@ def test_a_two_parameter_curve_moves_with_its_base(monkeypatch: pytest.MonkeyPat
 
 def test_a_state_deep_inside_the_obstacle_is_named_a_bad_guess() -> None:
     """A section state deep inside the stop is a guess far from any orbit, not an impact at the
-    section's time (the message used to say the latter whatever the depth); on the surface
-    it is the section's."""
+    section's time, whatever the depth; on the surface it is the section's."""
     from nsm_continuation.hybrid.return_map import ShootingFailure
 
     pb = nsm.problem("impact_oscillator", {"zeta": 0.1, "omega": 1.5, "gap": -0.5,

@@ -1,10 +1,10 @@
-"""The hybrid simulator after the speed-ups of issue 13, session 9: the same numbers as before.
+"""The hybrid simulator's shortcuts give the numbers of the plain computation.
 
-The simulator now skips work whose outcome is known (an iteration cycle, a step Jacobian that
-an event would discard, an interpolant of one sign, an extrapolation level already computed);
-each shortcut is checked here against the computation it replaces, written out plainly as it
-was (the oracles below), on the events of real simulations and on random data. The whole
-simulation is checked against values the previous code gave on this machine and against the
+The simulator skips work whose outcome is known (an iteration cycle, a step Jacobian that an
+event would discard, an interpolant of one sign, an extrapolation level already computed);
+each shortcut is checked here against the computation it skips, written out plainly (the
+oracles below), on the events of real simulations and on random data. The whole simulation is
+checked against recorded values of the plain computation on this machine and against the
 tight-tolerance reference of ``benchmarks/README.md`` (sec. 6.1 orbit, DOP853 at 1e-13).
 """
 
@@ -304,8 +304,8 @@ def test_one_sign_interpolant_has_no_crossing_on_a_dense_grid() -> None:
 
 
 # ------------------------------------------------------------------ whole simulations
-def test_simulation_equals_the_previous_code() -> None:
-    """Values the previous simulator gave (commit 30b6e76, this machine): the step counts
+def test_simulation_equals_the_recorded_values() -> None:
+    """Values the simulator without shortcuts gives (recorded on this machine): the step counts
     exactly, the return time, sticking time, state and extremes to 1e-12, the multiplier to
     1e-9 (the rounding of the BLAS products of a 70-impact chain may differ on another
     machine)."""

@@ -1,10 +1,10 @@
-"""The declared hooks the restart record and the ``continue_from_here`` hints read (issue 10,
-"one declared contract"): ``Problem.parameters_block`` and ``Problem.curve_parameters``.
+"""The declared hooks the restart record and the ``continue_from_here`` hints read (one
+declared contract): ``Problem.parameters_block`` and ``Problem.curve_parameters``.
 
-The results, restart and report modules used to test ``isinstance(problem,
-HybridCaseProblem)`` and read that class's undeclared ``values``, probe ``params.model_dump``
-through ``except AttributeError`` and hard-code the pendulum's ``d``; they now read only these
-declared members, so a problem of any family that declares them gets the same hints."""
+The results, restart and report modules read only these declared members (no
+``isinstance(problem, HybridCaseProblem)``, no undeclared ``values``, no probing of
+``params.model_dump`` through ``except AttributeError``, no pendulum's ``d`` written in), so a
+problem of any family that declares them gets the same hints."""
 
 from __future__ import annotations
 
@@ -134,7 +134,8 @@ def test_hint_context_reads_the_declared_hook() -> None:
 
 
 def _old_second(values: list[str], continued: str) -> str | None:
-    """The rule the report used to apply to a hybrid problem's ``values``."""
+    """The second parameter of a hybrid problem's ``values`` by the rule written out: ``gap``
+    or ``d`` if not continued, else the first other value."""
     others = [q for q in values if q != continued]
     return next((q for q in ("gap", "d") if q in others), others[0] if others else None)
 

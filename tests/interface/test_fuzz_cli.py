@@ -1,4 +1,4 @@
-"""Fuzz suite of the command line (issue 9, item 6).
+"""Fuzz suite of the command line.
 
 Hypothesis mutates one small, fast case per problem (deleted keys, unknown keys, values of the
 wrong type or out of range, path-like names, other problems, other problems' start blocks) and

@@ -1,4 +1,4 @@
-"""The declared Problem protocol (issue 10, items 1-2): the core reads only declared members,
+"""The declared Problem protocol: the core reads only declared members,
 a problem with only the required members runs end to end with honest defaults, event kinds are
 registered by the problem family, algorithms are chosen by ``continuation.algorithm``."""
 
@@ -76,7 +76,8 @@ def test_no_core_module_probes_a_problem() -> None:
 
 
 def test_the_probe_finder_finds_probes() -> None:
-    """The checker itself: it flags the patterns the core used to have."""
+    """The checker itself: it flags probes of undeclared members (``getattr``/``hasattr`` on
+    a problem)."""
     src = ("def f(pr, self):\n"
            "    a = getattr(pr, 'bound_kinds', {})\n"
            "    b = hasattr(self.problem, 'signature')\n"

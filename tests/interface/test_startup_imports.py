@@ -1,4 +1,4 @@
-"""Start-up cost (issue 13): what the command line imports. Each check runs in a fresh
+"""Start-up cost: what the command line imports. Each check runs in a fresh
 interpreter (this process has long imported everything) and looks at ``sys.modules``; no timing
 is asserted (machines differ: ``benchmarks/bench_startup.py`` measures the times)."""
 

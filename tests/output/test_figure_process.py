@@ -1,5 +1,5 @@
 """The process that draws a run's figures, started by the command line before the computation
-(:class:`nsm_continuation.figures.process.FigureProcess`, issue 13 item 4): the same files as
+(:class:`nsm_continuation.figures.process.FigureProcess`): the same files as
 drawing in this process, byte for byte, for each kind of problem (its copy of the problem is
 the one made at the fork); this process never imports matplotlib; the child is ended and
 reaped when the run fails, is interrupted or draws itself. Each run is in a fresh interpreter

@@ -1,4 +1,4 @@
-"""Reports that fit the system (issue 10 item 6, issue 11 item 4).
+"""Reports that fit the system.
 
 * forced hybrid systems continued in their forcing frequency are presented as frequency-response
   curves (response amplitude of the impacting coordinate vs the forcing frequency), in another

@@ -331,9 +331,8 @@ def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any,
                                                                tmp_path: Path) -> None:
     """A restart's single branch is sent to an existing cluster (``--scheduler``): the
     worker must continue the restart's own problem (the period-2 problem of a switch at a
-    period doubling, not the registered period-1 one). The CSV is byte-identical to the
-    serial run's (before the fix: another branch, from omega = 1.0949697 instead of
-    1.0949765)."""
+    period doubling, not the registered period-1 one, whose branch would start from omega =
+    1.0949697 instead of 1.0949765). The CSV is byte-identical to the serial run's."""
     address, _ = cluster
     base = nsm.run(str(CASES / "impact_oscillator_period_doubling.yaml"),
                    {"output.plots": False, "output.progress": False})

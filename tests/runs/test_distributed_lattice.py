@@ -1,4 +1,4 @@
-"""The lattice engine on Dask (nsm_continuation/execution.py, issue 14): the bar's scan (Fig. 12)
+"""The lattice engine on Dask (nsm_continuation/runs/execution.py): the bar's scan (Fig. 12)
 with its seed search in pieces, and the backbones of the bar with one task per branch, give the
 outputs of a serial run, to the last digit: every branch and its CSV, the skipped seeds, and
 the problem's counters in the report (``lattice_nodes_evaluated``, ``filter_removed``).
