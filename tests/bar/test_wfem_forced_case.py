@@ -1,5 +1,5 @@
 """The bar's forced response (Figs. 20-22) as YAML cases: ``problem: wfem_forced_bar`` swept by
-the ``sweep`` algorithm (problems/bar/forced_response.py, nsm_continuation/algorithms.py).
+the ``sweep`` algorithm (problems/bar/forced_response.py, nsm_continuation/algorithms/sweep.py).
 
 Oracles:
 

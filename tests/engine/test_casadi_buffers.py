@@ -1,4 +1,4 @@
-"""BufferedFunction (nsm_continuation/casadi_buffers.py) against CasADi's own call: the same
+"""BufferedFunction (nsm_continuation/core/casadi_buffers.py) against CasADi's own call: the same
 values, shapes and output count, bit for bit, also for sparse and matrix outputs, and fresh
 arrays on every call. Oracle: ``np.asarray`` of the ``DM`` results of a plain call."""
 

@@ -1,4 +1,4 @@
-"""Branches as Dask tasks (nsm_continuation/execution.py): the same result as a serial run, to
+"""Branches as Dask tasks (nsm_continuation/runs/execution.py): the same result as a serial run, to
 the last digit, on a local cluster of worker processes and on a cluster started as separate
 ``dask scheduler`` / ``dask worker`` processes; a worker killed mid-run; a failed task.
 
