@@ -31,13 +31,15 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      systems, :mod:`nsm_continuation.core.bordered`; dense by default);
    - *starts*: :meth:`start_points`, ``start_adapter``, :meth:`preflight`,
      :meth:`parameter_bounds`;
-   - *monitors*: continuous test functions (:meth:`admissibility`, > 0 where the point is
-     admissible, a sign change raises the event kind ``test_kinds[name]``, default ``grazing``),
+   - *monitors*: declared once in ``monitors`` (:mod:`nsm_continuation.core.monitors`: each
+     monitor's name, event kind, source, located or not, terminal or not), their values from
+     continuous test functions (:meth:`admissibility`, > 0 where the point is
+     admissible, a sign change raises its declared event kind, default ``grazing``),
      derived quantities (:meth:`derived`, bounded by ``continuation.bounds``; a bound ends the
-     branch with the event kind ``bound_kinds[name]``, default ``endpoint``), discrete
-     signatures (:meth:`signature`, a change raises ``signature_kind``), event functions
-     (:meth:`event_functions`, continuous; a zero raises ``event_function_kinds[name]``,
-     default ``grazing``, and the branch goes on), and ``event_kinds``:
+     branch with its declared kind, default ``endpoint``), discrete signatures
+     (:meth:`signature`, a change raises the signature monitor's kind), event functions
+     (:meth:`event_functions`, continuous; a zero raises its declared kind, default
+     ``grazing``, and the branch goes on), and ``event_kinds``:
      the kinds the problem family adds to the core ones
      (:data:`nsm_continuation.core.records.CORE_EVENT_KINDS`), each with its one-line meaning for
      ``report.md``;
@@ -83,6 +85,7 @@ from pydantic import BaseModel, TypeAdapter
 
 from nsm_continuation.core.bordered import BorderedFactor, DenseBorderedFactor
 from nsm_continuation.core.casadi_buffers import BufferedFunction
+from nsm_continuation.core.monitors import Monitors, legacy_monitors
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import CORE_EVENT_KINDS, Point, register_event_kinds
 
@@ -206,8 +209,8 @@ class Problem(ABC):
 
     Every member the core (engines, runner, results, report, plots) reads is declared here,
     typed, with a default; a subclass overrides what it needs. Class-level declarations
-    (``test_kinds``, ``bound_kinds``, ``signature_kind``, ``event_kinds``) are checked when the
-    subclass is defined: every event kind a problem raises is a core kind or one it declares.
+    (``monitors``, ``event_kinds``) are checked when the subclass is defined: every event kind
+    a problem raises is a core kind or one it declares.
     """
 
     # == unknowns & parameter ==================================================================
@@ -238,22 +241,19 @@ class Problem(ABC):
         self.params = params
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
-        """Register the family's event kinds and check that every kind the class maps a
-        monitor to is declared (a core kind or one of ``event_kinds``)."""
+        """Register the family's event kinds and check that every kind the class's monitors
+        raise is declared (a core kind or one of ``event_kinds``)."""
         super().__init_subclass__(**kwargs)
+        legacy_monitors(cls)
         register_event_kinds(cls.event_kinds, cls.__qualname__)
         known = {**CORE_EVENT_KINDS, **cls.event_kinds}
-        declared = [*cls.test_kinds.values(), *cls.bound_kinds.values(),
-                    *cls.event_function_kinds.values()]
-        if cls.signature_kind is not None:
-            declared.append(cls.signature_kind)
-        for kind in declared:
+        for kind in [*cls.monitors.kinds(), cls.monitors.default_kind]:
             if kind not in known:
                 raise TypeError(f"{cls.__qualname__}: event kind {kind!r} is neither a core "
                                 "kind nor declared in event_kinds")
-        if cls.signature is not Problem.signature and cls.signature_kind is None:
-            raise TypeError(f"{cls.__qualname__}: signature() is overridden but no "
-                            "signature_kind is declared (the event kind of a change)")
+        if cls.signature is not Problem.signature and cls.monitors.signature_kind is None:
+            raise TypeError(f"{cls.__qualname__}: signature() is overridden but no signature "
+                            "monitor is declared (monitors: the event kind of a change)")
         if "sweep" in cls.algorithms and not cls.can_sweep():
             raise TypeError(f"{cls.__qualname__}: 'sweep' is among its algorithms but "
                             "sweep_seeds() and sweep_point() are not both implemented")
@@ -404,36 +404,16 @@ class Problem(ABC):
     #: (:data:`~nsm_continuation.core.records.CORE_EVENT_KINDS`): kind -> one-line meaning, written
     #: in ``report.md`` under "What the events mean"
     event_kinds: ClassVar[dict[str, str]] = {}
-    #: admissibility test name -> event kind raised where it changes sign, or ceases to / starts
-    #: to be defined (tests not listed raise ``grazing``)
-    test_kinds: ClassVar[dict[str, str]] = {}
-    #: bounded quantity (the parameter or a derived quantity) -> event kind raised where its
-    #: bound ends the branch (quantities not listed raise ``endpoint``)
-    bound_kinds: ClassVar[dict[str, str]] = {}
-    #: derived quantities watched (with ``|y|``) for an ``asymptote``: growth without bound as
-    #: the parameter approaches a limit
-    asymptote_monitors: ClassVar[tuple[str, ...]] = ("energy",)
-    #: event kind raised where the discrete :meth:`signature` changes (None: the problem has no
-    #: signature and :meth:`signature` is never called)
-    signature_kind: ClassVar[str | None] = None
-    #: event function name -> event kind raised at its zeros (functions not listed raise
-    #: ``grazing``); see :meth:`event_functions`
-    event_function_kinds: ClassVar[dict[str, str]] = {}
-    #: the kind raised by a test or event function that ``test_kinds`` /
-    #: ``event_function_kinds`` do not list
-    default_monitor_kind: ClassVar[str] = "grazing"
-
-    def monitor_kind(self, source: str, name: str) -> str:
-        """The event kind a zero of the monitor ``name`` raises: ``source`` is ``"test"`` (an
-        admissibility test, :attr:`test_kinds`) or ``"function"`` (an event function,
-        :attr:`event_function_kinds`); unlisted ones raise :attr:`default_monitor_kind`. The
-        engine's events and the located curves' conditions both read this."""
-        kinds = self.test_kinds if source == "test" else self.event_function_kinds
-        return kinds.get(name, self.default_monitor_kind)
+    #: what the problem watches along a branch and the event kind each change raises
+    #: (:mod:`nsm_continuation.core.monitors`): admissibility tests (undeclared ones raise
+    #: ``grazing``), event functions, bounds on quantities (undeclared ones end the branch
+    #: with ``endpoint``), the signature (declared only by a problem with :meth:`signature`)
+    #: and the quantities watched for an ``asymptote`` (default: the energy)
+    monitors: ClassVar[Monitors] = Monitors()
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
         """Named continuous test functions, ``>= 0`` where ``y`` is admissible (physically
-        realisable); a sign change is located and raises ``test_kinds[name]``."""
+        realisable); a sign change is located and raises the kind :attr:`monitors` gives it."""
         return {}
 
     def event_functions(self, y: np.ndarray) -> dict[str, float]:
@@ -443,7 +423,7 @@ class Problem(ABC):
         Unlike :meth:`admissibility` the sign carries no meaning of admissibility. Where a
         function changes sign between two accepted points (both values finite) the engine
         locates the zero on the curve (Illinois, to ``event_tol`` in arclength) and records an
-        event of kind ``event_function_kinds[name]`` (default ``grazing``) with ``data``
+        event of the kind :attr:`monitors` gives it (default ``grazing``) with ``data``
         ``{'function', 'value_before', 'value_after'}``; a value missing or NaN at either end
         raises nothing. Steps are capped so that a function is not carried far past a zero
         (as admissibility tests are). Evaluated at every analysed point; default: none."""
@@ -496,7 +476,8 @@ class Problem(ABC):
     def signature(self, y: np.ndarray) -> str | None:
         """A discrete signature of the solution at ``y`` (e.g. the event sequence of a hybrid
         orbit), or None where it is undefined; a change between two points is located and
-        raises ``signature_kind``. Called only when ``signature_kind`` is declared."""
+        raises the kind of the signature monitor. Called only when :attr:`monitors` declares
+        one (:func:`~nsm_continuation.core.monitors.signature`)."""
         return None
 
     def locate_signature(self, before: str | None, after: str | None) -> bool:
