@@ -14,8 +14,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsm_continuation.algorithms.base import Algorithm, Window, outside_bound
+from nsm_continuation.core.capabilities import SweepSeed
 from nsm_continuation.core.palc import NUMERICAL_ERRORS, describe_error
-from nsm_continuation.core.problem import Problem, StartPoint, SweepSeed
+from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 

@@ -476,13 +476,10 @@ def located_curve(problem: Problem, sel: Selection, record: RunRecord, parameter
 
 def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRecord,
                   parameter: str, free: str, margin: float | None) -> Problem:
-    """The grazing curve (:class:`~nsm_continuation.hybrid.codim1.GrazingCurve`) of
-    ``problem`` (a hybrid problem with the run's period multiple) through the selected point,
+    """The grazing curve of ``problem`` by its own augmented system (:meth:`Problem.curve`,
+    e.g. a hybrid problem with the run's period multiple) through the selected point,
     ``free`` solved for and ``parameter`` continued; one-line :class:`CaseError` naming
     ``start.curve`` / ``start.free`` / ``continuation.parameter`` where it cannot be built."""
-    from nsm_continuation.hybrid.codim1 import DEFAULT_MARGIN, GrazingCurve
-    from nsm_continuation.hybrid.return_map import PERIOD
-
     names = problem.curve_parameters()
     if not names:
         raise CaseError(f"start.curve: problem {problem.name!r} is not a hybrid system; "
@@ -503,14 +500,17 @@ def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: R
         raise CaseError(f"start.free: the grazing curve needs two parameters, and {free!r} "
                           "is the one continued (continuation.parameter); continue another "
                           f"one (one of {[k for k in known if k != free]})")
-    if parameter == PERIOD or parameter not in names:
+    if parameter not in names:
         raise CaseError(f"continuation.parameter: {parameter!r} is not a parameter of "
                           f"{problem.name!r} (one of {known})")
     try:
-        return GrazingCurve(problem, free, parameter,
-                            DEFAULT_MARGIN if margin is None else float(margin))
+        curve = problem.curve("grazing", free, parameter, margin)
     except ValueError as exc:
         raise CaseError(f"start.curve: {exc}") from None
+    if curve is None:
+        raise CaseError(f"start.curve: problem {problem.name!r} has no augmented system for "
+                        "grazing curves (Problem.curve); drop start.method")
+    return curve
 
 
 def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRecord,

@@ -62,9 +62,9 @@ from nsm_continuation.problems.bar.wfem_stepping import BarParams, Loading, rest
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
 from nsm_continuation.algorithms.sweep import SweepProblem, sweep_point_record
+from nsm_continuation.core.capabilities import SweepSeed
 from nsm_continuation.core.monitors import Monitors, signature
 from nsm_continuation.core.preflight import STRICT, as_list, check_budget, check_gap, one_or_many
-from nsm_continuation.core.problem import SweepSeed
 from nsm_continuation.core.records import Point
 from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
