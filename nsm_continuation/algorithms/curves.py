@@ -59,6 +59,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import BaseModel
 
+from nsm_continuation.core.monitors import Source
 from nsm_continuation.core.palc import NUMERICAL_ERRORS, ContinuationEngine
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import Problem
@@ -72,20 +73,16 @@ MULTIPLIER_KINDS: dict[str, str] = {
     "fold": "a limit point of the family (a multiplier at +1)",
     "neimark_sacker": "a complex pair of multipliers on the unit circle",
 }
-#: the kind of a test or event function that its problem does not map
-#: (:attr:`Problem.default_monitor_kind`)
-DEFAULT_MONITOR_KIND = Problem.default_monitor_kind
-
-
 def monitor_kinds(problem: Problem) -> set[str]:
-    """The event kinds ``problem`` maps its test and event functions to (the declared
-    ``test_kinds`` and ``event_function_kinds``, and the default kind of unlisted ones when
-    the problem has test or event functions at all)."""
+    """The event kinds ``problem`` maps its test and event functions to (its declared test and
+    function monitors, and the default kind of unlisted ones when the problem has test or
+    event functions at all)."""
     cls = type(problem)
-    kinds = {*cls.test_kinds.values(), *cls.event_function_kinds.values()}
+    declared = (*cls.monitors.of(Source.TEST), *cls.monitors.of(Source.FUNCTION))
+    kinds = {m.kind for m in declared}
     if (cls.admissibility is not Problem.admissibility
             or cls.event_functions is not Problem.event_functions):
-        kinds.add(cls.default_monitor_kind)
+        kinds.add(cls.monitors.default_kind)
     return kinds
 
 
@@ -114,7 +111,7 @@ def condition_meaning(kind: str) -> str:
     if kind in MULTIPLIER_KINDS:
         return MULTIPLIER_KINDS[kind]
     return (f"a test or event function the problem maps to {kind} at zero "
-            "(Problem.test_kinds, Problem.event_function_kinds)")
+            "(Problem.monitors)")
 
 
 #: growth of the step in ``q`` after a located point, and of the window of ``p`` after a miss
@@ -292,7 +289,7 @@ class LocatedCurve(CodimOneCurve):
         values = [abs(v) for source, monitors in (("test", point.tests),
                                                   ("function", point.event_values))
                   for name, v in monitors.items()
-                  if self.base.monitor_kind(source, name) == kind and np.isfinite(v)]
+                  if self.base.monitors.kind(source, name) == kind and np.isfinite(v)]
         return float(min(values)) if values else float("nan")
 
     def monitor_names(self) -> list[str]:
@@ -617,6 +614,6 @@ class CurveTracer:
         return out
 
 
-__all__ = ["DEFAULT_MONITOR_KIND", "MULTIPLIER_KINDS", "CodimOneCurve", "CurveTracer",
+__all__ = ["MULTIPLIER_KINDS", "CodimOneCurve", "CurveTracer",
            "LocatedCurve", "condition_meaning", "curve_kind_refusal", "curve_kinds",
            "monitor_kinds"]

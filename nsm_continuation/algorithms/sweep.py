@@ -14,8 +14,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsm_continuation.algorithms.base import Algorithm, Window, outside_bound
+from nsm_continuation.core.capabilities import SweepSeed
 from nsm_continuation.core.palc import NUMERICAL_ERRORS, describe_error
-from nsm_continuation.core.problem import Problem, StartPoint, SweepSeed
+from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 
@@ -24,7 +25,7 @@ class SweepProblem(Problem):
     """A problem solved at each value of a grid of its parameter (:class:`Sweep`): e.g. the
     steady state of a forced response at each forcing frequency, found by time stepping from
     the steady state at the previous frequency. No residual, no continuation. Implement
-    :meth:`sweep_seeds` and :meth:`sweep_point`; a declared ``signature_kind`` raises an event
+    :meth:`sweep_seeds` and :meth:`sweep_point`; a declared signature monitor raises an event
     where the points' ``signature`` changes between two consecutive grid values. (A problem
     with a residual is swept too when it lists ``"sweep"`` in ``algorithms`` and implements
     the two hooks of :class:`~nsm_continuation.core.problem.Problem`.)"""
@@ -72,7 +73,7 @@ class Sweep(Algorithm):
     first value with a point outside a bound on a derived quantity (``continuation.
     max_energy``, ``continuation.bounds``; that value is not kept) or where a value cannot be
     solved (the reason is the branch's termination). Events: ``endpoint`` at both ends, the
-    problem's ``signature_kind`` at the first point of a new signature.
+    problem's signature monitor at the first point of a new signature.
     """
 
     name: ClassVar[str] = "sweep"
@@ -151,7 +152,7 @@ class Sweep(Algorithm):
         pr = self.sweep_problem
         grid = self.grid(seed.direction, seed.origin)
         state = seed.state
-        kind = pr.signature_kind
+        kind = pr.monitors.signature_kind
         for value in grid:
             solved, state = pr.sweep_point(seed, float(value), state)
             self.n_evaluations += 1

@@ -125,35 +125,35 @@ def parse_spec(start: Any) -> RestartSpec:
         raise CaseError("start.point: give start.event or start.point, not both")
     if spec.event is None and spec.point is None:
         raise CaseError("start.event: a restart needs start.event (an event of the branch) "
-                          "or start.point (a row of its CSV)")
+                        "or start.point (a row of its CSV)")
     if spec.switch is not False:
         if spec.event is None:
             raise CaseError("start.switch: a branch is switched at an event (start.event: "
-                              "period_doubling or branch_point), not at start.point")
+                            "period_doubling or branch_point), not at start.point")
         kind = spec.event_kind
         if kind not in SWITCH_KINDS:
             raise CaseError(f"start.switch: switching is defined at {' and '.join(SWITCH_KINDS)}"
-                              f" events, not at {kind!r}")
+                            f" events, not at {kind!r}")
         if isinstance(spec.switch, str) and spec.switch != kind:
             raise CaseError(f"start.switch: {spec.switch!r} does not match the event's kind "
-                              f"{kind!r}")
+                            f"{kind!r}")
     elif spec.amplitude is not None:
         raise CaseError("start.amplitude: only used with start.switch")
     if spec.curve is None:
         for key in ("free", "margin", "method"):
             if getattr(spec, key) is not None:
                 raise CaseError(f"start.{key}: only used with start.curve (a two-parameter "
-                                  "curve: curve: grazing)")
+                                "curve: curve: grazing)")
     elif spec.method == "augmented" and spec.curve != "grazing":
         raise CaseError(f"start.method: the augmented system is built for grazing curves; a "
-                          f"{spec.curve} curve is continued by the located method (drop "
-                          "start.method)")
+                        f"{spec.curve} curve is continued by the located method (drop "
+                        "start.method)")
     elif spec.margin is not None and (spec.curve != "grazing" or spec.method == "located"):
         raise CaseError("start.margin: only used with the augmented grazing curve (curve: "
-                          "grazing, method: augmented)")
+                        "grazing, method: augmented)")
     elif spec.switch is not False:
         raise CaseError("start.curve: a curve continues the event itself in two parameters; "
-                          "it is not a branch switch (drop start.switch)")
+                        "it is not a branch switch (drop start.switch)")
     return spec
 
 
@@ -218,13 +218,13 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
     if spec.branch is None:
         if len(branches) != 1:
             raise CaseError(f"start.branch: {record.label} has {len(branches)} branches "
-                              f"(ids {', '.join(map(str, ids))}); choose one")
+                            f"(ids {', '.join(map(str, ids))}); choose one")
         br = branches[0]
     else:
         match = [b for b in branches if b.get("id") == spec.branch]
         if not match:
             raise CaseError(f"start.branch: {record.label} has no branch {spec.branch} (ids "
-                              f"{', '.join(map(str, ids)) or 'none'})")
+                            f"{', '.join(map(str, ids)) or 'none'})")
         br = match[0]
     where = f"branch {br['id']} of {record.label}"
     n = int(br.get("n_points", 0))
@@ -235,20 +235,20 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
         evs = [e for e in br.get("events", []) if e.get("kind") == kind]
         if not evs:
             raise CaseError(f"start.event: {where} has no {kind} event (its events: "
-                              f"{_kinds(br.get('events', []))})")
+                            f"{_kinds(br.get('events', []))})")
         index = spec.event_index
         if index is None:
             if len(evs) > 1:
                 values = ", ".join(f"{e['parameter']:.8g}" for e in evs[:6])
                 raise CaseError(f"start.event: {where} has {len(evs)} {kind} events (at "
-                                  f"{br['parameter']} = {values}{', ...' if len(evs) > 6 else ''});"
-                                  f" choose one with event: {{kind: {kind}, index: "
-                                  f"0..{len(evs) - 1}}}")
+                                f"{br['parameter']} = {values}{', ...' if len(evs) > 6 else ''});"
+                                f" choose one with event: {{kind: {kind}, index: "
+                                f"0..{len(evs) - 1}}}")
             index = 0
         if index >= len(evs):
             raise CaseError(f"start.event.index: {where} has {len(evs)} {kind} event"
-                              f"{'s' if len(evs) != 1 else ''} (index 0..{len(evs) - 1}), "
-                              f"not {index}")
+                            f"{'s' if len(evs) != 1 else ''} (index 0..{len(evs) - 1}), "
+                            f"not {index}")
         ev = evs[index]
         y = np.asarray(ev["y"], dtype=float)
         what = f"{kind} #{index} of branch {br['id']}"
@@ -258,14 +258,14 @@ def select(record: RunRecord, spec: RestartSpec) -> Selection:
         row = spec.point if spec.point >= 0 else n + spec.point
         if not 0 <= row < n:
             raise CaseError(f"start.point: {where} has {n} points (rows 0..{n - 1}), not "
-                              f"{spec.point}")
+                            f"{spec.point}")
         y = csv_row(record, br, row)
         moves = [c for c in br.get("charts", []) if int(c["from_row"]) <= row]
         sel = Selection(br, y, None, f"point {row} of branch {br['id']}",
                         (moves[-1]["chart"] or None) if moves else None)
     if y.size != len(br["variables"]) or not np.all(np.isfinite(y)):
         raise CaseError(f"start.from: the unknowns of {sel.what} in {record.label} are not "
-                          f"{len(br['variables'])} finite numbers")
+                        f"{len(br['variables'])} finite numbers")
     return sel
 
 
@@ -293,7 +293,7 @@ def inherit_raw(raw: dict[str, Any], record: RunRecord, sel: Selection,
         out["problem"] = problem
     elif raw["problem"] != problem:
         raise CaseError(f"start.from: {record.label} is a run of problem {problem!r}, not of "
-                          f"{raw['problem']!r} (problem:)")
+                        f"{raw['problem']!r} (problem:)")
     if out.get("parameters") is None:
         out["parameters"] = {}
     old = record.case_input
@@ -354,8 +354,8 @@ def map_unknowns(problem: Problem, sel: Selection, user: dict[str, Any],
             y[k] = float(_parameter_value(params, name))  # type: ignore[arg-type]
         else:
             raise CaseError(f"start.from: the unknown {name!r} of problem {problem.name!r} is "
-                              f"neither an unknown of the run ({', '.join(old)}) nor a "
-                              "parameter")
+                            f"neither an unknown of the run ({', '.join(old)}) nor a "
+                            "parameter")
     return y
 
 
@@ -455,11 +455,11 @@ def located_curve(problem: Problem, sel: Selection, record: RunRecord, parameter
             what = (f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} event" if kind is not None
                     else "a CSV row (start.point)")
             raise CaseError(f"start.curve: a {curve.kind} curve starts from a {curve.kind} "
-                              f"event of the run (start.event: {curve.kind}), not from {what}")
+                            f"event of the run (start.event: {curve.kind}), not from {what}")
     continued = record.restart.get("continued")
     if not record.restart.get("curve") and curve.free != continued:
         raise CaseError(f"start.free: the located {curve.kind} curve solves for the "
-                          f"parameter the run continued ({continued}), not {curve.free!r}")
+                        f"parameter the run continued ({continued}), not {curve.free!r}")
     saved = (record.restart.get("curve") or {}).get("base_settings")
     try:
         if saved is None:  # a run of the base problem: its own settings
@@ -471,46 +471,46 @@ def located_curve(problem: Problem, sel: Selection, record: RunRecord, parameter
     except ValueError as exc:
         msg = str(exc)
         raise CaseError(msg if msg.startswith(("start.", "continuation."))
-                          else f"start.curve: {msg}") from None
+                        else f"start.curve: {msg}") from None
 
 
 def grazing_curve(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRecord,
                   parameter: str, free: str, margin: float | None) -> Problem:
-    """The grazing curve (:class:`~nsm_continuation.hybrid.codim1.GrazingCurve`) of
-    ``problem`` (a hybrid problem with the run's period multiple) through the selected point,
+    """The grazing curve of ``problem`` by its own augmented system (:meth:`Problem.curve`,
+    e.g. a hybrid problem with the run's period multiple) through the selected point,
     ``free`` solved for and ``parameter`` continued; one-line :class:`CaseError` naming
     ``start.curve`` / ``start.free`` / ``continuation.parameter`` where it cannot be built."""
-    from nsm_continuation.hybrid.codim1 import DEFAULT_MARGIN, GrazingCurve
-    from nsm_continuation.hybrid.return_map import PERIOD
-
     names = problem.curve_parameters()
     if not names:
         raise CaseError(f"start.curve: problem {problem.name!r} is not a hybrid system; "
-                          "grazing curves are continued for the orbits of hybrid problems "
-                          "(impact_oscillator, two_mass_chain, double_pendulum, ...)")
+                        "grazing curves are continued for the orbits of hybrid problems "
+                        "(impact_oscillator, two_mass_chain, double_pendulum, ...)")
     if not record.restart.get("curve"):
         kind = sel.event["kind"] if sel.event is not None else None
         if kind != "grazing":
             what = (f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} event" if kind is not None
                     else "a CSV row (start.point)")
             raise CaseError(f"start.curve: a grazing curve starts from a grazing event of "
-                              f"the run (start.event: grazing), not from {what}")
+                            f"the run (start.event: grazing), not from {what}")
     known = sorted(names)
     if free not in names:
         raise CaseError(f"start.free: {free!r} is not a parameter of {problem.name!r} (one "
-                          f"of {known})")
+                        f"of {known})")
     if parameter == free:
         raise CaseError(f"start.free: the grazing curve needs two parameters, and {free!r} "
-                          "is the one continued (continuation.parameter); continue another "
-                          f"one (one of {[k for k in known if k != free]})")
-    if parameter == PERIOD or parameter not in names:
+                        "is the one continued (continuation.parameter); continue another "
+                        f"one (one of {[k for k in known if k != free]})")
+    if parameter not in names:
         raise CaseError(f"continuation.parameter: {parameter!r} is not a parameter of "
-                          f"{problem.name!r} (one of {known})")
+                        f"{problem.name!r} (one of {known})")
     try:
-        return GrazingCurve(problem, free, parameter,
-                            DEFAULT_MARGIN if margin is None else float(margin))
+        curve = problem.curve("grazing", free, parameter, margin)
     except ValueError as exc:
         raise CaseError(f"start.curve: {exc}") from None
+    if curve is None:
+        raise CaseError(f"start.curve: problem {problem.name!r} has no augmented system for "
+                        "grazing curves (Problem.curve); drop start.method")
+    return curve
 
 
 def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRecord,
@@ -523,7 +523,7 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
     base = iterated(problem, k)
     if base is None:
         raise CaseError(f"start.from: {sel.what} of {record.label} is an orbit of {k} base "
-                          f"periods, which problem {problem.name!r} cannot represent")
+                        f"periods, which problem {problem.name!r} cannot represent")
     # the point's unknowns are those of its chart (the run may have moved its section)
     base = base.in_chart(sel.chart)
     cs = curve_of(spec, record)
@@ -537,9 +537,9 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
         hybrid = bool(base.curve_parameters())
         if cs.kind == "grazing" and hybrid and cs.method == "located":
             raise CaseError("start.method: the grazing curve of a hybrid orbit is continued "
-                              "by its augmented system (C1): at a grazing the family of orbits "
-                              "has a nonsmooth fold that a continuation of the base problem "
-                              "does not locate reliably (drop start.method)")
+                            "by its augmented system (C1): at a grazing the family of orbits "
+                            "has a nonsmooth fold that a continuation of the base problem "
+                            "does not locate reliably (drop start.method)")
         if cs.method is None:
             cs.method = "augmented" if cs.kind == "grazing" and hybrid else "located"
         if cs.method == "located":
@@ -553,8 +553,8 @@ def configure(problem: Problem, sel: Selection, spec: RestartSpec, record: RunRe
     doubled = iterated(base, 2 * k)
     if doubled is None:
         raise CaseError(f"start.switch: problem {problem.name!r} cannot represent orbits of "
-                          f"twice the period (Problem.iterated), so the period-{2 * k} family "
-                          "cannot be continued")
+                        f"twice the period (Problem.iterated), so the period-{2 * k} family "
+                        "cannot be continued")
     return doubled, base
 
 
@@ -573,7 +573,7 @@ def check_start(problem: Problem, y: np.ndarray, window: tuple[float | None, flo
             if msg.startswith("start."):
                 msg = msg.split(": ", 1)[-1]
             raise CaseError(f"start.from: the restart point fails the start checks: "
-                              f"{msg}") from None
+                            f"{msg}") from None
         return
     p = float(y[problem.parameter_index])
     lo, hi = window
@@ -581,8 +581,8 @@ def check_start(problem: Problem, y: np.ndarray, window: tuple[float | None, flo
         show = (f"[{lo if lo is not None else -np.inf:.10g}, "
                 f"{hi if hi is not None else np.inf:.10g}]")
         raise CaseError(f"start.from: the restart point has {problem.parameter} = {p:.10g}, "
-                          f"outside the continuation window {show} of {problem.parameter} "
-                          "(continuation.min/max)")
+                        f"outside the continuation window {show} of {problem.parameter} "
+                        "(continuation.min/max)")
 
 
 def resolve(raw_start: Any, raw: dict[str, Any], record: RunRecord | None

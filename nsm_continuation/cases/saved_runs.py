@@ -82,18 +82,18 @@ def load_run(source: str) -> RunRecord:
             raise CaseError(f"start.from: {shown} does not exist{where}")
         if not folder.is_dir():
             raise CaseError(f"start.from: {shown} is not a folder (the output folder of a "
-                              "run)")
+                            "run)")
         marker = read_marker(folder)
         if marker is None or "report.json" not in marker["files"]:
             raise CaseError(f"start.from: {shown} is not a run of nsm-continuation (no "
-                              f"{MARKER} listing its report.json)")
+                            f"{MARKER} listing its report.json)")
         path = folder / "report.json"
         if not path.is_file():
             raise CaseError(f"start.from: {shown}/report.json is missing")
         if sha256(path) != marker["files"]["report.json"]:
             raise CaseError(f"start.from: {shown}/report.json was changed after the run (its "
-                              "SHA-256 differs from the run's marker); restart from an "
-                              "unchanged run")
+                            "SHA-256 differs from the run's marker); restart from an "
+                            "unchanged run")
         report = json.loads(path.read_text(encoding="utf-8"))
     except CaseError:
         raise
@@ -104,10 +104,10 @@ def load_run(source: str) -> RunRecord:
     block = report.get("restart") if isinstance(report, dict) else None
     if not isinstance(block, dict) or block.get("format") != RESTART_FORMAT:
         raise CaseError(f"start.from: {shown}/report.json has no restart record (written "
-                          "before restart records existed); run its case again")
+                        "before restart records existed); run its case again")
     if block.get("version") != RESTART_VERSION:
         raise CaseError(f"start.from: {shown} holds a restart record of version "
-                          f"{block.get('version')!r}; this version reads {RESTART_VERSION}")
+                        f"{block.get('version')!r}; this version reads {RESTART_VERSION}")
     case = report.get("case")
     case_input = case.get("input") if isinstance(case, dict) else None
     if not isinstance(case_input, dict):
@@ -126,14 +126,14 @@ def csv_row(record: RunRecord, br: dict[str, Any], row: int) -> np.ndarray:
     try:
         if digest is None or not path.is_file() or sha256(path) != digest:
             raise CaseError(f"start.point: {record.label}/{name} is missing or was changed "
-                              "after the run")
+                            "after the run")
         with open(path, newline="", encoding="utf-8") as fh:
             reader = csv.reader(fh)
             head = next(reader)
             cols = [head.index(f"y_{v}") if f"y_{v}" in head else -1 for v in br["variables"]]
             if min(cols) < 0:
                 raise CaseError(f"start.point: {record.label}/{name} lacks the columns "
-                                  f"y_<unknown> of {', '.join(br['variables'])}")
+                                f"y_<unknown> of {', '.join(br['variables'])}")
             for k, values in enumerate(reader):
                 if k == row:
                     return np.array([float(values[c]) for c in cols], dtype=float)
@@ -141,8 +141,8 @@ def csv_row(record: RunRecord, br: dict[str, Any], row: int) -> np.ndarray:
         raise
     except OSError as exc:
         raise CaseError(f"start.point: cannot read {record.label}/{name} "
-                          f"({exc.strerror or exc})") from None
+                        f"({exc.strerror or exc})") from None
     except (ValueError, IndexError, StopIteration):
         raise CaseError(f"start.point: row {row} of {record.label}/{name} is not a row of "
-                          "numbers") from None
+                        "numbers") from None
     raise CaseError(f"start.point: {record.label}/{name} has fewer than {row + 1} rows")

@@ -31,13 +31,15 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      systems, :mod:`nsm_continuation.core.bordered`; dense by default);
    - *starts*: :meth:`start_points`, ``start_adapter``, :meth:`preflight`,
      :meth:`parameter_bounds`;
-   - *monitors*: continuous test functions (:meth:`admissibility`, > 0 where the point is
-     admissible, a sign change raises the event kind ``test_kinds[name]``, default ``grazing``),
+   - *monitors*: declared once in ``monitors`` (:mod:`nsm_continuation.core.monitors`: each
+     monitor's name, event kind, source, located or not, terminal or not), their values from
+     continuous test functions (:meth:`admissibility`, > 0 where the point is
+     admissible, a sign change raises its declared event kind, default ``grazing``),
      derived quantities (:meth:`derived`, bounded by ``continuation.bounds``; a bound ends the
-     branch with the event kind ``bound_kinds[name]``, default ``endpoint``), discrete
-     signatures (:meth:`signature`, a change raises ``signature_kind``), event functions
-     (:meth:`event_functions`, continuous; a zero raises ``event_function_kinds[name]``,
-     default ``grazing``, and the branch goes on), and ``event_kinds``:
+     branch with its declared kind, default ``endpoint``), discrete signatures
+     (:meth:`signature`, a change raises the signature monitor's kind), event functions
+     (:meth:`event_functions`, continuous; a zero raises its declared kind, default
+     ``grazing``, and the branch goes on), and ``event_kinds``:
      the kinds the problem family adds to the core ones
      (:data:`nsm_continuation.core.records.CORE_EVENT_KINDS`), each with its one-line meaning for
      ``report.md``;
@@ -50,22 +52,15 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      labels, title and scale, CSV and report columns, figures, report extras and the periodic
      orbit at a point sampled in time, all pure functions of the results and of what the
      problem was built from (the contract's second part, apart from the numerics);
-   - *sweeps* (an optional capability, :class:`~nsm_continuation.algorithms.sweep.Sweep`, YAML
-     ``continuation.algorithm: sweep``): a problem that lists ``"sweep"`` in ``algorithms``
-     implements :meth:`sweep_seeds` (the sweeps of its ``start:`` block, :class:`SweepSeed`)
-     and :meth:`sweep_point` (the solution at one grid value of the parameter from the state
-     the previous value ended in: one :class:`~nsm_continuation.core.records.Point`, or a list of
-     them, e.g. the section returns recorded by a brute-force bifurcation diagram,
-     :mod:`nsm_continuation.hybrid.brute_force`); :meth:`sweep_preflight` checks a sweep's
-     start block before computing (default: :meth:`preflight`). A problem with a residual may
-     be both continued and swept; one without (:class:`~nsm_continuation.algorithms.base.
-     SweepProblem`) is only swept. The defaults raise: the class check refuses ``"sweep"`` in
-     ``algorithms`` without :meth:`sweep_seeds` and :meth:`sweep_point`;
-   - *restart & two-parameter curves*: :meth:`period_multiple`, :meth:`iterated`,
-     :meth:`with_parameters`, :meth:`restart_start`, :meth:`parameters_block` (the
-     parameters written to the restart record; default the ``params`` model, dumped) and
-     :meth:`curve_parameters` (the parameters a grazing curve may free or continue, in order
-     of preference; default none).
+   - *capabilities* (:mod:`nsm_continuation.core.capabilities`, the contract's third part):
+     :class:`~nsm_continuation.core.capabilities.Sweepable` (solved on a grid of the
+     parameter instead of continued: ``sweep_seeds``, ``sweep_point``, ``sweep_preflight``)
+     and :class:`~nsm_continuation.core.capabilities.Derivable` (:meth:`iterated`,
+     :meth:`with_parameters`, :meth:`curve`, :meth:`period_multiple`,
+     :meth:`restart_start`, :meth:`parameters_block` (the parameters written to the restart
+     record; default the ``params`` model, dumped) and :meth:`curve_parameters` (the
+     parameters a grazing curve may free or continue, in order of preference;
+     default none)), each member defaulting to "cannot".
 5. Register the class: in this repository in ``pyproject.toml`` under the entry-point group
    ``nsm_continuation.problems``; a third-party package does the same in its own metadata.
 """
@@ -82,9 +77,11 @@ import numpy as np
 from pydantic import BaseModel, TypeAdapter
 
 from nsm_continuation.core.bordered import BorderedFactor, DenseBorderedFactor
+from nsm_continuation.core.capabilities import Derivable, Sweepable
 from nsm_continuation.core.casadi_buffers import BufferedFunction
+from nsm_continuation.core.monitors import Monitors, legacy_monitors
 from nsm_continuation.core.presentation import Presentation
-from nsm_continuation.core.records import CORE_EVENT_KINDS, Point, register_event_kinds
+from nsm_continuation.core.records import CORE_EVENT_KINDS, register_event_kinds
 
 
 class EvaluationError(RuntimeError):
@@ -139,22 +136,6 @@ class Rechart:
 
 
 @dataclass
-class SweepSeed:
-    """One sweep (:meth:`Problem.sweep_seeds`): its label, the state the first grid value
-    starts from (the problem's own object, e.g. a state of a time stepper), and its direction
-    (+1: increasing parameter, -1: decreasing, 0: as ``continuation.direction``, both giving
-    two sweeps). ``origin``: the parameter value the sweep starts at, like a continuation from
-    its start (the grid values on the sweep's side of it, preceded by ``origin`` itself when it
-    is not a grid value); None: the whole grid (e.g. a frequency sweep)."""
-
-    label: str
-    state: Any = None
-    direction: int = 0
-    info: dict[str, Any] = field(default_factory=dict)
-    origin: float | None = None
-
-
-@dataclass
 class StartPoint:
     """An initial guess ``y`` (corrected by Newton before continuation starts).
 
@@ -201,13 +182,13 @@ class CompiledResidual:
         return g.ravel(), jac
 
 
-class Problem(ABC):
+class Problem(Sweepable, Derivable, ABC):
     """Base class of all problems: the declared contract (module docstring).
 
     Every member the core (engines, runner, results, report, plots) reads is declared here,
     typed, with a default; a subclass overrides what it needs. Class-level declarations
-    (``test_kinds``, ``bound_kinds``, ``signature_kind``, ``event_kinds``) are checked when the
-    subclass is defined: every event kind a problem raises is a core kind or one it declares.
+    (``monitors``, ``event_kinds``) are checked when the subclass is defined: every event kind
+    a problem raises is a core kind or one it declares.
     """
 
     # == unknowns & parameter ==================================================================
@@ -238,22 +219,19 @@ class Problem(ABC):
         self.params = params
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
-        """Register the family's event kinds and check that every kind the class maps a
-        monitor to is declared (a core kind or one of ``event_kinds``)."""
+        """Register the family's event kinds and check that every kind the class's monitors
+        raise is declared (a core kind or one of ``event_kinds``)."""
         super().__init_subclass__(**kwargs)
+        legacy_monitors(cls)
         register_event_kinds(cls.event_kinds, cls.__qualname__)
         known = {**CORE_EVENT_KINDS, **cls.event_kinds}
-        declared = [*cls.test_kinds.values(), *cls.bound_kinds.values(),
-                    *cls.event_function_kinds.values()]
-        if cls.signature_kind is not None:
-            declared.append(cls.signature_kind)
-        for kind in declared:
+        for kind in [*cls.monitors.kinds(), cls.monitors.default_kind]:
             if kind not in known:
                 raise TypeError(f"{cls.__qualname__}: event kind {kind!r} is neither a core "
                                 "kind nor declared in event_kinds")
-        if cls.signature is not Problem.signature and cls.signature_kind is None:
-            raise TypeError(f"{cls.__qualname__}: signature() is overridden but no "
-                            "signature_kind is declared (the event kind of a change)")
+        if cls.signature is not Problem.signature and cls.monitors.signature_kind is None:
+            raise TypeError(f"{cls.__qualname__}: signature() is overridden but no signature "
+                            "monitor is declared (monitors: the event kind of a change)")
         if "sweep" in cls.algorithms and not cls.can_sweep():
             raise TypeError(f"{cls.__qualname__}: 'sweep' is among its algorithms but "
                             "sweep_seeds() and sweep_point() are not both implemented")
@@ -359,81 +337,21 @@ class Problem(ABC):
         ``direction`` meant along ``name`` into one along the internal parameter."""
         return 1
 
-    # == sweeps (optional capability; :class:`nsm_continuation.algorithms.sweep.Sweep`) ==
-    @classmethod
-    def can_sweep(cls) -> bool:
-        """Whether the class implements the sweep hooks (:meth:`sweep_seeds` and
-        :meth:`sweep_point` overridden): the capability that ``"sweep"`` in ``algorithms``
-        declares (checked when the class is defined)."""
-        return (cls.sweep_seeds is not Problem.sweep_seeds
-                and cls.sweep_point is not Problem.sweep_point)
-
-    def sweep_seeds(self, start: Any, window: tuple[float | None, float | None]
-                    ) -> list[SweepSeed]:
-        """The sweeps of the YAML ``start:`` block (``window``: the parameter's bounds), for
-        the sweep algorithm. Raises :class:`ValueError` when they cannot be built (the run
-        records a failed start). Default: the problem cannot be swept."""
-        raise ValueError(f"problem {self.name!r} cannot be swept: it does not implement "
-                         "sweep_seeds() and sweep_point() (continuation.algorithm: one of "
-                         f"{', '.join(self.algorithms)})")
-
-    def sweep_point(self, seed: SweepSeed, value: float, state: Any
-                    ) -> tuple[Point | list[Point], Any]:
-        """The solution at the parameter ``value`` of the sweep ``seed``, from ``state`` (the
-        seed's at the first value, then what the previous call returned): one point (its
-        ``y[parameter_index]`` is ``value``) or a list of points (e.g. the section returns a
-        brute-force bifurcation diagram records at one value; the branch is then drawn with
-        markers, not lines), and the state the next value starts from. Raises
-        :class:`EvaluationError` (or a numerical error) if the solution cannot be computed:
-        the sweep then ends there with that reason. A problem may note what happened at a
-        value in ``seed.info`` (copied into the branch's ``info``, e.g. failures it recovered
-        from). Default: the problem cannot be swept."""
-        raise ValueError(f"problem {self.name!r} cannot be swept: it does not implement "
-                         "sweep_point()")
-
-    def sweep_preflight(self, start: Any, window: tuple[float | None, float | None],
-                        max_points: int) -> None:
-        """:meth:`preflight` for a run of the sweep algorithm (``max_points`` grid values per
-        sweep): the same promise (one line naming the key, no computation). Default:
-        :meth:`preflight`; a problem that is both continued and swept overrides it where its
-        start block means something else for a sweep."""
-        self.preflight(start, window, max_points)
-
     # == monitors ==============================================================================
     #: event kinds this problem family raises besides the core ones
     #: (:data:`~nsm_continuation.core.records.CORE_EVENT_KINDS`): kind -> one-line meaning, written
     #: in ``report.md`` under "What the events mean"
     event_kinds: ClassVar[dict[str, str]] = {}
-    #: admissibility test name -> event kind raised where it changes sign, or ceases to / starts
-    #: to be defined (tests not listed raise ``grazing``)
-    test_kinds: ClassVar[dict[str, str]] = {}
-    #: bounded quantity (the parameter or a derived quantity) -> event kind raised where its
-    #: bound ends the branch (quantities not listed raise ``endpoint``)
-    bound_kinds: ClassVar[dict[str, str]] = {}
-    #: derived quantities watched (with ``|y|``) for an ``asymptote``: growth without bound as
-    #: the parameter approaches a limit
-    asymptote_monitors: ClassVar[tuple[str, ...]] = ("energy",)
-    #: event kind raised where the discrete :meth:`signature` changes (None: the problem has no
-    #: signature and :meth:`signature` is never called)
-    signature_kind: ClassVar[str | None] = None
-    #: event function name -> event kind raised at its zeros (functions not listed raise
-    #: ``grazing``); see :meth:`event_functions`
-    event_function_kinds: ClassVar[dict[str, str]] = {}
-    #: the kind raised by a test or event function that ``test_kinds`` /
-    #: ``event_function_kinds`` do not list
-    default_monitor_kind: ClassVar[str] = "grazing"
-
-    def monitor_kind(self, source: str, name: str) -> str:
-        """The event kind a zero of the monitor ``name`` raises: ``source`` is ``"test"`` (an
-        admissibility test, :attr:`test_kinds`) or ``"function"`` (an event function,
-        :attr:`event_function_kinds`); unlisted ones raise :attr:`default_monitor_kind`. The
-        engine's events and the located curves' conditions both read this."""
-        kinds = self.test_kinds if source == "test" else self.event_function_kinds
-        return kinds.get(name, self.default_monitor_kind)
+    #: what the problem watches along a branch and the event kind each change raises
+    #: (:mod:`nsm_continuation.core.monitors`): admissibility tests (undeclared ones raise
+    #: ``grazing``), event functions, bounds on quantities (undeclared ones end the branch
+    #: with ``endpoint``), the signature (declared only by a problem with :meth:`signature`)
+    #: and the quantities watched for an ``asymptote`` (default: the energy)
+    monitors: ClassVar[Monitors] = Monitors()
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
         """Named continuous test functions, ``>= 0`` where ``y`` is admissible (physically
-        realisable); a sign change is located and raises ``test_kinds[name]``."""
+        realisable); a sign change is located and raises the kind :attr:`monitors` gives it."""
         return {}
 
     def event_functions(self, y: np.ndarray) -> dict[str, float]:
@@ -443,7 +361,7 @@ class Problem(ABC):
         Unlike :meth:`admissibility` the sign carries no meaning of admissibility. Where a
         function changes sign between two accepted points (both values finite) the engine
         locates the zero on the curve (Illinois, to ``event_tol`` in arclength) and records an
-        event of kind ``event_function_kinds[name]`` (default ``grazing``) with ``data``
+        event of the kind :attr:`monitors` gives it (default ``grazing``) with ``data``
         ``{'function', 'value_before', 'value_after'}``; a value missing or NaN at either end
         raises nothing. Steps are capped so that a function is not carried far past a zero
         (as admissibility tests are). Evaluated at every analysed point; default: none."""
@@ -496,7 +414,8 @@ class Problem(ABC):
     def signature(self, y: np.ndarray) -> str | None:
         """A discrete signature of the solution at ``y`` (e.g. the event sequence of a hybrid
         orbit), or None where it is undefined; a change between two points is located and
-        raises ``signature_kind``. Called only when ``signature_kind`` is declared."""
+        raises the kind of the signature monitor. Called only when :attr:`monitors` declares
+        one (:func:`~nsm_continuation.core.monitors.signature`)."""
         return None
 
     def locate_signature(self, before: str | None, after: str | None) -> bool:
@@ -552,62 +471,3 @@ _locate_collision`)."""
     def presentation(self) -> Presentation:
         """This problem's :attr:`presentation_class`, reading this instance."""
         return self.presentation_class(self)
-
-    # == restart & branch switching (:mod:`nsm_continuation.cases.restart`) ===============
-    def period_multiple(self) -> int:
-        """How many base periods an orbit of this instance spans (the returns to the section of
-        a hybrid orbit, ``start.returns``); stored in the restart record of each run."""
-        return 1
-
-    def iterated(self, multiple: int) -> Problem | None:
-        """A new instance of this problem, with the same parameters, unknowns and continued
-        parameter, for orbits of ``multiple`` base periods (the residual of the
-        ``multiple``-times iterated return map); its solutions include this instance's. A
-        switch at a period doubling continues ``iterated(2 * period_multiple())``. None: the
-        problem cannot represent them (the switch is refused before computing)."""
-        return None
-
-    def with_parameters(self, values: dict[str, float]) -> Problem | None:
-        """A new instance of this problem with the parameters ``values`` (name -> value)
-        changed and the same unknowns, continued parameter and period multiple: the base
-        problem at one value of the second parameter of a two-parameter curve
-        (:mod:`nsm_continuation.algorithms.curves`). None: the problem cannot (the curve is refused
-        before computing)."""
-        return None
-
-    def parameters_block(self) -> dict[str, Any] | None:
-        """The instance's parameters as the YAML ``parameters:`` block that rebuilds it
-        (JSON values), written to the restart record of every run (``report.json``'s
-        ``restart.parameters``, :func:`nsm_continuation.runs.restart_record.restart_block`) so
-        that a restart builds the same problem. Default: ``params`` (the validated ``Parameters``
-        model) dumped in JSON mode; None if ``params`` is not a pydantic model (the record then
-        keeps the case's ``parameters:`` block as written)."""
-        if isinstance(self.params, BaseModel):
-            return self.params.model_dump(mode="json")
-        return None
-
-    def curve_parameters(self) -> list[str]:
-        """The parameters of this problem that a grazing curve through a grazing event of its
-        orbits may free or continue (``start: {curve: grazing, free: ...}`` with
-        ``continuation.parameter``; the augmented system C1 of
-        :class:`~nsm_continuation.hybrid.codim1.GrazingCurve`, which continues the orbits of
-        hybrid problems), in order of preference as the curve's second parameter.
-
-        Read by the ``continue_from_here`` hints of ``report.json`` / ``report.md``
-        (:func:`nsm_continuation.output.files.hint_context`,
-        :func:`nsm_continuation.output.report.continue_hints`: at a grazing event of a run continued
-        in one of them, the curve freeing the continued parameter and continuing the first
-        other one) and by a restart (:func:`nsm_continuation.cases.restart.configure` /
-        :func:`~nsm_continuation.cases.restart.grazing_curve`: a grazing curve is continued by C1
-        only for a problem that declares some, and ``start.free`` / ``continuation.parameter``
-        must be among them). Default: none (``[]``): the problem's grazing events restart the
-        orbit, and a grazing curve of it can only be located (``start.method: located``,
-        :meth:`with_parameters`)."""
-        return []
-
-    def restart_start(self, y: np.ndarray) -> Any:
-        """The problem's own ``start:`` block that starts from the unknowns ``y`` (e.g. a
-        hybrid ``{guess: {...}}``): a restart runs :meth:`preflight` on it, so the checks of
-        an ordinary start (window, state, budget) apply. None: only the continued parameter's
-        value is checked against the window."""
-        return None

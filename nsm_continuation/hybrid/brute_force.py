@@ -39,7 +39,7 @@ from weakref import WeakKeyDictionary
 import numpy as np
 
 from nsm_continuation.algorithms.sweep import sweep_point_record
-from nsm_continuation.core.problem import SweepSeed
+from nsm_continuation.core.capabilities import SweepSeed
 from nsm_continuation.core.records import Point
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 

@@ -20,11 +20,12 @@ import numpy as np
 from pydantic import BaseModel, TypeAdapter
 
 from nsm_continuation.core.preflight import as_list
-from nsm_continuation.core.problem import StartPoint
+from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.vocabulary import as_parameters
 from nsm_continuation.hybrid import brute_force
 from nsm_continuation.hybrid.case_period import PeriodContinuation
 from nsm_continuation.hybrid.case_preflight import CasePreflight
+from nsm_continuation.hybrid.codim1 import DEFAULT_MARGIN, GrazingCurve
 from nsm_continuation.hybrid.presentation import HybridCasePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
 from nsm_continuation.hybrid.return_map import (
@@ -305,6 +306,17 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         order of ``Parameters``."""
         first = [q for q in self.curve_preference if q in self.values]
         return first + [q for q in self.values if q not in first]
+
+    def curve(self, kind: str, free: str, parameter: str, margin: float | None = None
+              ) -> Problem | None:
+        """The grazing curve through these orbits by its augmented system (eq. C1,
+        :class:`~nsm_continuation.hybrid.codim1.GrazingCurve`): ``free`` solved for,
+        ``parameter`` continued, the orbits missing the surface by ``margin`` (default
+        :data:`~nsm_continuation.hybrid.codim1.DEFAULT_MARGIN`). None for another kind."""
+        if kind != "grazing":
+            return None
+        return GrazingCurve(self, free, parameter,
+                            DEFAULT_MARGIN if margin is None else float(margin))
 
     def restart_start(self, y: np.ndarray) -> dict[str, Any]:
         """``{guess: <section coordinates of y>, returns: k}`` (and ``free_parameter`` for a

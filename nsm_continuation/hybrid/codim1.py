@@ -36,7 +36,7 @@ event sequence of the simulator rather than a prescribed segment sequence. From 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import casadi as ca
 import numpy as np
@@ -45,9 +45,11 @@ from pydantic import BaseModel
 from nsm_continuation.algorithms.curves import CodimOneCurve
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import EvaluationError
-from nsm_continuation.hybrid.case import HybridCaseProblem
 from nsm_continuation.hybrid.grazing import margin_gradient
 from nsm_continuation.hybrid.return_map import HybridShooting, Section, ShootingFailure
+
+if TYPE_CHECKING:
+    from nsm_continuation.hybrid.case import HybridCaseProblem
 
 #: the lifted parameter of the virtual system (the surface moved to ``H + s = 0``)
 SHIFT = "_grazing_curve_shift"

@@ -46,7 +46,7 @@ from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.hybrid.orbit_trace import orbit_trace, views_of
 from nsm_continuation.hybrid.return_map import PERIOD
 
-#: the event kind of a branch ended by its period bound (``HybridShootingProblem.bound_kinds``)
+#: the event kind of a branch ended by its period bound (``HybridShootingProblem.monitors``)
 HOMOCLINIC_KIND = "homoclinic_approach"
 
 

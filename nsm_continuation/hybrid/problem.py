@@ -20,6 +20,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from nsm_continuation.core import monitors as monitor
+from nsm_continuation.core.monitors import Monitors
 from nsm_continuation.core.problem import (
     EvaluationError,
     FloquetData,
@@ -68,20 +70,20 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
                                "homoclinic orbit of a saddle (limit parameter from a fit "
                                "T ~ -ln|p - p*|/mu)",
     }
-    #: the sticking time (an admissibility test of orbits with sticking) vanishes where
-    #: complete chattering is lost
-    test_kinds: ClassVar[dict[str, str]] = {"sticking_time": "sticking_lost"}
-    #: the signed grazing margin closest to zero (``SimResult.grazing_function``): a near
-    #: approach that becomes an impact, or an impact that vanishes
-    event_function_kinds: ClassVar[dict[str, str]] = {"grazing_margin": "grazing"}
-    signature_kind: ClassVar[str | None] = "impact_sequence_change"
-    #: a bound on the period ends the branch near a homoclinic orbit, one on the sticking time
-    #: where sticking is lost
-    bound_kinds: ClassVar[dict[str, str]] = {"period": "homoclinic_approach",
-                                             "sticking_time": "sticking_lost",
-                                             # continued in the period: where it is no
-                                             # longer resolved in double precision
-                                             "period_uncertainty": "homoclinic_approach"}
+    monitors: ClassVar[Monitors] = Problem.monitors.with_(
+        # the sticking time (an admissibility test of orbits with sticking) vanishes where
+        # complete chattering is lost
+        monitor.admissibility("sticking_time", "sticking_lost"),
+        # the signed grazing margin closest to zero (SimResult.grazing_function): a near
+        # approach that becomes an impact, or an impact that vanishes
+        monitor.event_function("grazing_margin", "grazing"),
+        monitor.signature("impact_sequence_change"),
+        # a bound on the period ends the branch near a homoclinic orbit, one on the sticking
+        # time where sticking is lost; continued in the period, the period's uncertainty
+        # where it is no longer resolved in double precision
+        monitor.bound("period", "homoclinic_approach"),
+        monitor.bound("sticking_time", "sticking_lost"),
+        monitor.bound("period_uncertainty", "homoclinic_approach"))
     #: a section on the clock of a forced system is moved (:meth:`rechart`) once an event of
     #: the orbit (an impact, a chattering sequence, a release, a near approach, a sticking
     #: phase) comes within this fraction of the period of it

@@ -62,8 +62,9 @@ from nsm_continuation.problems.bar.wfem_stepping import BarParams, Loading, rest
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
 from nsm_continuation.algorithms.sweep import SweepProblem, sweep_point_record
+from nsm_continuation.core.capabilities import SweepSeed
+from nsm_continuation.core.monitors import Monitors, signature
 from nsm_continuation.core.preflight import STRICT, as_list, check_budget, check_gap, one_or_many
-from nsm_continuation.core.problem import SweepSeed
 from nsm_continuation.core.records import Point
 from nsm_continuation.core.vocabulary import CanonicalNames, as_parameters
 
@@ -158,7 +159,7 @@ class WfemForcedBarProblem(SweepProblem):
                            "subharmonic, not steady: quasi-periodic or chaotic within the time "
                            "budget); recorded at the first frequency of the new kind",
     }
-    signature_kind: ClassVar[str | None] = "response_change"
+    monitors: ClassVar[Monitors] = SweepProblem.monitors.with_(signature("response_change"))
     #: seconds per simulated step (a + b N, measured on the shared 2-core machine under load:
     #: 12 us at N = 100, 18 us at N = 1600; an upper estimate)
     STEP_SECONDS: ClassVar[tuple[float, float]] = (1.5e-5, 5e-9)

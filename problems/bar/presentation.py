@@ -29,12 +29,10 @@ from nsm_continuation.problems.bar.continuum_orbits import (
 from nsm_continuation.core.presentation import Presentation
 
 
-class WfemBarPresentation(Presentation):
-    """Presentation of ``wfem_bar`` (:class:`problems.bar.wfem_bar.WfemBarProblem`): the
-    frequency-energy plot, the lattice asymptotes against the paper's formulas, the filter's
-    counters and the orbit figures of :mod:`problems.bar.plots`. Reads the problem's ``model`` (the
-    :class:`~problems.bar.wfem_lattice.BarModel`), the seed notes and the node counters
-    (``_seed_notes``, ``filter_counts``, ``node_evaluations``)."""
+class BarFepPresentation(Presentation):
+    """The frequency-energy plot of the bar's free vibrations (Figs. 5-7, 12): ``omega /
+    omega_1`` against ``E / E_ref`` on a log scale, shared by the WFEM lattice and its
+    continuum limit."""
 
     fep_axes = ("omega_ratio", "energy_ratio")
     fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
@@ -42,6 +40,14 @@ class WfemBarPresentation(Presentation):
     diagram_yscale: ClassVar[str] = "log"
     csv_head = ["T", "omega", "energy"]
     event_columns = ["omega", "T", "energy"]
+
+
+class WfemBarPresentation(BarFepPresentation):
+    """Presentation of ``wfem_bar`` (:class:`problems.bar.wfem_bar.WfemBarProblem`): the
+    frequency-energy plot, the lattice asymptotes against the paper's formulas, the filter's
+    counters and the orbit figures of :mod:`problems.bar.plots`. Reads the problem's ``model`` (the
+    :class:`~problems.bar.wfem_lattice.BarModel`), the seed notes and the node counters
+    (``_seed_notes``, ``filter_counts``, ``node_evaluations``)."""
 
     def summary(self) -> dict[str, Any]:
         md = self.problem.model
@@ -91,18 +97,11 @@ class WfemBarPresentation(Presentation):
                 Line2D([], [], ls="--", color="0.5", label=r"$g_0=0$ asymptote (sec. 6.1)")]
 
 
-class BarContinuumPresentation(Presentation):
+class BarContinuumPresentation(BarFepPresentation):
     """Presentation of ``bar_continuum`` (:class:`problems.bar.continuum.BarContinuumProblem`):
     the frequency-energy plot and, per branch, its signature, asymptote and end energies.
     Reads the problem's scales (``c``, ``omega1``, ``energy_ref``, ``energy_0``, ``g0``,
     ``L``)."""
-
-    fep_axes = ("omega_ratio", "energy_ratio")
-    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
-    diagram_title: ClassVar[str] = "Frequency-energy plot"
-    diagram_yscale: ClassVar[str] = "log"
-    csv_head = ["T", "omega", "energy"]
-    event_columns = ["omega", "T", "energy"]
 
     def summary(self) -> dict[str, Any]:
         pr = self.problem

@@ -22,12 +22,12 @@ from scipy.optimize import brentq, minimize_scalar
 import nsm_continuation as nsm
 from nsm_continuation import cli
 from nsm_continuation.algorithms.curves import (
-    DEFAULT_MONITOR_KIND,
     MULTIPLIER_KINDS,
     LocatedCurve,
     curve_kinds,
     monitor_kinds,
 )
+from nsm_continuation.core.monitors import Monitors, Source, admissibility, event_function
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Point
 
@@ -240,8 +240,8 @@ class _Monitored(Problem):
 
     name: ClassVar[str] = "monitored"
     Parameters: ClassVar[type[BaseModel]] = _MonitorParameters
-    test_kinds: ClassVar[dict[str, str]] = {"speed": "stability_change"}
-    event_function_kinds: ClassVar[dict[str, str]] = {"margin": "branch_point"}
+    monitors: ClassVar[Monitors] = Problem.monitors.with_(
+        admissibility("speed", "stability_change"), event_function("margin", "branch_point"))
 
     def __init__(self, params: BaseModel) -> None:
         super().__init__(params)
@@ -264,8 +264,7 @@ class _Monitored(Problem):
 class _Unmonitored(_Monitored):
     """No test or event functions: only the multiplier kinds."""
 
-    test_kinds: ClassVar[dict[str, str]] = {}
-    event_function_kinds: ClassVar[dict[str, str]] = {}
+    monitors: ClassVar[Monitors] = Problem.monitors
     admissibility = Problem.admissibility
     event_functions = Problem.event_functions
 
@@ -281,15 +280,16 @@ def test_curve_kinds_are_the_multiplier_kinds_and_the_problems_mapped_kinds() ->
     assert set(MULTIPLIER_KINDS) == multipliers
     pr = _Monitored(_MonitorParameters())
     # unlisted tests ("clearance") raise the default kind
-    assert monitor_kinds(pr) == {"stability_change", "branch_point", DEFAULT_MONITOR_KIND}
+    assert monitor_kinds(pr) == {"stability_change", "branch_point", "grazing"}
     assert curve_kinds(pr) == multipliers | {"stability_change", "branch_point", "grazing"}
     assert curve_kinds(_Unmonitored(_MonitorParameters())) == multipliers
     # a hybrid problem offers the kinds its declared members map monitors to
     from nsm_continuation.problems.impacting.double_pendulum import DoublePendulumProblem
 
     hybrid = DoublePendulumProblem({})
+    declared = type(hybrid).monitors
     assert curve_kinds(hybrid) == multipliers | {
-        *type(hybrid).test_kinds.values(), *type(hybrid).event_function_kinds.values()}
+        m.kind for m in (*declared.of(Source.TEST), *declared.of(Source.FUNCTION))}
 
 
 def test_condition_is_the_value_of_the_monitor_mapped_to_the_kind() -> None:

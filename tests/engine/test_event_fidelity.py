@@ -32,6 +32,7 @@ import pytest
 from helpers import CASES, NoParameters
 from pydantic import BaseModel
 
+from nsm_continuation.core.monitors import Monitors, event_function
 from nsm_continuation.core.palc import ContinuationEngine, multiplier_motion
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event
@@ -185,7 +186,8 @@ class Line(Problem):
     Parameters: ClassVar[type[BaseModel]] = NoParameters
     event_kinds: ClassVar[dict[str, str]] = {
         "fidelity_test_crossing": "an event function of the event-fidelity tests vanishes"}
-    event_function_kinds: ClassVar[dict[str, str]] = {"g": "fidelity_test_crossing"}
+    monitors: ClassVar[Monitors] = Problem.monitors.with_(
+        event_function("g", "fidelity_test_crossing"))
 
     def __init__(self, mult: Any = None, tests: Any = None, functions: Any = None) -> None:
         super().__init__(NoParameters())

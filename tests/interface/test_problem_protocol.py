@@ -20,6 +20,7 @@ from nsm_continuation.cases.schema import Case
 from nsm_continuation.cases.validation import validate
 from nsm_continuation.core import records
 from nsm_continuation.core.errors import CaseError
+from nsm_continuation.core.monitors import Monitors, admissibility
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.figures import branches as plots
 from nsm_continuation.figures import kit, multipliers
@@ -116,7 +117,8 @@ class CircleWithKind(Circle):
 
     event_kinds: ClassVar[dict[str, str]] = {
         "toy_crossing": "x passes 1/2 (a kind the toy problem declares)"}
-    test_kinds: ClassVar[dict[str, str]] = {"x_above_half": "toy_crossing"}
+    monitors: ClassVar[Monitors] = Problem.monitors.with_(
+        admissibility("x_above_half", "toy_crossing"))
 
     def admissibility(self, y: np.ndarray) -> dict[str, float]:
         return {"x_above_half": float(y[0] - 0.5)}
@@ -164,7 +166,7 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
     # declared defaults: the parameter against the other unknown, linear scale
     assert pr.presentation.fep_axes == ("p", "x") and pr.presentation.fep_labels == ("p", "x")
     assert pr.presentation.csv_head == ["p", "x"] and pr.presentation.event_columns == ["p", "x"]
-    assert pr.algorithms == ("palc",) and pr.signature_kind is None
+    assert pr.algorithms == ("palc",) and pr.monitors.signature_kind is None
 
     out = write_outputs(res, tmp_path / "out", make_all)
     with open(out / "branch_0.csv") as fh:
@@ -251,14 +253,42 @@ def test_undeclared_event_kinds_are_refused() -> None:
         records.Event("never_declared", None)
     with pytest.raises(TypeError, match="'made_up' is neither a core kind"):
         class _Bad(Circle):  # noqa: F841 - the definition itself is refused
-            test_kinds: ClassVar[dict[str, str]] = {"x": "made_up"}
+            monitors: ClassVar[Monitors] = Problem.monitors.with_(
+                admissibility("x", "made_up"))
     with pytest.raises(TypeError, match="core kind"):
         class _Shadow(Circle):  # noqa: F841
             event_kinds: ClassVar[dict[str, str]] = {"fold": "my own fold"}
-    with pytest.raises(TypeError, match="signature_kind"):
+    with pytest.raises(TypeError, match="no signature monitor"):
         class _NoKind(Circle):  # noqa: F841
             def signature(self, y: np.ndarray) -> str | None:
                 return "A"
+
+
+def test_monitors_declared_with_the_earlier_maps_are_the_same_monitors() -> None:
+    """A plugin written with the class-level maps of the previous release (``test_kinds``,
+    ``event_function_kinds``, ``bound_kinds``, ``signature_kind``) gets the same declared
+    monitors, with a DeprecationWarning naming the maps; a map it defines replaces the
+    inherited one, as a class attribute did."""
+    with pytest.warns(DeprecationWarning, match="test_kinds, event_function_kinds"):
+        class _Legacy(Circle):
+            test_kinds: ClassVar[dict[str, str]] = {"x": "stability_change"}
+            event_function_kinds: ClassVar[dict[str, str]] = {"g": "branch_point"}
+            bound_kinds: ClassVar[dict[str, str]] = {"x": "fold"}
+            signature_kind: ClassVar[str | None] = "stability_change"
+
+            def signature(self, y: np.ndarray) -> str | None:
+                return "A"
+
+    m = _Legacy.monitors
+    assert m.kind("test", "x") == "stability_change" and m.kind("test", "other") == "grazing"
+    assert m.kind("function", "g") == "branch_point"
+    assert m.bound_kind("x = max") == "fold" and m.bound_kind("p = max") == "endpoint"
+    assert m.signature_kind == "stability_change" and m.asymptote_names == ("energy",)
+    with pytest.warns(DeprecationWarning, match="test_kinds"):
+        class _Cleared(_Legacy):
+            test_kinds: ClassVar[dict[str, str]] = {}
+    assert _Cleared.monitors.kind("test", "x") == "grazing"
+    assert _Cleared.monitors.kind("function", "g") == "branch_point"
 
 
 # ---------------------------------------------------------------------- (d) algorithms

@@ -43,7 +43,7 @@ class AsymptoteMonitor(EnginePart):
         point there. ``p*`` is extrapolated by :func:`~nsm_continuation.core.roots.pole_estimate`.
 
         Monitored: ``|y|`` (the unknowns without the parameter) and the derived quantities
-        named by the problem's ``asymptote_monitors`` (default ``("energy",)``). The estimate
+        named by the problem's asymptote monitors (default the energy). The estimate
         must hold on the last ``ASYMPTOTE_POINTS`` points and on those ending three points
         earlier (same ``p*`` within a tenth of the remaining distance), and the quantity must
         have grown ``ASYMPTOTE_GROWTH`` times along the half-branch. A safety net: a user bound
@@ -57,7 +57,7 @@ class AsymptoteMonitor(EnginePart):
         keep = np.arange(len(pts[-1].y)) != self.ip
         monitors: dict[str, Callable[[Point], float]] = {
             "|y|": lambda p: float(np.linalg.norm(p.y[keep]))}
-        for name in self.problem.asymptote_monitors:
+        for name in self.problem.monitors.asymptote_names:
             if name in pts[-1].derived:
                 monitors[name] = lambda p, n_=name: float(p.derived.get(n_, np.nan))
         par = np.array([p.y[self.ip] for p in pts[-(n + lag):]])

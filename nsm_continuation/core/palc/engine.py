@@ -184,7 +184,7 @@ class ContinuationEngine:
             derived=pr.derived(y), bordered_det=det, newton_iterations=iterations,
             residual_norm=float(np.linalg.norm(pr.evaluate(y), np.inf)),
             circle_tol=circle_tol,
-            signature=pr.signature(y) if pr.signature_kind is not None else None,
+            signature=pr.signature(y) if pr.monitors.signature_kind is not None else None,
             event_values=event_values, chart=pr.chart(),
         )
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from nsm_continuation.core.monitors import Source
 from nsm_continuation.core.palc.crossings import crossing_events
 from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS
 from nsm_continuation.core.palc.locate import EventSource, StepEvents
@@ -178,7 +179,7 @@ class KinkCrosser(EnginePart):
             "function": name, "value_before": value,
             "value_after": float(p1.event_values.get(name, np.nan)), "kink": True,
             "signature_before": a.signature, "signature_after": p1.signature}
-        kind = self.problem.monitor_kind("function", name)
+        kind = self.problem.monitors.kind(Source.FUNCTION, name)
         found = [Event(kind, pg, f"event function '{name}' vanishes; the branch has a kink "
                        "here and goes on beyond it (the problem's local parametrisation)",
                        data=data, bracket=0.0)]

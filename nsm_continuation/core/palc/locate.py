@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nsm_continuation.core.monitors import Source
 from nsm_continuation.core.palc.errors import RetryStep
 from nsm_continuation.core.palc.part import EnginePart
 from nsm_continuation.core.palc.step_control import Trial
@@ -124,11 +125,7 @@ class EventLocator(EnginePart):
 
     def bound_kind(self, label: str) -> str:
         """Event kind of a bound (``endpoint`` unless the problem maps the quantity)."""
-        kind = "endpoint"
-        for name_, kind_ in self.problem.bound_kinds.items():
-            if label.startswith(f"{name_} ="):
-                kind = kind_
-        return kind
+        return self.problem.monitors.bound_kind(label)
 
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,
@@ -202,7 +199,7 @@ class EventLocator(EnginePart):
     def _bound_events(self, a: Point, b: Point
                       ) -> tuple[list[Event], list[tuple[Point, str]]]:
         """Parameter bounds and bounds on derived quantities crossed by the step: an
-        ``endpoint`` (or the quantity's ``bound_kinds`` kind) and a stop at each."""
+        ``endpoint`` (or the kind of the quantity's bound monitor) and a stop at each."""
         st = self.settings
         ip = self.ip
         found: list[Event] = []
@@ -312,7 +309,7 @@ class EventLocator(EnginePart):
                     self.engine.unlocated_events += 1
                     continue
                 leaving = flo >= 0 > fhi
-                kind = self.problem.monitor_kind("test", name)
+                kind = self.problem.monitors.kind(Source.TEST, name)
                 ev = Event(kind, p, f"test function '{name}' "
                            + _admissibility_change(name, leaving, a.tests if leaving
                                                    else b.tests),
@@ -335,7 +332,7 @@ class EventLocator(EnginePart):
     def _event_function_events(self, a: Point, b: Point, history: list[Point]) -> list[Event]:
         """Zeros of the problem's event functions (:meth:`Problem.event_functions`) on the
         step, each located on the curve to ``event_tol`` (Illinois) and recorded with the kind
-        ``event_function_kinds[name]`` (default ``grazing``); they never stop the branch. A
+        the kind the problem's monitors give it (default ``grazing``); they never stop the branch. A
         function missing or not finite at either end raises nothing, nor does one that is
         exactly zero at ``a`` (that zero was recorded by the step that reached it)."""
         found: list[Event] = []
@@ -361,7 +358,7 @@ class EventLocator(EnginePart):
                     # the acceleration at an impact passes zero), not a zero: no event
                     self.engine.sign_changes_without_zero += 1
                     continue
-                found.append(Event(self.problem.monitor_kind("function", name), p,
+                found.append(Event(self.problem.monitors.kind(Source.FUNCTION, name), p,
                                    f"event function '{name}' vanishes ({flo:+.3g} -> "
                                    f"{fhi:+.3g})",
                                    data={"function": name, "value_before": float(flo),
@@ -418,7 +415,7 @@ class EventLocator(EnginePart):
             p = b if hi >= b.s - a.s else (self.engine.point_at(a, b, hi) or b)
         else:
             p = self.engine.full(p)
-        kind = self.problem.monitor_kind("test", name)
+        kind = self.problem.monitors.kind(Source.TEST, name)
         return Event(kind, p, f"test function '{name}' "
                      + ("ceases to be defined" if was else "becomes defined"),
                      data={"test": name, "defined_before": bool(vl),
@@ -430,9 +427,9 @@ class EventLocator(EnginePart):
         A problem may declare a change not worth locating (``locate_signature(before, after)``
         False: e.g. only the number of impacts a simulator resolves before a chatter map, a
         tolerance-dependent count): the event is then recorded at ``b`` with the step as bracket.
-        The event's kind is the problem's ``signature_kind``.
+        The event's kind is the problem's signature monitor's.
         """
-        kind = self.problem.signature_kind
+        kind = self.problem.monitors.signature_kind
         assert kind is not None  # signatures are only evaluated when a kind is declared
         if not self.problem.locate_signature(a.signature, b.signature):
             return [Event(kind, b, f"event sequence {a.signature} -> {b.signature} (not "
