@@ -14,7 +14,7 @@ The tests live in folders named for the capability they check, none of them a pa
   curves, diagrams);
 * ``runs/``: runs on Dask; ``output/``: output folders, reports and figures;
 * ``interface/``: the command line, the Python API, the documents' snippets, start-up, the
-  ``Problem`` contract, the pycont-lite adapter.
+  ``Problem`` contract, the previous layout's import paths, the pycont-lite adapter.
 
 pytest imports this file first and puts its folder, ``tests/``, on ``sys.path``: every test
 imports the independent derivations as ``oracles.<module>`` and the plain helpers as
