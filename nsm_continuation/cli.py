@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 # Everything else is imported where it is used: ``--version``, ``--help`` and ``list`` start
 # without pydantic, CasADi or NumPy, and no path imports matplotlib or Dask unless it plots
 # (:mod:`nsm_continuation.figures.branches`, from ``results.write_files``) or distributes
-# (:mod:`nsm_continuation.runs.execution`); ``tests/test_startup.py`` checks it.
+# (:mod:`nsm_continuation.runs.execution`); ``tests/interface/test_startup_imports.py`` checks it.
 
 DEFAULT_CASE = "default_case.yaml"
 

@@ -30,7 +30,8 @@ does exactly:
   then ``h`` is halved.
 
 Fixing the parameter that moves most is what lets the curve go round its turns (the U-shaped
-period-doubling curve of the impact oscillator in ``(omega, gap)``: ``tests/test_event_curves.py``);
+period-doubling curve of the impact oscillator in ``(omega, gap)``:
+``tests/cases/test_event_curves.py``);
 a problem that can be continued only in ``p`` (``Problem.parameter_bounds`` refuses ``q``)
 steps in ``q`` only and ends at a turn. Every point is a located event of the base problem,
 with its tolerance, and nothing is differentiated numerically. ``h`` grows by 1.5 after a

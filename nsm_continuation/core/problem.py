@@ -458,13 +458,13 @@ _locate_collision`)."""
     #: instance by :attr:`presentation`)
     presentation_class: ClassVar[type[Presentation]] = Presentation
     #: the figures (branch diagram, multipliers, the presentation's own figures, orbits) depend
-    #: only on
-    #: the run's results and on what the problem was built from, not on state the computation
-    #: leaves in the problem: the command line may then draw them in a process forked before
-    #: the computation, with its own copy of the problem
+    #: only on the run's results and on what the problem was built from, not on state the
+    #: computation leaves in the problem: the command line may then draw them in a process
+    #: forked before the computation, with its own copy of the problem
     #: (:class:`~nsm_continuation.figures.process.FigureProcess`). Default False: a problem
     #: that keeps run data for its figures is drawn from the problem the run used. The
-    #: bundled problems declare True (``tests/test_figure_process.py`` compares their figures).
+    #: bundled problems declare True (``tests/output/test_figure_process.py`` compares their
+    #: figures).
     figures_from_inputs: ClassVar[bool] = False
 
     @property

@@ -3,7 +3,8 @@
 :func:`bounded_minimum` is the algorithm of ``scipy.optimize.minimize_scalar(method="bounded")``
 (``fminbound``: golden section safeguarded by successive parabolic interpolation, Brent 1973,
 *Algorithms for Minimization without Derivatives*, ch. 5), step for step, so its iterates and
-result are those of SciPy's to the last bit (``tests/test_scalar_search.py`` compares them).
+result are those of SciPy's to the last bit (``tests/chain/test_scipy_replacements_equal_scipy.py``
+compares them).
 It is here because importing ``scipy.optimize`` costs 0.16 s, a tenth of the default case's
 wall time (``benchmarks/bench_startup.py``), for one call per hidden Krein window.
 """

@@ -12,7 +12,8 @@ platform that forks (:data:`FORKS`) with a second core:
   and it draws the figures there while this process writes the CSVs and the report;
 * :func:`in_two_processes` splits the figures between a process and a forked child.
 
-The figures are those of one process, byte for byte (``tests/test_startup.py``): each is
+The figures are those of one process, byte for byte (``tests/interface/test_startup_imports.py``):
+each is
 drawn from the same data by the same code. A process that runs another thread (a Dask client's
 event loop) is never forked: a lock one of them holds would stay locked in the child.
 """
@@ -137,7 +138,7 @@ class FigureProcess:
     fork (only the run's results are sent: a case may hold CasADi objects, which do not
     pickle): the figures use the problem only through its declared members and methods
     (labels, decorations, closed forms, simulations), which the computation does not change
-    (``tests/test_figure_process.py`` compares the figures of each kind of problem). It
+    (``tests/output/test_figure_process.py`` compares the figures of each kind of problem). It
     ignores SIGINT and SIGTERM (the command line handles them here and :meth:`close` ends
     it) and exits when the pipe closes, also when this process dies. Where :func:`can_fork`
     is false nothing is started and :meth:`send` returns False (the caller draws)."""

@@ -12,7 +12,8 @@ from the saltation-chained sensitivities of the same simulation. The curve sits 
 kink of the return map; ``margin`` (default ``1e-9``, relative to ``1 + |y|``) keeps it on the
 free side, where ``G`` is smooth: the continued orbits miss the surface by ``margin``, whose
 closed form is that of the grazing orbit with the gap moved by ``margin`` (the margin is
-documented and tested, not hidden: ``tests/test_grazing.py`` and ``tests/test_codim1_yaml.py``
+documented and tested, not hidden: ``tests/hybrid/test_grazing.py`` and
+``tests/cases/test_grazing_curves_from_yaml.py``
 compare with the closed form *including* it).
 
 **The free side, extended.** A predicted point lies ``O(ds^2)`` off the curve, on either side;

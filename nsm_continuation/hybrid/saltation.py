@@ -28,7 +28,8 @@ above give ``K_new = E_x J' - B2 (J_t + dtau + e_x J') = A J' - B2 (J_t + dtau)`
 ``J' = J - B1 (C J)/d``, which expands to ``A K + (B2 - A B1) (C K)/d = D K`` (using
 ``C B1 = d``): the saltation matrix (43). So the simulated ``J`` (time-fixed) is the chain (40),
 and for a Poincaré section the section crossing is one more event-time correction of the same
-kind (``tests/test_hybrid_ball.py`` checks the simulator against (47) for the ball).
+kind (``tests/hybrid/test_saltation_and_bouncing_ball.py`` checks the simulator against (47) for
+the ball).
 
 The bouncing ball's printed matrices (47)-(50) and the erratum in (48) live with the
 ball itself, in :mod:`nsm_continuation.problems.impacting.bouncing_ball` (problem-specific

@@ -22,7 +22,8 @@ is ``O(dt^4)`` but not tied to the tolerance, so a shallow dip of ``H`` below th
 missed by the ``H`` interpolant; it is recovered when ``v`` turns: a turn found with ``H < 0``
 (``h < 0`` in s6) means an impact was passed, and since ``H`` is monotone before the turn the
 impact is located in the bracket between the step start and the turn
-(``tests/test_hybrid_failures.py``, ``tests/test_two_mass_chain.py``). What remains possible is
+(``tests/hybrid/test_hybrid_failures.py``, ``tests/hybrid/test_two_mass_chain.py``). What remains
+possible is
 a dip of ``v`` itself (``v`` turning twice) shallower than the ``v`` interpolant's error within
 one step of a trajectory that stays off the wall at both ends: a grazing contact of depth below
 the integration error.
@@ -35,7 +36,9 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
 equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
 
-**Work skipped, the same numbers** (``tests/test_speed_chatter_*.py`` check each against the
+**Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
+tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
+tests/engine/test_bound_casadi_buffers_equal_plain_call.py`` check each against the
 computation it replaces). An event iteration that repeats an iterate (Newton jittering on the
 round-off of ``g``, ~8 % of the events of a long chattering sequence ran to the 30-iteration
 limit) ends where the 30 iterations would have (the iteration depends on ``tau`` alone); the
@@ -270,7 +273,8 @@ class Simulator(Transitions):
         ``v``, the next impact), whose sensitivities come from the step to the event
         (:meth:`_refine`): the step's Jacobian (four times the cost of the step) is then left
         to :meth:`_accept`, which evaluates it only for a step taken whole (the same
-        ``Y_new``: both are the same CasADi expressions, ``tests/test_speed_chatter_step.py``).
+        ``Y_new``: both are the same CasADi expressions,
+        ``tests/hybrid/test_rk_step_functions_equal_stagewise_step.py``).
         """
         jac = w.J is not None and w.mode not in EXTENDED
         outs = self._step(w.mode, w.Y, dt, jac)

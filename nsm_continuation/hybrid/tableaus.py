@@ -1,7 +1,7 @@
 """Embedded explicit Runge-Kutta tableaus of the hybrid simulator, kept here (not read from a
 private SciPy module): Dormand-Prince 8(5,3) (DOP853, Hairer, Norsett & Wanner, *Solving ODEs I*,
 sec. II.10) and Dormand-Prince 5(4) (DOPRI5). The numbers are those SciPy ships, written out at
-full double precision; ``tests/test_tableaus.py`` checks their order conditions."""
+full double precision; ``tests/hybrid/test_tableaus.py`` checks their order conditions."""
 
 from __future__ import annotations
 

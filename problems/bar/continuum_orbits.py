@@ -22,7 +22,7 @@ difference). That is possible iff ``t_f = a T + b`` with integers ``a`` (the num
 of ``p``, even) and ``b`` (a multiple of 4, else the profile closes with the wrong sign), constant
 along a branch: the branch is a *straight line* in ``(T, t_f)``, with ``D = {1 - j T : j = 0..a-1}``
 (mod 2; ``{1 + j T : j = 1..|a|}`` for ``a < 0``). Signatures checked against the lattice
-(:func:`problems.bar.wfem_lattice.solve_node`, N = 40, tests/test_bar_continuum.py):
+(:func:`problems.bar.wfem_lattice.solve_node`, N = 40, tests/bar/test_bar_continuum.py):
 
 * main backbone of mode k (sec. 6.1, from omega_k for g0 > 0, from Omega_k for g0 < 0):
   ``(a, b) = (2k, -4)``, i.e. ``m = 2k M - 4N`` on the lattice; mode 1: ``t_f = 2T - 4``, mode 2:

@@ -13,7 +13,7 @@ Reconstructions from a :class:`~problems.bar.wfem_lattice.LatticeSolution` (ring
   the contact force ``lambda = -sigma(L) = -J[n] >= 0`` in contact steps (COND2), 0 when free.
 
 The two reconstructions of ``u_(N+1/2)`` (stress sum, time integral of the end velocity from
-``u_(N+1/2)(0) = g0``) agree to round-off (``tests/test_wfem_plots.py``).
+``u_(N+1/2)(0) = g0``) agree to round-off (``tests/bar/test_wfem_plots.py``).
 
 Figures:
 

@@ -377,7 +377,8 @@ def scan_screen(N: int, M: int, ms: np.ndarray, chunk: int = 256) -> np.ndarray:
     * ``J[n]`` reads slot ``N-1-n (mod 2N)`` and changes sign once per earlier lap that crossed
       the end in a free step (:func:`~problems.bar.wfem_operators.end_series`).
 
-    ``tests/test_wfem_scan_speed.py`` checks that no rejected node has a solution and that a
+    ``tests/bar/test_wfem_scan_screen_equals_per_node_solve.py`` checks that no rejected node has a
+    solution and that a
     scan with the screen equals the scan without it, node for node.
     """
     n2 = 2 * N

@@ -32,7 +32,7 @@ Appendix A are not consistent with (A.18)-(A.19):
   ``A_3 = A_g(1,1,-1,1)/(rho c)``. The corner entries consistent with (A.18)-(A.21) are
   ``A_g(1,1,1,-1)``, ``rho c A_g(1,1,-1,1)``, ``A_g(-1,1,-1,-1)/(rho c)``, ``A_g(-1,1,1,1)``.
 
-Both are checked in ``tests/test_wfem_operators.py`` (energy conservation, which end is fixed,
+Both are checked in ``tests/bar/test_wfem_operators.py`` (energy conservation, which end is fixed,
 agreement of the structured and dense operators).
 """
 
@@ -321,7 +321,8 @@ def kernel_dimensions_at_period(N: int, M: int) -> np.ndarray:
         ``h(m) = g - rho`` if ``q`` is even, ``rho`` if ``q`` is odd.
 
     O(M) for the whole period (was an O(M N) sweep over the signs; that sweep,
-    :func:`kernel_dimensions_by_sweep`, is the oracle of ``tests/test_wfem_scan_speed.py``,
+    :func:`kernel_dimensions_by_sweep`, is the oracle of
+    ``tests/bar/test_wfem_scan_screen_equals_per_node_solve.py``,
     with :meth:`SignedRotation.kernel_dimension` per node).
     """
     n = 2 * N

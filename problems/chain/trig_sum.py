@@ -31,7 +31,8 @@ each bracket, the subdivision of the few uncertified cells) runs on Python float
 the ``f''`` of a split cell's edges is computed with its ``f'`` and shared by the two cells that
 meet there). The cells, certificates, brackets, tolerances and convergence tests are those of
 the vectorised path, which large sums keep: the two agree to the rounding of ``f'`` and ``f''``
-(``tests/test_speed_small_chain_trig_sum.py``). On the 5-dof chain's Fig. 3.2 calls: ~3x faster.
+(``tests/chain/test_trig_sum_small_path_equals_vectorised_path.py``). On the 5-dof chain's Fig. 3.2
+calls: ~3x faster.
 """
 
 from __future__ import annotations
@@ -400,7 +401,7 @@ class TrigSum:
         vanishes so is the root, taken as it is: there, every Newton step from inside
         overshoots the bracket and the safeguard bisects towards the end, one bit per
         evaluation (14-19 evaluations for the critical point at ``T / 2`` of a symmetric
-        orbit, which is an edge of the first pass's even grid: ``tests/test_trig_sum.py``).
+        orbit, which is an edge of the first pass's even grid: ``tests/chain/test_trig_sum.py``).
         ``noise``: :meth:`_noise`, if already computed."""
         noise0, noise1 = self._noise() if noise is None else noise
         lo, hi = lo.copy(), hi.copy()

@@ -16,7 +16,7 @@ Conventions (documented choices where the paper is inconsistent):
   printed ``M`` and ``V`` of eq. (53) but the Coriolis vector
   ``m2 L1 L2 sin(q1 - q2) (qd2^2, -qd1^2)``: the printed ``L(q, qd) = L1 L2 s12 (m1 qd2^2,
   m2 qd1^2)`` has ``m1`` for ``m2`` in its first row and the wrong sign in its second, and
-  fails the energy test (``tests/test_pendulum_model.py``).
+  fails the energy test (``tests/hybrid/test_pendulum_model.py``).
 * **Torque** enters as ``+T`` on ``q1`` (``V_1 = (m1 + m2) g L1 sin q1 - T``): ``T < 0`` drives
   ``q1`` downwards, one period is one revolution ``q1 -> q1 - 2 pi``.
 * **Poincaré section** ``q1 = pi/2`` (mod 2 pi), as in Fig. 9; the shift is ``-2 pi`` per
@@ -97,7 +97,7 @@ class PendulumPresentation(HybridCasePresentation):
                 "torque": -31.00166609425, "q1": 4.91990567552337, "q2": 0.49899755317827,
                 "lambda_eq60": 10.69293096743960, "eigenvalues": [0.3366, -3.2953],
                 "note": "paper's eigenvalues; ours (two independent linearisations, "
-                        "tests/test_pendulum_model.py) are 0.28879, -3.24752 at that torque"}
+                        "tests/hybrid/test_pendulum_model.py) are 0.28879, -3.24752 at that torque"}
         return out
 
 

@@ -18,7 +18,7 @@ either way the two letters are transposed when they are on the circle again (the
 signature ``+`` ends on the other side of its partner). A collision at ``+1`` or ``-1`` is
 one between a multiplier and its own conjugate (``kappa(conj v) = -kappa(v)``): the letter at
 that end of the word flips. The normal form ``H = w1 I1 - w2 I2 + eps q1 q2`` shows both
-(``tests/test_krein_windows.py`` checks the transposition across a bubble).
+(``tests/engine/test_krein_windows.py`` checks the transposition across a bubble).
 
 So a step whose two ends have the same number of multipliers outside the circle but
 different words contains a collision that the count cannot see. :func:`swap_paths` says
