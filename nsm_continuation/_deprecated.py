@@ -89,10 +89,13 @@ def _moved(old: str, name: str, targets: tuple[str, ...]) -> Any:
     for target in targets:
         module = import_module(target)
         if hasattr(module, name):
+            value = getattr(module, name)
+            home = getattr(value, "__module__", None)
+            where = home if home in targets else target  # where it is defined, if listed
             warnings.warn(f"{old}.{name} is deprecated and will be removed in the next release: "
-                          f"import it from {target}", DeprecationWarning,
+                          f"import it from {where}", DeprecationWarning,
                           stacklevel=_caller_level())
-            return getattr(module, name)
+            return value
     raise AttributeError(f"module {old!r} has no attribute {name!r}")
 
 
