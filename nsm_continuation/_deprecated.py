@@ -85,7 +85,10 @@ def _caller_level() -> int:
 
 def _moved(old: str, name: str, targets: tuple[str, ...]) -> Any:
     """``name`` of the old module ``old``, read from the first of ``targets`` that has it, with
-    a warning naming that module."""
+    a warning naming that module. Module attributes (``__file__``, ``__path__``, ...) are not
+    forwarded: tools that walk ``sys.modules`` ask for them."""
+    if name.startswith("__") and name.endswith("__"):
+        raise AttributeError(f"module {old!r} has no attribute {name!r}")
     for target in targets:
         module = import_module(target)
         if hasattr(module, name):

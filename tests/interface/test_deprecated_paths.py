@@ -74,3 +74,12 @@ def test_an_unknown_name_of_an_old_module_is_an_attribute_error() -> None:
     module = importlib.import_module("nsm_continuation.palc")
     with pytest.raises(AttributeError, match="nsm_continuation.palc.*no_such_name"):
         module.no_such_name  # noqa: B018
+
+
+def test_module_attributes_of_an_old_module_are_not_forwarded_nor_warned() -> None:
+    """Tools that walk ``sys.modules`` (hypothesis, debuggers) read ``__file__``: no warning,
+    no forwarding (the alias has no file of its own)."""
+    module = importlib.import_module("nsm_continuation.results")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert getattr(module, "__file__", None) is None
