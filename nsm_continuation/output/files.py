@@ -246,12 +246,11 @@ def build_report(res: RunResult, folder: str | None = None,
             "events": events,
         })
     s = res.settings
-    first = len(failures)
     warnings = presentation_warnings(pr, failures)
     summary_part = call_hook(pr, "summary", lambda: pres.summary(), _json_dict, {}, failures)
     extras = call_hook(pr, "report_extras", lambda: pres.report_extras(res.branches),
                        _json_dict, {}, failures)
-    warnings = [*failures[first:], *warnings]
+    warnings = [*failures, *warnings]
     if res.case.output.orbits is not None:
         from nsm_continuation.figures.orbit_selection import spec_warnings
 
