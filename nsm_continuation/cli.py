@@ -1,4 +1,4 @@
-"""Command line: ``nsm-continuation run | validate | list``.
+"""Command line: ``nsm-continuation run | validate | list | recover``.
 
 Exit status (README, "Exit status"):
 
@@ -6,6 +6,9 @@ Exit status (README, "Exit status"):
 * 2: bad input: one line on stderr naming the key (or the output path), nothing written, found
   before any computation (``validate`` runs exactly the same checks);
 * 3: the report was written but some start failed (said in the summary and the report);
+* 4: no space left (or the disk quota exhausted) while the results were written: one line naming
+  the folder and the bytes the results need; they were kept in a new folder of the system's
+  temporary directory, which the line names, when it had room;
 * 130 / 143: interrupted by SIGINT / SIGTERM: no partial output, the previous result intact;
 * 1: a bug (an exception that should not happen): one line, the traceback saved to a file.
 """
@@ -77,6 +80,10 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     v.add_argument("--overwrite", action="store_true", help="as for run")
     sub.add_parser("list", help="list registered problems")
+    rec = sub.add_parser("recover", help="settle what a killed run left in a folder: put back "
+                                         "a previous run whose replacement was cut, remove "
+                                         "the temporary folders and locks of killed runs")
+    rec.add_argument("folder", help="an output folder, or the folder holding output folders")
     return p
 
 
@@ -159,7 +166,14 @@ def _run(args: argparse.Namespace, path: str) -> int:
     from nsm_continuation import cases
     from nsm_continuation.figures.make import make_all
     from nsm_continuation.figures.process import FigureProcess
-    from nsm_continuation.output.files import build_report, termination_text, write_files
+    from nsm_continuation.output.files import (
+        build_report,
+        is_no_space,
+        keep_elsewhere,
+        presentation_warnings,
+        termination_text,
+        write_files,
+    )
     from nsm_continuation.runs.runner import run_case
 
     global _current
@@ -169,22 +183,30 @@ def _run(args: argparse.Namespace, path: str) -> int:
                                 ("--workers", "--scheduler"))
     target = _current = _target(args, case)
     target.prepare()  # exit 2 here: nothing computed, nothing written
+    for line in target.recovered:  # what killed runs had left next to it
+        print(f"note: {line}", file=sys.stderr)
     # matplotlib is imported (and the figures drawn) by a child while this process computes
     draw = make_all if case.output.plots else None
     drawer = (FigureProcess(case, problem, draw)
               if draw is not None and problem.figures_from_inputs else None)
+    res = None
     try:
         res = run_case(case, problem, progress=case.output.progress and not args.quiet,
                        poll=_poll)
         assert target.tmp is not None
-        write_files(res, target.tmp, draw, drawer)
+        failures = write_files(res, target.tmp, draw, drawer)
         _poll()
         out = target.commit()
-    except BaseException:
+    except BaseException as exc:
         if drawer is not None:  # first: it may be drawing into the folder abort removes
             drawer.close()
-        target.abort()
+        where = target.path
+        target.abort()  # frees the space the temporary folder took
+        if res is not None and isinstance(exc, OSError) and is_no_space(exc):
+            raise keep_elsewhere(res, where, exc) from None
         raise
+    for line in failures:  # a plugin's hook: its part was left out, the rest written
+        print(f"warning: {line}", file=sys.stderr)
     if _received:  # arrived during the final move, held until it was complete
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
@@ -195,8 +217,8 @@ def _run(args: argparse.Namespace, path: str) -> int:
         for w in spec_warnings(res):  # also in report.md; stderr even with --quiet
             print(f"warning: {w}", file=sys.stderr)
     if not args.quiet:
-        print(_summary(build_report(res), out))
-        for w in problem.presentation.warnings():
+        print(_summary(build_report(res, failures=[]), out))
+        for w in presentation_warnings(problem, []):
             print(f"warning: {w}")
     if failed:
         print(f"{len(failed)} of {len(res.branches)} starts failed: "
@@ -206,7 +228,25 @@ def _run(args: argparse.Namespace, path: str) -> int:
     return 0
 
 
+def _recover(folder: str) -> int:
+    """``recover FOLDER``: settle what killed runs left in ``FOLDER`` (as the parent of output
+    folders) and next to it (for the output folder ``FOLDER`` itself)."""
+    from nsm_continuation.output.folders import OutputError, recover
+
+    path = Path(os.path.abspath(folder))
+    if not path.is_dir():
+        raise OutputError(f"recover: {path} is not a folder")
+    done = recover(path) + recover(path.parent, path.name)
+    for line in done:
+        print(line)
+    if not done:
+        print(f"nothing to recover in {path}")
+    return 0
+
+
 def _dispatch(args: argparse.Namespace) -> int:
+    if args.command == "recover":
+        return _recover(args.folder)
     if args.command == "list":
         from nsm_continuation.cases import registry
 
@@ -263,6 +303,10 @@ def main(argv: list[str] | None = None) -> int:
         if _is_case_error(exc):
             print(f"error: {exc}", file=sys.stderr)
             return 2
+        files = sys.modules.get(f"{__package__}.output.files")
+        if files is not None and isinstance(exc, files.NoSpaceError):
+            print(f"error: {exc}", file=sys.stderr)
+            return 4
         return _bug(exc)
     finally:
         for sig, handler in previous.items():

@@ -8,14 +8,18 @@ Where and how they are written (never over a user's files, atomically) is
 from __future__ import annotations
 
 import csv
+import errno
 import json
 import re
+import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
+from nsm_continuation.core.errors import short_text
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.output import report as report_md
 from nsm_continuation.output.folders import IfExists, OutputTarget
@@ -132,11 +136,86 @@ def run_folder(directory: Path | str) -> str:
         return str(d.resolve())
 
 
-def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
+class _NotJSON(TypeError):
+    """A value ``report.json`` cannot hold."""
+
+
+def _json_value(x: Any) -> Any:
+    """``default`` of :func:`json.dumps` checking a hook's value: what :func:`_f` converts, and
+    nothing else (an arbitrary object raises instead of being written as garbage)."""
+    y = _f(x)
+    if y is x:
+        raise _NotJSON(f"{type(x).__name__} is not JSON")
+    return y
+
+
+def hook_name(problem: Any, hook: str) -> str:
+    """The hook of ``problem``'s presentation named for a message: problem name, class, hook."""
+    cls = type(problem.presentation)
+    return f"problem {problem.name!r}: {cls.__module__}.{cls.__qualname__}.{hook}"
+
+
+def call_hook(problem: Any, hook: str, call: Callable[[], Any], check: Callable[[Any], Any],
+              fallback: Any, failures: list[str]) -> Any:
+    """The value of a presentation hook, ``call()`` then ``check(value)`` (which returns the
+    value to use or raises); on any exception, ``fallback`` and one line in ``failures`` naming
+    the problem, the class and the hook. A plugin's presentation runs after the computation:
+    its failure must not lose what was computed, nor pass for a bug of this tool."""
+    try:
+        return check(call())
+    except Exception as exc:  # noqa: BLE001 - any failure of a plugin's hook is reported
+        failures.append(f"{hook_name(problem, hook)} failed ({type(exc).__name__}: "
+                        f"{short_text(str(exc))}); its part of the outputs is left out")
+        return fallback
+
+
+def _json_dict(value: Any) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise TypeError(f"returned {type(value).__name__}, not a dict")
+    return json.loads(json.dumps(value, default=_json_value, allow_nan=True))
+
+
+def _str_list(value: Any) -> list[str]:
+    if isinstance(value, (str, bytes)) or not all(isinstance(v, str) for v in value):
+        raise TypeError(f"returned {short_text(repr(value))}, not a list of names")
+    return list(value)
+
+
+def _named_columns(res: RunResult) -> Callable[[Any], list[str]]:
+    """Check of ``csv_head`` and ``event_columns``: a list of names, each a derived quantity
+    or an unknown of the run (when it has points)."""
+    variables = set(res.problem.variables)
+    derived = {k for br in res.branches for pt in br.points for k in pt.derived}
+    for bpr in res.branch_problems.values():
+        variables.update(bpr.variables)
+
+    def check(value: Any) -> list[str]:
+        names = _str_list(value)
+        unknown = [n for n in names if n not in variables and n not in derived]
+        if unknown and derived | variables and any(br.points for br in res.branches):
+            raise ValueError(f"{unknown[0]!r} is neither a derived quantity nor an unknown")
+        return names
+
+    return check
+
+
+def presentation_warnings(problem: Any, failures: list[str]) -> list[str]:
+    """``problem.presentation.warnings()``, guarded (:func:`call_hook`)."""
+    pres = problem.presentation
+    return call_hook(problem, "warnings", lambda: pres.warnings(), _str_list, [], failures)
+
+
+def build_report(res: RunResult, folder: str | None = None,
+                 failures: list[str] | None = None) -> dict[str, Any]:
     """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
-    the ``start:`` lines of ``continue_from_here`` (default: ``runs/<case name>``)."""
+    the ``start:`` lines of ``continue_from_here`` (default: ``runs/<case name>``). A
+    presentation hook of the problem that fails or returns what the report cannot hold is left
+    out, with one line naming it appended to ``failures`` and to the report's warnings."""
+    failures = [] if failures is None else failures
     pr = res.problem
-    columns = list(pr.presentation.event_columns)
+    pres = pr.presentation
+    columns = call_hook(pr, "event_columns", lambda: pres.event_columns, _named_columns(res),
+                        [], failures)
     branches = []
     for br in res.branches:
         bpr = res.branch_problems.get(br.id, pr)
@@ -167,7 +246,11 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
             "events": events,
         })
     s = res.settings
-    warnings = list(pr.presentation.warnings())
+    warnings = presentation_warnings(pr, failures)
+    summary_part = call_hook(pr, "summary", lambda: pres.summary(), _json_dict, {}, failures)
+    extras = call_hook(pr, "report_extras", lambda: pres.report_extras(res.branches),
+                       _json_dict, {}, failures)
+    warnings = [*failures, *warnings]
     if res.case.output.orbits is not None:
         from nsm_continuation.figures.orbit_selection import spec_warnings
 
@@ -181,7 +264,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
         "case": {"name": res.case.name, "description": res.case.description,
                  "input": res.case.model_dump(mode="json")},
         "problem": pr.name,
-        "problem_summary": pr.presentation.summary(),
+        "problem_summary": summary_part,
         "parameters": res.case.parameters,
         "warnings": warnings,
         "continuation": {"parameter": pr.parameter, "window": [_f(w) for w in res.window],
@@ -193,7 +276,7 @@ def build_report(res: RunResult, folder: str | None = None) -> dict[str, Any]:
         "event_columns": columns,
         "event_kinds": pr.all_event_kinds(),
         "branches": branches,
-        "problem_results": pr.presentation.report_extras(res.branches),
+        "problem_results": extras,
         # versioned, machine-readable: what a later case needs to start from any event or
         # CSV row of this run (start: {from: <this folder>, ...}; nsm_continuation.cases.restart)
         "restart": restart_block(res),
@@ -233,18 +316,23 @@ def hint_context(res: RunResult) -> dict[str, Any]:
 
 
 def write_files(res: RunResult, directory: Path, draw: Draw | None = None,
-                drawer: Drawer | None = None) -> None:
+                drawer: Drawer | None = None) -> list[str]:
     """Write every output of a run (CSV per branch, report.json, report.md, figures) into
     ``directory``, which exists and is the run's own (see :mod:`nsm_continuation.output.folders`).
     The figures (none when ``draw`` is None) are drawn by ``drawer`` where it can (a process
     started before the computation, :class:`~nsm_continuation.figures.process.FigureProcess`,
-    drawing while this process writes the CSVs and the report), else here by ``draw``."""
+    drawing while this process writes the CSVs and the report), else here by ``draw``.
+    Returns the failures of the problem's presentation hooks (:func:`call_hook`: one line each,
+    also among the report's warnings), whose parts were left out."""
     directory = Path(directory)
     drawing = draw is not None and drawer is not None and drawer.send(res, directory)
-    rep = build_report(res, run_folder(directory))
+    failures: list[str] = []
+    pres = res.problem.presentation
+    head = call_hook(res.problem, "csv_head", lambda: pres.csv_head, _named_columns(res), None,
+                     failures)
+    rep = build_report(res, run_folder(directory), failures)
     for br in res.branches:
-        cols, rows = branch_rows(br, res.problem.variables,
-                                  res.problem.presentation.csv_head)
+        cols, rows = branch_rows(br, res.problem.variables, head)
         with open(directory / f"branch_{br.id}.csv", "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(cols)
@@ -258,6 +346,47 @@ def write_files(res: RunResult, directory: Path, draw: Draw | None = None,
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))
+    return failures
+
+
+#: ``errno`` values of a full disk or an exhausted quota
+NO_SPACE = (errno.ENOSPC, errno.EDQUOT)
+
+
+def is_no_space(exc: BaseException) -> bool:
+    """``exc`` says the disk is full or the quota exhausted."""
+    return isinstance(exc, OSError) and exc.errno in NO_SPACE
+
+
+class NoSpaceError(Exception):
+    """The output location ran out of space while a run's results were written (exit status
+    4, not a bug): the message names the folder, the space the results need where known, and
+    :attr:`kept`, the folder in the system's temporary directory holding them (None if they
+    could not be kept there either)."""
+
+    def __init__(self, message: str, kept: Path | None) -> None:
+        super().__init__(message)
+        #: where the computed results were written instead (None: nowhere)
+        self.kept = kept
+
+
+def keep_elsewhere(res: RunResult, folder: Path, exc: OSError) -> NoSpaceError:
+    """After ``exc`` (no space) while writing ``res`` into ``folder`` (its temporary folder
+    already removed): write the results, without figures, into a new folder of the system's
+    temporary directory (:func:`tempfile.gettempdir`) under the output policy, and return the
+    error to raise, naming both folders and the size of the results."""
+    why = "no space left" if exc.errno == errno.ENOSPC else "disk quota exceeded"
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    fallback = Path(tempfile.gettempdir()) / f"nsm-continuation-{res.case.name}-{stamp}"
+    try:
+        kept = _write_outputs(res, fallback, None, "new", keep=False)
+    except Exception as again:  # noqa: BLE001 - the fallback is best effort; the line says so
+        reason = again.strerror if isinstance(again, OSError) and again.strerror else again
+        return NoSpaceError(f"output: {why} writing {folder}; the results could not be kept in "
+                            f"{tempfile.gettempdir()} either ({short_text(str(reason))})", None)
+    size = sum(f.stat().st_size for f in kept.iterdir() if f.is_file())
+    return NoSpaceError(f"output: {why} writing {folder} (the results need {size} bytes, "
+                        f"figures not included); they were kept in {kept}", kept)
 
 
 def write_outputs(res: RunResult, out_dir: Path | str, draw: Draw | None = None,
@@ -265,13 +394,23 @@ def write_outputs(res: RunResult, out_dir: Path | str, draw: Draw | None = None,
     """Write every output of a run into ``out_dir`` under the output policy of
     :mod:`nsm_continuation.output.folders` (never deletes what this tool did not write), the
     figures with ``draw`` (none when None); returns the directory written (a numbered sibling
-    with ``if_exists="new"``)."""
+    with ``if_exists="new"``). A full disk raises :class:`NoSpaceError`, the results kept in the
+    system's temporary directory when it has room (:func:`keep_elsewhere`)."""
+    return _write_outputs(res, out_dir, draw, if_exists, keep=True)
+
+
+def _write_outputs(res: RunResult, out_dir: Path | str, draw: Draw | None,
+                   if_exists: IfExists, keep: bool) -> Path:
+    """:func:`write_outputs`; ``keep``: on a full disk, keep the results elsewhere."""
     target = OutputTarget(Path(out_dir), if_exists)
     target.prepare()
     try:
         assert target.tmp is not None
         write_files(res, target.tmp, draw)
         return target.commit()
-    except BaseException:
+    except BaseException as exc:
+        where = target.path
         target.abort()
+        if keep and isinstance(exc, OSError) and is_no_space(exc):
+            raise keep_elsewhere(res, where, exc) from None
         raise

@@ -20,6 +20,7 @@ from helpers import CASES
 
 from nsm_continuation import cli
 from nsm_continuation.cases.saved_runs import MARKER
+from nsm_continuation.output.folders import lock_text
 from nsm_continuation.runs import runner as run_module
 
 # the default chain, cut short: a run takes well under a second
@@ -189,10 +190,10 @@ def test_concurrent_run_is_refused_and_stale_lock_taken_over(tmp_path, capsys, n
     lock = tmp_path / ".out.lock"
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        lock.write_text(str(sleeper.pid))
+        lock.write_text(lock_text(sleeper.pid))
         code, err = _run([str(_case(tmp_path)), "--out", str(out)], capsys)
         assert code == 2 and f"pid {sleeper.pid}" in err
-        assert lock.read_text() == str(sleeper.pid) and not out.exists()
+        assert lock.read_text() == lock_text(sleeper.pid) and not out.exists()
     finally:
         sleeper.kill()
         sleeper.wait()
@@ -329,9 +330,77 @@ def test_if_exists_new_skips_a_number_another_run_is_writing(tmp_path, capsys, m
     (tmp_path / "runs").mkdir()
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        (tmp_path / "runs" / ".safety.lock").write_text(str(sleeper.pid))
+        (tmp_path / "runs" / ".safety.lock").write_text(lock_text(sleeper.pid))
         assert _run([str(case)], capsys)[0] == 0
     finally:
         sleeper.kill()
         sleeper.wait()
     assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == [".safety.lock", "safety-2"]
+
+
+@pytest.mark.parametrize("lock_kind", ["user_file", "pid_text", "folder", "symlink", "other_tool",
+                                       "empty"])
+def test_a_lock_we_cannot_prove_we_wrote_is_refused_never_deleted(tmp_path, capsys, lock_kind,
+                                                                  no_compute):
+    """Something named ``.<name>.lock`` next to the output folder that is not a regular file of
+    this user holding this tool's lock JSON is never taken for a stale lock: refused, kept."""
+    lock = tmp_path / ".out.lock"
+    if lock_kind == "user_file":
+        lock.write_text("my lock notes, do not delete")
+    elif lock_kind == "pid_text":  # looks like a PID of a process that is gone
+        lock.write_text("999999999")
+    elif lock_kind == "folder":
+        lock.mkdir()
+        (lock / "keep.txt").write_text("precious")
+    elif lock_kind == "symlink":
+        lock.symlink_to(tmp_path / "case.yaml")
+    elif lock_kind == "other_tool":
+        lock.write_text(json.dumps({"tool": "other", "kind": "lock", "pid": 999999999,
+                                    "uid": os.getuid()}))
+    else:
+        lock.write_text("")
+    case = _case(tmp_path)
+    before = _snapshot(tmp_path)
+    code, err = _run([str(case), "--out", str(tmp_path / "out")], capsys)
+    assert code == 2, err
+    assert err.startswith("error: output:") and len(err.strip().splitlines()) == 1
+    assert str(lock) in err
+    assert _snapshot(tmp_path) == before
+    assert lock.exists() or lock.is_symlink()
+
+
+def test_our_stale_lock_is_taken_over(tmp_path, capsys):
+    """A lock this tool wrote, whose process is gone, does not block the next run."""
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (tmp_path / ".out.lock").write_text(lock_text(dead.pid))
+    code, err = _run([str(_case(tmp_path)), "--out", str(tmp_path / "out")], capsys)
+    assert code == 0, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.yaml", "out"]
+
+
+@pytest.mark.parametrize("inside", ["run_folder", "run_subfolder", "tmp_folder", "tmp_name"])
+def test_output_inside_another_run_is_refused(tmp_path, capsys, inside, monkeypatch):
+    """An output folder inside a run folder or inside another run's temporary folder would be
+    removed by that run's overwrite or clean-up: refused before computing, nothing written."""
+    case, out = _two_runs(tmp_path, capsys)
+    _forbid_compute(monkeypatch)
+    if inside == "run_folder":
+        target = out / "nested"
+    elif inside == "run_subfolder":
+        target = out / "a" / "b"
+    elif inside == "tmp_folder":
+        tmp = tmp_path / ".other.tmp-abc123"
+        tmp.mkdir()
+        target = tmp / "nested"
+    else:
+        target = tmp_path / ".other.tmp-xyz"
+    before = _snapshot(tmp_path)
+    names = sorted(p.name for p in tmp_path.iterdir())
+    code, err = _run([str(case), "--out", str(target)], capsys)
+    assert code == 2, err
+    assert err.startswith("error: output:") and len(err.strip().splitlines()) == 1
+    assert str(target) in err
+    assert _snapshot(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == names
+    assert not target.exists()
