@@ -77,12 +77,13 @@ _serial = itertools.count()
 def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Callable[..., str]:
     """``plugin(name="toy", **fields)``: a package in ``tmp_path`` whose module is
     :data:`TEMPLATE` with ``fields`` (``top``, ``config``, ``init``, ``residual``,
-    ``preflight``) replaced, registered as ``name``; returns its ``module:Class``. The
-    package's folder is on ``sys.path`` for this test."""
-    root = tmp_path / "site"
+    ``preflight``) replaced, registered as ``name``; returns its ``module:Class``. Each
+    package has its folder ``tmp_path/site-<package>``, put first on ``sys.path`` for this
+    test."""
 
     def make(name: str = "toy", source: str | None = None, **fields: str) -> str:
         package = f"toy_plugin_{os.getpid()}_{next(_serial)}"
+        root = tmp_path / f"site-{package}"
         values = {"top": "", "config": "STRICT", "init": "pass",
                   "residual": "y[0] - self.params.a * y[1]", "preflight": "return None",
                   **fields}
@@ -326,7 +327,7 @@ def test_a_duplicate_name_is_said_by_validate_and_run(plugin: Callable[..., str]
             "continuation": {"parameter": "omega", "min": 0.3, "max": 0.9}}
     path = tmp_path / "dup.yaml"
     path.write_text(yaml.safe_dump(case))
-    env = {**os.environ, "PYTHONPATH": str(tmp_path / "site")}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(map(str, tmp_path.glob("site-*")))}
     for command, extra, status in (("validate", [], 0),
                                    ("run", ["--set", "parameters.chain.dofs=0"], 2)):
         proc = subprocess.run([sys.executable, "-m", "nsm_continuation.cli", command, str(path),
