@@ -178,12 +178,15 @@ def check_unknowns(problem: Problem, name: str) -> None:
     if registry.is_bundled(type(problem)):
         return
     where = f"problem: plugin {name!r} ({registry.target_of(type(problem))})"
-    variables = getattr(problem, "variables", None)
+    try:
+        variables, parameter = problem.variables, problem.parameter
+    except AttributeError as exc:
+        raise CaseError(f"{where}: __init__ must set variables (the names of the n + 1 "
+                        f"unknowns) and parameter (one of them): {exc}") from None
     if not (isinstance(variables, (list, tuple)) and len(variables) >= 2
             and all(isinstance(v, str) for v in variables)):
         raise CaseError(f"{where}: variables must be the names of the n + 1 >= 2 unknowns "
                         f"(set by __init__), got {short_text(repr(variables))}")
-    parameter = getattr(problem, "parameter", None)
     if parameter not in variables:
         raise CaseError(f"{where}: parameter {short_text(repr(parameter))} is not one of its "
                         f"variables ({', '.join(variables)})")
@@ -198,9 +201,10 @@ def check_residual(problem: Problem, name: str) -> None:
     a problem that evaluates numerically (:meth:`Problem.evaluate` or ``compiled``
     overridden) would need its start computed, and is not checked here."""
     cls = type(problem)
-    if registry.is_bundled(cls) or any(
-            getattr(cls, hook) is not getattr(Problem, hook)
-            for hook in ("compiled", "evaluate", "jacobian", "evaluate_with_jacobian")):
+    numeric = (cls.compiled is not Problem.compiled or cls.evaluate is not Problem.evaluate
+               or cls.jacobian is not Problem.jacobian
+               or cls.evaluate_with_jacobian is not Problem.evaluate_with_jacobian)
+    if registry.is_bundled(cls) or numeric:
         return
     import casadi as ca
 
