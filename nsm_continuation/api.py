@@ -117,10 +117,11 @@ def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
         params = cls.Parameters.model_validate(dict(parameters or {}))
     except ValidationError as err:
         raise CaseError(schema._format(err, dict(parameters or {}), "parameters")) from None
-    try:
-        return cls(params)
-    except (ValueError, ArithmeticError) as exc:
-        raise CaseError(schema._keyed("parameters", str(exc))) from None
+    with validation.plugin_hook(cls, name, "in __init__"):  # a plugin's fault: named
+        try:
+            return cls(params)
+        except (ValueError, ArithmeticError) as exc:
+            raise CaseError(schema._keyed("parameters", str(exc))) from None
 
 
 def continuation(problem: Problem, start: Any, *, name: str = "python",

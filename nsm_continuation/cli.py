@@ -250,8 +250,11 @@ def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "list":
         from nsm_continuation.cases import registry
 
-        for name, target in registry.available().items():
-            print(f"{name}\t{target}")
+        for name, entries in registry.registrations().items():
+            print(f"{name}\t{entries[0].target}")
+            for other in entries[1:]:  # a second registration of the name: say it is ignored
+                print(f"{name}\t{other.target}\t(duplicate from {other.dist}, ignored: "
+                      f"{entries[0].target} is used)")
         return 0
     path = args.case or str(_default_case_path())
     if args.command == "validate":

@@ -6,7 +6,8 @@ names the key; ``nsm-continuation validate`` is :func:`validate`, and ``run`` st
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,7 @@ from nsm_continuation.cases.schema import (
     apply_overrides,
     load_raw,
 )
-from nsm_continuation.core.errors import CaseError
+from nsm_continuation.core.errors import CaseError, short_text
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.vocabulary import canonical_keys
 
@@ -75,14 +76,17 @@ def validate(raw: dict[str, Any], *, restart_record: Any = None,
     if resolved is not None:  # the run's parameters, the case's on top
         raw_params = rs.merged_parameters(resolved[1], resolved[2], user_params)
         case.parameters = raw_params
-    try:
-        params = cls.Parameters.model_validate(raw_params)
-    except ValidationError as err:
-        raise CaseError(_format(err, raw_params, "parameters")) from None
-    try:
-        problem = cls(params)
-    except (ValueError, ArithmeticError) as exc:
-        raise CaseError(_keyed("parameters", str(exc))) from None
+    with plugin_hook(cls, case.problem, "in its Parameters validators"):
+        try:
+            params = cls.Parameters.model_validate(raw_params)
+        except ValidationError as err:
+            raise CaseError(_format(err, raw_params, "parameters")) from None
+    with plugin_hook(cls, case.problem, "in __init__"):
+        try:
+            problem = cls(params)
+        except (ValueError, ArithmeticError) as exc:
+            raise CaseError(_keyed("parameters", str(exc))) from None
+        check_unknowns(problem, case.problem)
     if case.continuation.parameter is None:  # not given: the problem's own parameter
         case.continuation.parameter = problem.case_parameter or problem.parameter
     adapter = cls.start_adapter
@@ -101,12 +105,13 @@ def validate(raw: dict[str, Any], *, restart_record: Any = None,
     # a two-parameter curve continues its own parameter (checked with the curve, in
     # _validate_restart), which the base problem may not be able to continue
     curve = resolved is not None and rs.curve_of(resolved[0], resolved[1]) is not None
-    try:
-        window = ((c.min, c.max) if curve
-                  else problem.parameter_bounds(c.parameter, c.min, c.max))
-    except ValueError as exc:
-        raise CaseError(_keyed("continuation.parameter", str(exc))) from None
-    monitors = problem.monitor_names()
+    with plugin_hook(cls, case.problem, "in parameter_bounds or monitor_names"):
+        try:
+            window = ((c.min, c.max) if curve
+                      else problem.parameter_bounds(c.parameter, c.min, c.max))
+        except ValueError as exc:
+            raise CaseError(_keyed("continuation.parameter", str(exc))) from None
+        monitors = problem.monitor_names()
     for name in c.bounds:
         if name not in monitors:
             known = ", ".join(monitors) if monitors else "none declared"
@@ -130,12 +135,93 @@ def preflight(problem: Problem, case: Case, start: Any,
     for a run of the sweep algorithm, else :meth:`Problem.preflight`; a failure is a
     :class:`CaseError` naming the key."""
     c = case.continuation
-    check = (problem.sweep_preflight if (c.algorithm or problem.algorithms[0]) == "sweep"
-             else problem.preflight)
+    algorithm = c.algorithm or problem.algorithms[0]
+    check = problem.sweep_preflight if algorithm == "sweep" else problem.preflight
+    name = case.problem or problem.name
+    if algorithm in RESIDUAL_ALGORITHMS:
+        with plugin_hook(type(problem), name, "in residual"):
+            check_residual(problem, name)
+    with plugin_hook(type(problem), name, f"in {check.__name__}"):
+        try:
+            check(start, window, c.max_points)
+        except (ValueError, ArithmeticError) as exc:
+            raise CaseError(_keyed("start", str(exc))) from None
+
+
+#: the algorithms that evaluate the problem's residual ``G`` (the others, ``lattice`` and
+#: ``sweep``, solve through their own hooks)
+RESIDUAL_ALGORITHMS = ("palc", "pycont")
+
+
+@contextmanager
+def plugin_hook(cls: type, name: str, what: str) -> Iterator[None]:
+    """Calls into the code of problem class ``cls`` (registered as ``name``): an exception
+    other than a :class:`CaseError`, or a ``SystemExit``, raised there by a plugin (a problem
+    of another package) is the plugin's fault: a
+    :class:`~nsm_continuation.cases.registry.PluginError` naming the problem, its
+    ``module:Class``, ``what`` it was doing and the exception (exit status 2, nothing
+    computed). In a bundled problem it is a bug of this package and goes on up."""
     try:
-        check(start, window, c.max_points)
-    except (ValueError, ArithmeticError) as exc:
-        raise CaseError(_keyed("start", str(exc))) from None
+        yield
+    except CaseError:
+        raise
+    except (Exception, SystemExit) as exc:
+        if registry.is_bundled(cls):
+            raise
+        raise registry.plugin_fault(name, cls, what, exc) from None
+
+
+def check_unknowns(problem: Problem, name: str) -> None:
+    """A plugin's ``__init__`` set ``variables`` (the ``n + 1 >= 2`` unknowns' names) and
+    ``parameter`` (one of them), which everything after reads: else a :class:`CaseError`
+    naming the problem (bundled problems are tested)."""
+    if registry.is_bundled(type(problem)):
+        return
+    where = f"problem: plugin {name!r} ({registry.target_of(type(problem))})"
+    try:
+        variables, parameter = problem.variables, problem.parameter
+    except AttributeError as exc:
+        raise CaseError(f"{where}: __init__ must set variables (the names of the n + 1 "
+                        f"unknowns) and parameter (one of them): {exc}") from None
+    if not (isinstance(variables, (list, tuple)) and len(variables) >= 2
+            and all(isinstance(v, str) for v in variables)):
+        raise CaseError(f"{where}: variables must be the names of the n + 1 >= 2 unknowns "
+                        f"(set by __init__), got {short_text(repr(variables))}")
+    if parameter not in variables:
+        raise CaseError(f"{where}: parameter {short_text(repr(parameter))} is not one of its "
+                        f"variables ({', '.join(variables)})")
+
+
+def check_residual(problem: Problem, name: str) -> None:
+    """A plugin's symbolic residual (:meth:`Problem.residual`, compiled by the engine) is a
+    CasADi expression of the problem's symbol type with ``len(variables) - 1`` rows and one
+    column: else a :class:`CaseError` naming the problem and the shapes, before the run
+    would fail on its first evaluation. Built once more than the run does, so only for
+    plugins (the bundled problems' shapes are tested, and the largest take seconds to build);
+    a problem that evaluates numerically (:meth:`Problem.evaluate` or ``compiled``
+    overridden) would need its start computed, and is not checked here."""
+    cls = type(problem)
+    numeric = (cls.compiled is not Problem.compiled or cls.evaluate is not Problem.evaluate
+               or cls.jacobian is not Problem.jacobian
+               or cls.evaluate_with_jacobian is not Problem.evaluate_with_jacobian)
+    if registry.is_bundled(cls) or numeric:
+        return
+    import casadi as ca
+
+    where = f"problem: plugin {name!r} ({registry.target_of(cls)})"
+    if problem.symbolic not in ("SX", "MX"):
+        raise CaseError(f"{where}: symbolic must be 'SX' or 'MX', got "
+                        f"{short_text(repr(problem.symbolic))}")
+    sym = ca.SX if problem.symbolic == "SX" else ca.MX
+    g = problem.residual(sym.sym("y", problem.dim))
+    if not isinstance(g, sym):
+        raise CaseError(f"{where}: residual(y) must return a CasADi {problem.symbolic} "
+                        f"expression of the symbol y, got {type(g).__name__}")
+    expected = (problem.dim - 1, 1)
+    if tuple(g.shape) != expected:
+        raise CaseError(f"{where}: residual has shape {g.shape[0]} x {g.shape[1]} for "
+                        f"{problem.dim} unknowns ({', '.join(problem.variables)}); continuation "
+                        f"needs a column of len(variables) - 1 = {expected[0]} equations")
 
 
 def diagram_quantities(problem: Problem) -> list[str]:

@@ -8,8 +8,9 @@ quantities at each point.
 Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeSolver``):
 
 1. Subclass :class:`Problem`; set ``name`` (the registry key used in YAML ``problem:``) and
-   ``Parameters`` (a pydantic model validating the YAML ``parameters:`` block; use
-   ``model_config = ConfigDict(extra="forbid")`` so typos are rejected).
+   ``Parameters`` (a pydantic model validating the YAML ``parameters:`` block, with
+   ``model_config = nsm_continuation.core.preflight.STRICT`` so that typos and ``true`` for a
+   number are rejected; the registry refuses a registered problem whose model is not strict).
 2. In ``__init__(self, params)`` store the validated parameters and set ``self.variables``: the
    names of the ``n + 1`` components of ``y``, and ``self.parameter``: the name of the component
    that plays the role of the continuation parameter (bounds apply to it).
