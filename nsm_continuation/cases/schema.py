@@ -11,6 +11,7 @@ import copy
 import math
 import re
 import stat
+import unicodedata
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -58,13 +59,13 @@ def _visible_name(name: str) -> str:
     a Cyrillic letter that looks like a Latin one) is refused with the name escaped, unless a
     problem is registered under exactly that name: the message of an unknown problem would
     show it as the registered name it looks like."""
-    if show_key(name) == name:
+    if not name or show_key(name) == name:  # empty: the registry says it is unknown
         return name
     from nsm_continuation.cases import registry
 
     if name in registry.available():
         return name
-    odd = next(c for c in name if not (c.isascii() and c.isprintable()) or c in " '")
+    odd = next((c for c in name if not (c.isascii() and c.isprintable()) or c == " "), "?")
     raise ValueError(f"unknown problem {show_key(name)}: it holds the character "
                      f"{ascii(odd)}, which registered problem names do not "
                      "(nsm-continuation list)")
@@ -297,17 +298,23 @@ def _keyed(prefix: str, msg: str) -> str:
     return f"{prefix}: {msg}"
 
 
+def _script(char: str) -> str:
+    """The script of a letter (``LATIN``, ``CYRILLIC``, ``GREEK``, ...) from its Unicode name."""
+    return unicodedata.name(char, "?").split(" ")[0]
+
+
 def show_key(key: Any) -> str:
-    """A key as a one-line message shows it: as written when it is a plain printable ASCII
-    name, else quoted with every other character escaped (``'ga\\u200bp'``: a zero-width
-    space, a Cyrillic letter that looks like a Latin one, a control character) so that the
-    user sees why the key is not the one they meant; a key that is no string (``5``) as its
-    Python literal."""
-    if isinstance(key, str):
-        plain = bool(key) and key.isascii() and key.isprintable() and key.strip() == key \
-            and "'" not in key
-        return key if plain else ascii(key)
-    return repr(key)
+    """A key as a one-line message shows it: as written when it reads as what it is, else
+    quoted with every non-ASCII character escaped (``'ga\\u200bp'``) so that the user sees why
+    the key is not the one they meant: a key with an invisible or control character (a
+    zero-width space, a bell), with letters of two scripts (a Cyrillic letter that looks like
+    a Latin one), with leading or trailing spaces, or empty. A key that is no string (``5``)
+    is shown as its Python literal."""
+    if not isinstance(key, str):
+        return repr(key)
+    scripts = {_script(c) for c in key if c.isalpha()}
+    odd = not key or key.strip() != key or not key.isprintable() or len(scripts) > 1
+    return ascii(key) if odd else key
 
 
 def _first_error(err: ValidationError) -> dict[str, Any]:
@@ -534,22 +541,27 @@ def parse_yaml(text: str, where: str) -> Any:
     return data
 
 
-def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
-    """Apply ``dotted.key=value`` overrides (values parsed as YAML)."""
+def apply_overrides(raw: dict[str, Any], overrides: list[str],
+                    source: str = "--set") -> dict[str, Any]:
+    """Apply ``dotted.key=value`` overrides (values parsed as YAML); errors name ``source``
+    (``--set`` on the command line, ``overrides:`` in the Python API)."""
     out = copy.deepcopy(raw)
     for item in overrides:
+        if not isinstance(item, str):
+            raise CaseError(f"{source} {short_text(repr(item))}: expected a 'dotted.key=value' "
+                            "string")
         if "=" not in item:
-            raise CaseError(f"--set {item!r}: expected dotted.key=value")
+            raise CaseError(f"{source} {short_text(repr(item))}: expected dotted.key=value")
         key, value = item.split("=", 1)
         parts = key.strip().split(".")
         if not all(parts):
-            raise CaseError(f"--set {item!r}: empty key")
+            raise CaseError(f"{source} {short_text(repr(item))}: empty key")
         node = out
         for p in parts[:-1]:
             if not isinstance(node.get(p, {}), dict):
-                raise CaseError(f"--set {key}: {p} is not a mapping")
+                raise CaseError(f"{source} {key}: {p} is not a mapping")
             node = node.setdefault(p, {})
-        node[parts[-1]] = parse_yaml(value, f"--set {key}")
+        node[parts[-1]] = parse_yaml(value, f"{source} {key}")
     return out
 
 

@@ -133,6 +133,7 @@ KEYS = [
      "problem: unknown problem 'ndof_imp\\u0430ct': it holds the character '\\u0430'"),
     ("trailing space", {"problem": "ndof_impact "},
      "problem: unknown problem 'ndof_impact '"),
+    ("empty problem", {"problem": ""}, "problem: unknown problem ''"),
 ]
 
 
@@ -150,16 +151,35 @@ def test_keys_and_problem_names_are_shown_as_they_are(label: str, change: dict[s
     assert "\n" not in str(exc.value) and str(exc.value).isascii()
 
 
+#: characters a key must not hide: invisible (format, control, odd spaces) or a letter of
+#: another script that looks like a Latin one
+HIDDEN = st.characters(categories=["Cf", "Cc", "Zs", "Zl", "Zp"], exclude_characters=" ") \
+    | st.sampled_from(
+    ["\u0430", "\u043e", "\u0440", "\u0435", "\u03bf", "\u0391"])
+
+
 @settings(max_examples=40, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow])
-@given(key=st.text(min_size=1, max_size=8).filter(lambda k: not (k.isascii()
-                                                                  and k.isprintable())))
-def test_an_unknown_key_with_odd_characters_is_shown_escaped(key: str) -> None:
+@given(head=st.from_regex(r"\A[a-z]{1,4}\Z"), hidden=HIDDEN,
+       tail=st.from_regex(r"\A[a-z_]{1,4}\Z"))
+def test_an_unknown_key_hiding_a_character_is_shown_escaped(head: str, hidden: str,
+                                                            tail: str) -> None:
+    key = head + hidden + tail
     raw = parse_yaml(TEMPLATE.format(dofs=5, max_points=3), "f")
     raw["continuation"][key] = 1
     with pytest.raises(CaseError) as exc:
         nsm.load_case(raw)
     assert str(exc.value) == f"continuation.{ascii(key)}: unknown key"
+
+
+@pytest.mark.parametrize("key", ["zz_\u00fcn\u00ef", "\u043f\u0430\u0440\u0430\u043c",
+                                 "max points"])
+def test_a_key_of_one_script_is_shown_as_written(key: str) -> None:
+    """Accented Latin, or all Cyrillic, is what the user sees: shown as written."""
+    raw = parse_yaml(TEMPLATE.format(dofs=5, max_points=3), "f")
+    raw["continuation"][key] = 1
+    with pytest.raises(CaseError, match=f"^continuation.{key}: unknown key$"):
+        nsm.load_case(raw)
 
 
 def test_bundled_case_still_reads() -> None:
