@@ -272,19 +272,15 @@ def _orbit_periods(periods: Any, key: str) -> int:
     return int(periods)
 
 
-def _names_or_numbers(values: Any, key: str, *, numbers: bool, empty: bool = False,
+def _names_or_numbers(values: Any, key: str, *, numbers: bool,
                       example: str = "['first', 'last']") -> list[Any]:
-    """``values`` as a list of names (and finite numbers if ``numbers``), at most
-    :data:`~nsm_continuation.cases.schema.MAX_ORBIT_POINTS` of them: else a
-    :class:`CaseError` (a ``ValueError``) naming ``key``; a single string is not a list of
-    names (``points="first"`` would be five letters)."""
+    """``values`` as a list of names (and finite numbers if ``numbers``; an empty list is
+    left to the figure's own check): else a :class:`CaseError` (a
+    ``ValueError``) naming ``key``; a single string is not a list of names
+    (``points="first"`` would be five letters)."""
     if isinstance(values, str | bytes | Mapping) or not isinstance(values, Sequence | np.ndarray):
         raise CaseError(f"{key}: expected a list (e.g. {example}), got {_kind(values)}")
     out = list(values)
-    if not out and not empty:
-        raise CaseError(f"{key}: the list is empty")
-    if numbers and len(out) > schema.MAX_ORBIT_POINTS:
-        raise CaseError(f"{key}: {len(out)} entries; at most {schema.MAX_ORBIT_POINTS}")
     for i, v in enumerate(out):
         number = isinstance(v, int | float | np.integer | np.floating) \
             and not isinstance(v, bool | np.bool_)
@@ -526,7 +522,7 @@ class Result:
         from nsm_continuation.figures import orbits
 
         points = _names_or_numbers(points, "plot_orbits.points", numbers=True)
-        log = _names_or_numbers(log, "plot_orbits.log", numbers=False, empty=True,
+        log = _names_or_numbers(log, "plot_orbits.log", numbers=False,
                                 example="['u1']")
         if ax is not None and not hasattr(ax, "get_figure"):
             raise CaseError(f"plot_orbits.ax: expected a matplotlib Axes or None, got "
