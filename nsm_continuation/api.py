@@ -28,10 +28,13 @@ anything is computed.
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping, Sequence
+import functools
+import math
+import os
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from pydantic import ValidationError
@@ -48,12 +51,71 @@ from nsm_continuation.output.files import (
     termination_text,
     write_outputs,
 )
+from nsm_continuation.output.folders import OutputError
 from nsm_continuation.runs.result import RunResult
 from nsm_continuation.runs.runner import run_case
 
 CaseSource = str | Path | Mapping[str, Any] | Case
+F = TypeVar("F", bound=Callable[..., Any])
+
+#: the command line's advice in the messages of the layers below, and its words in this API
+_CLI_ADVICE = (
+    ("pass --overwrite", "pass overwrite=True"),
+    (", or --set output.if_exists=new for a numbered folder", ""),
+    ("--set output.if_exists=new", "output.if_exists: new"),
+    ("choose another --out", "choose another directory"),
+    ("use --out or output.dir for a path", "use output.dir or Result.save(directory) for a "
+     "path"),
+    ("(--scheduler)", "(scheduler=)"),
+    ("(--workers)", "(workers=)"),
+)
 
 
+def _api_words(func: F) -> F:
+    """``func`` with the command line's advice in its one-line errors (``--set``,
+    ``--overwrite``, ``--out``) said as this API's arguments; the error keeps its type."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return func(*args, **kwargs)
+        except (CaseError, OutputError) as exc:
+            msg = str(exc)
+            for cli_words, api_words in _CLI_ADVICE:
+                msg = msg.replace(cli_words, api_words)
+            if msg == str(exc):
+                raise
+            raise type(exc)(msg) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def _kind(value: Any) -> str:
+    """The type and value of a wrong argument, for a one-line message."""
+    from nsm_continuation.core.errors import short_text
+
+    return f"{type(value).__name__} {short_text(repr(value), 60)}"
+
+
+def _mapping(value: Any, name: str) -> dict[str, Any]:
+    """``value`` (a mapping, or None for none) as a dict; else a :class:`CaseError` naming the
+    argument ``name``."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise CaseError(f"{name}: expected a mapping of keys (a dict such as {{'key': value}}), "
+                        f"got {_kind(value)}")
+    return dict(value)
+
+
+def _flag(value: Any, name: str) -> bool:
+    """``value`` if it is a bool; else a :class:`CaseError` naming the argument ``name``."""
+    if not isinstance(value, bool | np.bool_):
+        raise CaseError(f"{name}: expected True or False, got {_kind(value)}")
+    return bool(value)
+
+
+@_api_words
 def load_case(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = ()) -> Case:
     """A validated case from a YAML file, a mapping or a :class:`Case`.
 
@@ -81,18 +143,25 @@ def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] 
     if isinstance(overrides, Mapping):
         raw = _raw(source)
         for key, value in overrides.items():
+            if not isinstance(key, str) or not all(key.split(".")):
+                raise CaseError(f"overrides: the key {key!r} is not a dotted key such as "
+                                "'continuation.max'")
             node = raw
-            *path, last = str(key).split(".")
+            *path, last = key.split(".")
             for part in path:
                 node = node.setdefault(part, {})
                 if not isinstance(node, dict):
-                    raise CaseError(f"{key}: {part} is not a mapping")
+                    raise CaseError(f"overrides: {key}: {part} is not a mapping")
             node[last] = value
+    elif isinstance(overrides, str | bytes) or not isinstance(overrides, Sequence):
+        raise CaseError(f"overrides: expected a list of 'dotted.key=value' strings or a "
+                        f"mapping {{'dotted.key': value}}, got {_kind(overrides)}")
     else:
-        raw = schema.apply_overrides(_raw(source), list(overrides))
+        raw = schema.apply_overrides(_raw(source), list(overrides), "overrides:")
     return validation.validate(raw)
 
 
+@_api_words
 def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
         progress: bool = False, *, workers: int | None = None,
         scheduler: str | None = None) -> Result:
@@ -101,22 +170,31 @@ def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
     processes) or ``scheduler`` (an existing cluster's address) compute the branches as Dask
     tasks, with the same result (:mod:`nsm_continuation.runs.execution`); they replace the case's
     ``execution:`` block (default: serial), and exclude each other."""
+    progress = _flag(progress, "progress")
     case, problem = _validated(source, overrides)
     case = schema.with_execution(case, workers, scheduler)
     return Result(run_case(case, problem, progress=progress))
 
 
+@_api_words
 def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
     """The registered problem ``name`` (``nsm-continuation list``) built from ``parameters``
     (the YAML ``parameters:`` block, validated by the problem's schema)."""
+    if not isinstance(name, str):
+        raise CaseError(f"problem: expected a problem name (nsm-continuation list), got "
+                        f"{_kind(name)}")
+    params_raw = _mapping(parameters, "parameters")
     try:
+        schema._visible_name(name)
         cls = registry.get(name)
-    except registry.UnknownProblemError as exc:
+    except CaseError:  # already one line naming its key (a plugin's fault)
+        raise
+    except (registry.UnknownProblemError, ValueError) as exc:
         raise CaseError(f"problem: {exc}") from None
     try:
-        params = cls.Parameters.model_validate(dict(parameters or {}))
+        params = cls.Parameters.model_validate(params_raw)
     except ValidationError as err:
-        raise CaseError(schema._format(err, dict(parameters or {}), "parameters")) from None
+        raise CaseError(schema._format(err, params_raw, "parameters")) from None
     with validation.plugin_hook(cls, name, "in __init__"):  # a plugin's fault: named
         try:
             return cls(params)
@@ -124,6 +202,7 @@ def problem(name: str, parameters: Mapping[str, Any] | None = None) -> Problem:
             raise CaseError(schema._keyed("parameters", str(exc))) from None
 
 
+@_api_words
 def continuation(problem: Problem, start: Any, *, name: str = "python",
                  analysis: Mapping[str, Any] | None = None, workers: int | None = None,
                  scheduler: str | None = None, **settings: Any) -> Result:
@@ -137,11 +216,25 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
     :func:`run` (the branches of several starts, the switches of a bifurcation diagram as
     Dask tasks; ``problem``'s class must be importable by the workers).
     """
-    block = start if not isinstance(start, StartPoint | np.ndarray | list | tuple) else {}
+    if not isinstance(problem, Problem):
+        raise CaseError(f"problem: expected a Problem (nsm.problem(name, parameters)), got "
+                        f"{_kind(problem)}")
+    if not isinstance(start, Mapping | StartPoint | np.ndarray | list | tuple):
+        raise CaseError(f"start: expected the problem's start: block (a mapping such as "
+                        f"{{'mode': 1}}), a StartPoint or a guess of its {problem.dim} "
+                        f"unknowns, got {_kind(start)}")
+    block = dict(start) if isinstance(start, Mapping) else {}
+    adapter = type(problem).start_adapter
+    if adapter is not None and isinstance(start, Mapping):
+        try:
+            adapter.validate_python(block)
+        except ValidationError as err:
+            raise CaseError(schema._format(err, block, "start")) from None
     raw = {"name": name, "problem": problem.name,
            "parameters": problem.params.model_dump(mode="python"), "start": block,
            "continuation": {"parameter": problem.parameter, **settings},
-           "analysis": dict(analysis or {}), "output": {"plots": False, "progress": False}}
+           "analysis": _mapping(analysis, "analysis"),
+           "output": {"plots": False, "progress": False}}
     try:
         case = Case.model_validate(raw)
     except ValidationError as err:
@@ -152,11 +245,18 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
                                           case.continuation.max)
     except ValueError as exc:
         raise CaseError(schema._keyed("continuation.parameter", str(exc))) from None
-    if block is start:
-        validation.preflight(problem, case, start, window)
+    if isinstance(start, Mapping):
+        validation.preflight(problem, case, block, window)
         return Result(run_case(case, problem, progress=False))
     if not isinstance(start, StartPoint):
-        y = np.asarray(start, dtype=float).reshape(-1)
+        try:
+            y = np.asarray(start, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise CaseError(f"start: a guess needs {problem.dim} numbers "
+                            f"({problem.variables}), got {_kind(start)}") from None
+        if not np.all(np.isfinite(y)):
+            raise CaseError(f"start: a guess needs {problem.dim} finite numbers, got "
+                            f"{_kind(start)}")
         if y.size != problem.dim:
             raise CaseError(f"start: a guess needs {problem.dim} values ({problem.variables}), "
                             f"got {y.size}")
@@ -173,6 +273,28 @@ def _orbit_periods(periods: Any, key: str) -> int:
         raise CaseError(f"{key}: {periods!r} is not a whole number of periods from 1 to "
                         f"{schema.MAX_ORBIT_PERIODS}")
     return int(periods)
+
+
+def _names_or_numbers(values: Any, key: str, *, numbers: bool,
+                      example: str = "['first', 'last']") -> list[Any]:
+    """``values`` as a list of names (and finite numbers if ``numbers``; an empty list is
+    left to the figure's own check): else a :class:`CaseError` (a
+    ``ValueError``) naming ``key``; a single string is not a list of names
+    (``points="first"`` would be five letters)."""
+    if isinstance(values, str | bytes | Mapping) or not isinstance(values, Sequence | np.ndarray):
+        raise CaseError(f"{key}: expected a list (e.g. {example}), got {_kind(values)}")
+    out = list(values)
+    for i, v in enumerate(out):
+        number = isinstance(v, int | float | np.integer | np.floating) \
+            and not isinstance(v, bool | np.bool_)
+        if isinstance(v, str) and v:
+            continue
+        if numbers and number and math.isfinite(float(v)):
+            out[i] = float(v)
+            continue
+        what = "a name or a finite number" if numbers else "a name"
+        raise CaseError(f"{key}[{i}]: expected {what}, got {_kind(v)}")
+    return out
 
 
 @dataclass(frozen=True)
@@ -274,21 +396,24 @@ class Result:
         """The content of ``report.json``."""
         return build_report(self.run_result)
 
+    @_api_words
     def save(self, directory: str | Path, *, overwrite: bool = False,
              plots: bool = True) -> Path:
         """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
         folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
         Returns the directory written."""
         from nsm_continuation.figures.make import make_all
-        from nsm_continuation.output.folders import OutputError
 
-        try:
-            return write_outputs(self.run_result, Path(directory), make_all if plots else None,
-                                 if_exists="overwrite" if overwrite else "error")
-        except OutputError as exc:  # the CLI's advice, in this API's words
-            raise OutputError(str(exc).replace("pass --overwrite", "pass overwrite=True")
-                              ) from None
+        if not isinstance(directory, str | os.PathLike) or not os.fspath(directory):
+            raise CaseError(f"directory: expected a folder path (str or pathlib.Path), got "
+                            f"{_kind(directory)}")
+        overwrite = _flag(overwrite, "overwrite")
+        plots = _flag(plots, "plots")
+        return write_outputs(self.run_result, Path(os.fsdecode(directory)),
+                             make_all if plots else None,
+                             if_exists="overwrite" if overwrite else "error")
 
+    @_api_words
     def restart(self, *, branch: int | None = None, event: Any = None, point: int | None = None,
                 switch: bool | str = False, amplitude: float | None = None,
                 direction: str | None = None, parameters: Mapping[str, Any] | None = None,
@@ -332,8 +457,10 @@ class Result:
                 start[key] = dict(value) if isinstance(value, Mapping) else value
         if switch is not False:
             start["switch"] = switch
-        raw: dict[str, Any] = {"start": start, "parameters": dict(parameters or {}),
-                               "continuation": dict(settings), "analysis": dict(analysis or {}),
+        raw: dict[str, Any] = {"start": start,
+                               "parameters": _mapping(parameters, "parameters"),
+                               "continuation": dict(settings),
+                               "analysis": _mapping(analysis, "analysis"),
                                "output": {"plots": False, "progress": False}}
         if name is not None:
             raw["name"] = name
@@ -342,6 +469,7 @@ class Result:
                                        problem_class=type(self.problem))
         return Result(run_case(case, problem, progress=False))
 
+    @_api_words
     def orbit(self, branch: int = 0, point: int = -1, periods: int = 1) -> OrbitTrace:
         """The periodic orbit at row ``point`` of branch ``branch`` (its id, as in
         ``branch_<id>.csv``; a negative row counts from the end) over ``periods`` periods
@@ -380,6 +508,7 @@ class Result:
                              f"({termination_text(br)})")
         return br
 
+    @_api_words
     def plot_orbits(self, points: Sequence[str | float] = ("first", "last"),
                     view: str = "time", ax: Any = None, periods: int = 1,
                     log: Sequence[str] = ()) -> Any:
@@ -395,10 +524,16 @@ class Result:
         ``log`` signal the time view does not draw or a number of periods out of range."""
         from nsm_continuation.figures import orbits
 
+        points = _names_or_numbers(points, "plot_orbits.points", numbers=True)
+        log = _names_or_numbers(log, "plot_orbits.log", numbers=False,
+                                example="['u1']")
+        if ax is not None and not hasattr(ax, "get_figure"):
+            raise CaseError(f"plot_orbits.ax: expected a matplotlib Axes or None, got "
+                            f"{_kind(ax)}")
         validation.check_orbit_view(view, self.problem, "plot_orbits.view")
         n = _orbit_periods(periods, "plot_orbits.periods")
-        validation.check_orbits(list(points), self.problem, "plot_orbits")
-        return orbits.plot(self.run_result, list(points), view, ax, n, list(log))
+        validation.check_orbits(points, self.problem, "plot_orbits")
+        return orbits.plot(self.run_result, points, view, ax, n, log)
 
     def plot(self, ax: Any = None) -> Any:
         """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);

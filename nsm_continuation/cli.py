@@ -87,8 +87,13 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _shown(path: str | Path) -> str:
+    """A path for stdout: bytes that are not UTF-8 (surrogates, ``os.fsdecode``) as ``\\xff``."""
+    return str(path).encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
 def _summary(rep: dict, out: Path) -> str:
-    lines = [f"wrote {out}/ : {len(rep['branches'])} branches, "
+    lines = [f"wrote {_shown(out)}/ : {len(rep['branches'])} branches, "
              f"{rep['timings']['n_points']} points in {rep['timings']['total_s']:.2f} s"]
     for b in rep["branches"]:
         kinds: dict[str, int] = {}
@@ -262,7 +267,7 @@ def _dispatch(args: argparse.Namespace) -> int:
 
         case, problem = cases.load(path, args.overrides)
         _target(args, case).check()  # where the run would write (nothing is created)
-        print(f"{path}: valid ({case.problem}, {len(problem.variables)} unknowns)")
+        print(f"{_shown(path)}: valid ({case.problem}, {len(problem.variables)} unknowns)")
         for w in problem.presentation.warnings():
             print(f"warning: {w}")
         return 0
@@ -304,7 +309,7 @@ def main(argv: list[str] | None = None) -> int:
         return 143
     except Exception as exc:
         if _is_case_error(exc):
-            print(f"error: {exc}", file=sys.stderr)
+            print(f"error: {_shown(str(exc))}", file=sys.stderr)
             return 2
         files = sys.modules.get(f"{__package__}.output.files")
         if files is not None and isinstance(exc, files.NoSpaceError):

@@ -8,7 +8,10 @@ parameters and, per branch, the unknowns and every located event with its ``y`` 
 :func:`load_run` reads a folder back as a :class:`RunRecord` (``start.from`` of a restart):
 a missing folder, a folder that is not a run of this tool, a ``report.json`` or CSV changed
 since the run, or a record of another version is a :class:`CaseError` naming ``start.from`` or
-``start.point``.
+``start.point``. The record is input like a case: it is checked against a strict schema
+(:class:`RestartRecord`: types, lengths, finite numbers, unique branch ids and event ordinals)
+when it is read, and a record that fails is one line naming ``start.from`` and the field's path
+in the record (``start.from: runs/x/report.json: restart.branches[0].events[2].y: ...``).
 """
 
 from __future__ import annotations
@@ -18,10 +21,12 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from nsm_continuation.cases.schema import _format
 from nsm_continuation.core.errors import CaseError, short_text
 
 #: marker file of a run directory: JSON with the tool, its version, the time and the files written
@@ -54,6 +59,135 @@ RESTART_FORMAT = "nsm-continuation-restart"
 
 #: ``restart.version`` this module writes and reads
 RESTART_VERSION = 1
+
+
+# ---------------------------------------------------------------------- the record's schema
+_Finite = Annotated[float, Field(allow_inf_nan=False)]
+_Text = Annotated[str, Field(min_length=1, max_length=1000)]
+_Count = Annotated[int, Field(ge=0)]
+
+
+class _Strict(BaseModel):
+    """A part of the record: exact JSON types (``"1"`` is no number, ``true`` no int), no
+    unknown keys."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class EventRecord(_Strict):
+    """An event of a branch: its kind, its ordinal among the events of that kind, the CSV row
+    of its point (None: located between two points), the parameter unknown, the arclength,
+    and the unknowns ``y`` and unit tangent (as many as the branch's ``variables``)."""
+
+    kind: _Text
+    index: _Count
+    row: _Count | None
+    parameter: _Finite
+    s: _Finite
+    y: list[_Finite]
+    tangent: list[_Finite]
+    chart: dict[_Text, _Finite] = {}
+
+
+class ChartMove(_Strict):
+    """From CSV row ``from_row`` on, the branch's unknowns are in ``chart``."""
+
+    from_row: _Count
+    chart: dict[_Text, _Finite]
+
+
+class BranchRecord(_Strict):
+    """A branch of the run: its id, CSV file, number of points, unknowns and events."""
+
+    id: _Count
+    label: Annotated[str, Field(max_length=10_000)]
+    csv: Annotated[str, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,200}\.csv$")]
+    n_points: _Count
+    variables: Annotated[list[_Text], Field(min_length=1)]
+    parameter: _Text
+    period_multiple: Annotated[int, Field(ge=1)]
+    events: list[EventRecord]
+    charts: list[ChartMove] = []
+
+
+class BaseSettings(_Strict):
+    """The settings of the base run a located curve keeps."""
+
+    newton_tol: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
+    step_initial: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
+    derived_bounds: dict[_Text, tuple[_Finite | None, _Finite | None]] = {}
+
+
+class CurveRecord(_Strict):
+    """A run that is a two-parameter curve: what builds it again."""
+
+    kind: _Text
+    free: _Text
+    method: Literal["augmented", "located"]
+    margin: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
+    base_settings: BaseSettings | None = None
+
+
+class RestartRecord(_Strict):
+    """The ``restart`` block of ``report.json`` (written by
+    :func:`nsm_continuation.runs.restart_record.restart_block`)."""
+
+    format: Literal["nsm-continuation-restart"]
+    version: Literal[1]
+    tool_version: Annotated[str, Field(max_length=100)] | None = None
+    problem: _Text
+    parameters: dict[str, Any]
+    continued: _Text | None
+    branches: list[BranchRecord]
+    curve: CurveRecord | None = None
+
+
+def _consistency(rec: RestartRecord) -> str | None:
+    """What the types cannot say: unique branch ids, the branch's parameter among its
+    unknowns, ``y`` and tangents of the branch's size, events of each kind counted 0, 1, ...
+    in order, rows within the branch; the path and the problem, or None."""
+    ids: set[int] = set()
+    for b, br in enumerate(rec.branches):
+        at = f"restart.branches[{b}]"
+        if br.id in ids:
+            return f"{at}.id: branch {br.id} is listed twice"
+        ids.add(br.id)
+        if len(set(br.variables)) != len(br.variables):
+            return f"{at}.variables: {br.variables} names an unknown twice"
+        if br.parameter not in br.variables:
+            return (f"{at}.parameter: {br.parameter!r} is not one of the branch's unknowns "
+                    f"{br.variables}")
+        counts: dict[str, int] = {}
+        for e, ev in enumerate(br.events):
+            where = f"{at}.events[{e}]"
+            for key in ("y", "tangent"):
+                if len(getattr(ev, key)) != len(br.variables):
+                    return (f"{where}.{key}: {len(getattr(ev, key))} numbers, the branch has "
+                            f"{len(br.variables)} unknowns ({', '.join(br.variables)})")
+            if ev.index != counts.get(ev.kind, 0):
+                return (f"{where}.index: {ev.index}, but it is {ev.kind} event number "
+                        f"{counts.get(ev.kind, 0)} of the branch (a duplicated or missing "
+                        "event)")
+            counts[ev.kind] = ev.index + 1
+            if ev.row is not None and ev.row >= br.n_points:
+                return f"{where}.row: {ev.row}, the branch has {br.n_points} points"
+        for c, move in enumerate(br.charts):
+            if move.from_row >= max(br.n_points, 1):
+                return (f"{at}.charts[{c}].from_row: {move.from_row}, the branch has "
+                        f"{br.n_points} points")
+    return None
+
+
+def check_record(block: dict[str, Any], label: str) -> None:
+    """:class:`CaseError` ``start.from: <label>: restart.<path>: ...`` (one line) unless
+    ``block`` is a well-formed restart record."""
+    try:
+        rec = RestartRecord.model_validate(block)
+    except ValidationError as err:
+        raise CaseError(f"start.from: {label}: {_format(err, block, 'restart')}") from None
+    problem = _consistency(rec)
+    if problem is not None:
+        raise CaseError(f"start.from: {label}: {problem}")
 
 
 # ---------------------------------------------------------------------- reading a run
@@ -112,6 +246,7 @@ def load_run(source: str) -> RunRecord:
     case_input = case.get("input") if isinstance(case, dict) else None
     if not isinstance(case_input, dict):
         raise CaseError(f"start.from: {shown}/report.json has no case input")
+    check_record(block, f"{shown}/report.json")
     return RunRecord(shown, block, case_input, folder, marker)
 
 

@@ -11,6 +11,7 @@ import copy
 import math
 import re
 import stat
+import unicodedata
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -51,6 +52,23 @@ def _plain_name(name: str) -> str:
                          "'+', at most 100 characters, no '/'); use --out or output.dir for a "
                          "path")
     return name
+
+
+def _visible_name(name: str) -> str:
+    """A problem name with an invisible, control or non-ASCII character (a zero-width space,
+    a Cyrillic letter that looks like a Latin one) is refused with the name escaped, unless a
+    problem is registered under exactly that name: the message of an unknown problem would
+    show it as the registered name it looks like."""
+    if not name or show_key(name) == name:  # empty: the registry says it is unknown
+        return name
+    from nsm_continuation.cases import registry
+
+    if name in registry.available():
+        return name
+    odd = next((c for c in name if not (c.isascii() and c.isprintable()) or c == " "), "?")
+    raise ValueError(f"unknown problem {show_key(name)}: it holds the character "
+                     f"{ascii(odd)}, which registered problem names do not "
+                     "(nsm-continuation list)")
 
 
 class StepSpec(BaseModel):
@@ -255,7 +273,7 @@ class Case(BaseModel):
     name: Annotated[str, Field(strict=True), AfterValidator(_plain_name)] = "case"
     description: Annotated[str, Field(max_length=10_000, strict=True)] = ""
     #: required, except in a restart (``start: {from: <run>}``), which inherits it
-    problem: Annotated[str, Field(strict=True)] | None = None
+    problem: Annotated[str, Field(strict=True), AfterValidator(_visible_name)] | None = None
     #: required, except in a restart, which inherits the run's (these override them)
     parameters: dict[str, Any] | None = None
     start: Any
@@ -280,31 +298,72 @@ def _keyed(prefix: str, msg: str) -> str:
     return f"{prefix}: {msg}"
 
 
+def _script(char: str) -> str:
+    """The script of a letter (``LATIN``, ``CYRILLIC``, ``GREEK``, ...) from its Unicode name."""
+    return unicodedata.name(char, "?").split(" ")[0]
+
+
+def show_key(key: Any) -> str:
+    """A key as a one-line message shows it: as written when it reads as what it is, else
+    quoted with every non-ASCII character escaped (``'ga\\u200bp'``) so that the user sees why
+    the key is not the one they meant: a key with an invisible or control character (a
+    zero-width space, a bell), with letters of two scripts (a Cyrillic letter that looks like
+    a Latin one), with leading or trailing spaces, or empty. A key that is no string (``5``)
+    is shown as its Python literal."""
+    if not isinstance(key, str):
+        return repr(key)
+    scripts = {_script(c) for c in key if c.isalpha()}
+    odd = not key or key.strip() != key or not key.isprintable() or len(scripts) > 1
+    return ascii(key) if odd else key
+
+
+def _first_error(err: ValidationError) -> dict[str, Any]:
+    """The error to report: an unknown key that holds an invisible or look-alike character
+    first (``ga\\u200bp`` is the cause of the missing ``gap``), else pydantic's first."""
+    errors = err.errors()
+    for e in errors:
+        if e["type"] == "extra_forbidden" and e["loc"] and isinstance(e["loc"][-1], str) \
+                and show_key(e["loc"][-1]) != e["loc"][-1]:
+            return dict(e)
+    return dict(errors[0])
+
+
 def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
     """One line from the first pydantic error: the dotted key as the user wrote it (pydantic's
-    union tags such as ``constrained-float`` or ``ModeStart`` are dropped by walking ``raw``)."""
-    e = err.errors()[0]
+    union tags such as ``constrained-float`` or ``ModeStart`` are dropped by walking ``raw``;
+    keys that are not plain names are shown escaped, :func:`show_key`)."""
+    e = _first_error(err)
     parts: list[str] = []
     node = raw
     loc = list(e["loc"])
+    bad_key: tuple[Any] | None = None  # a mapping key that is not a string
     for i, part in enumerate(loc):
+        if part == "[key]" and i > 0 and isinstance(loc[i - 1], int | float | bool | None):
+            bad_key = (loc[i - 1],)
+            break
         if isinstance(node, dict) and part in node:
-            parts.append(str(part))
+            if i + 1 < len(loc) and loc[i + 1] == "[key]" and not isinstance(part, str):
+                bad_key = (part,)
+                break
+            parts.append(show_key(part))
             node = node[part]
         elif isinstance(node, list | tuple) and isinstance(part, int) and part < len(node):
             parts[-1:] = [f"{parts[-1]}[{part}]" if parts else f"[{part}]"]
             node = node[part]
         elif e["type"] == "missing" and i == len(loc) - 1:
-            parts.append(str(part))
+            parts.append(show_key(part))
     where = ".".join(([prefix] if prefix else []) + parts)
     msg = e["msg"].removeprefix("Value error, ")
-    if e["type"] == "extra_forbidden":
+    if bad_key is not None:
+        msg = (f"the key {bad_key[0]!r} is not a name (keys are strings; quote it, "
+               f"'{bad_key[0]}', if it is meant as one)")
+    elif e["type"] == "extra_forbidden":
         msg = "unknown key"
     elif e["type"] == "missing":
         msg = "required key is missing"
     elif e["type"] in ("float_type", "int_type", "bool_type", "string_type") \
             and not isinstance(node, dict | list):
-        msg = f"{msg} (got {node!r})"
+        msg = f"{msg} (got {short_text(ascii(node) if isinstance(node, str) else repr(node))})"
     msg = msg.splitlines()[0] if msg else "invalid value"
     sub = re.match(r"^([a-z_][a-z0-9_]*): ", msg)
     if where and sub:  # a model validator naming one of its own fields
@@ -317,7 +376,7 @@ def _reject_nan(obj: Any, where: str) -> None:
         raise CaseError(f"{where}: {obj} is not a finite number")
     if isinstance(obj, dict):
         for k, v in obj.items():
-            _reject_nan(v, f"{where}.{k}" if where else str(k))
+            _reject_nan(v, f"{where}.{show_key(k)}" if where else show_key(k))
     if isinstance(obj, list):
         for i, v in enumerate(obj):
             _reject_nan(v, f"{where}[{i}]")
@@ -325,24 +384,35 @@ def _reject_nan(obj: Any, where: str) -> None:
 
 class _CaseLoader(yaml.SafeLoader):
     """``yaml.SafeLoader`` that refuses duplicate keys (YAML says they are an error; PyYAML
-    keeps the last one silently)."""
+    keeps the last one silently), lets a key written in a mapping override the same key
+    merged into it (``<<: *base``, the merge rule), and marks the numbers YAML 1.1 reads
+    differently from YAML 1.2 (:class:`_Yaml11Number`)."""
+
+
+#: the tag of a merge key ``<<``
+MERGE_TAG = "tag:yaml.org,2002:merge"
 
 
 def _mapping_without_duplicates(loader: _CaseLoader, node: yaml.MappingNode,
                                 deep: bool = False) -> dict[Any, Any]:
-    loader.flatten_mapping(node)
+    """A mapping whose keys, as written in it, are unique; the mappings merged in by ``<<``
+    then fill in the keys it does not write (a written key overrides a merged one)."""
     seen: set[Any] = set()
     for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
+        key = (MERGE_TAG if key_node.tag == MERGE_TAG
+               else loader.construct_object(key_node, deep=deep))
         try:
             duplicate = key in seen
         except TypeError:
             raise yaml.constructor.ConstructorError(
                 None, None, f"unhashable key {key!r}", key_node.start_mark) from None
         if duplicate:
+            shown = "<<" if key == MERGE_TAG else show_key(key)
             raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark)
+                None, None, f"duplicate key {shown}", key_node.start_mark)
         seen.add(key)
+    # the merged pairs go first, so the mapping's own value of a key is the one kept
+    loader.flatten_mapping(node)
     return loader.construct_mapping(node, deep=deep)
 
 
@@ -357,6 +427,82 @@ _CaseLoader.add_implicit_resolver(
                 |[-+]?\.(?:inf|Inf|INF)
                 |\.(?:nan|NaN|NAN))$""", re.X),
     list("-+0123456789."))
+
+
+class _Yaml11Number(str):
+    """A plain scalar YAML 1.1 reads as a number and YAML 1.2 does not (or as another one):
+    ``010`` (octal 8 in 1.1, 10 in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2).
+    Kept as its text; :func:`parse_yaml` refuses it, naming its key and quoting it."""
+
+    #: ``octal`` or ``base-60``
+    form: str
+    #: the value YAML 1.1 gives it
+    value: float | int
+
+
+#: an octal integer of YAML 1.1 (a leading zero); ``0`` alone is zero in both versions
+OCTAL = re.compile(r"^[-+]?0[0-7_]+$")
+
+
+def _number(loader: _CaseLoader, node: yaml.ScalarNode, build: Any) -> Any:
+    text = loader.construct_scalar(node)
+    if isinstance(text, str) and (":" in text or OCTAL.match(text)):
+        out = _Yaml11Number(text)
+        out.form = "base-60" if ":" in text else "octal"
+        out.value = build(loader, node)
+        return out
+    return build(loader, node)
+
+
+_CaseLoader.add_constructor(
+    "tag:yaml.org,2002:int",
+    lambda loader, node: _number(loader, node, yaml.constructor.SafeConstructor.construct_yaml_int))
+_CaseLoader.add_constructor(
+    "tag:yaml.org,2002:float",
+    lambda loader, node: _number(loader, node,
+                                 yaml.constructor.SafeConstructor.construct_yaml_float))
+
+
+def _first_yaml11(obj: Any, path: str = "") -> tuple[str, _Yaml11Number, bool] | None:
+    """The first :class:`_Yaml11Number` in ``obj``: the dotted path of its key, the number, and
+    whether it is itself a key (of the mapping at that path); None if there is none."""
+    if isinstance(obj, _Yaml11Number):
+        return path, obj, False
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            if isinstance(k, _Yaml11Number):
+                return path, k, True
+            found = _first_yaml11(v, f"{path}.{show_key(k)}" if path else show_key(k))
+            if found is not None:
+                return found
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            found = _first_yaml11(v, f"{path}[{i}]")
+            if found is not None:
+                return found
+    return None
+
+
+def _refuse_yaml11(obj: Any, where: str) -> None:
+    """:class:`CaseError` naming the key of the first :class:`_Yaml11Number` in ``obj`` (or
+    ``where`` for a document that is one): the value as written, what YAML 1.1 reads and how
+    to write what is meant."""
+    found = _first_yaml11(obj)
+    if found is None:
+        return
+    key, num, is_key = found
+    text = str(num)
+    if num.form == "octal":
+        sign = "-" if text.startswith("-") else ""
+        decimal = sign + (text.replace("_", "").lstrip("+-").lstrip("0") or "0")
+        write = decimal if str(num.value) == decimal else f"{decimal} (or {num.value})"
+        why = (f"is an octal number in YAML 1.1 (read as {num.value}) and {decimal} in YAML "
+               f"1.2; write {write} without the leading zero")
+    else:
+        why = (f"is a base-60 number in YAML 1.1 (read as {num.value}) and a string in YAML "
+               f"1.2; write {num.value} for that number")
+    shown = f"the key {text!r}" if is_key else repr(text)
+    raise CaseError(f"{key or where}: {shown} {why}, or quote it for a string")
 
 
 def _check_size(obj: Any, where: str) -> None:
@@ -391,25 +537,31 @@ def parse_yaml(text: str, where: str) -> Any:
     except ValueError as exc:  # e.g. an integer of more than 4300 digits
         raise CaseError(f"{where}: {str(exc).splitlines()[0]}") from None
     _check_size(data, where)
+    _refuse_yaml11(data, where)
     return data
 
 
-def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
-    """Apply ``dotted.key=value`` overrides (values parsed as YAML)."""
+def apply_overrides(raw: dict[str, Any], overrides: list[str],
+                    source: str = "--set") -> dict[str, Any]:
+    """Apply ``dotted.key=value`` overrides (values parsed as YAML); errors name ``source``
+    (``--set`` on the command line, ``overrides:`` in the Python API)."""
     out = copy.deepcopy(raw)
     for item in overrides:
+        if not isinstance(item, str):
+            raise CaseError(f"{source} {short_text(repr(item))}: expected a 'dotted.key=value' "
+                            "string")
         if "=" not in item:
-            raise CaseError(f"--set {item!r}: expected dotted.key=value")
+            raise CaseError(f"{source} {short_text(repr(item))}: expected dotted.key=value")
         key, value = item.split("=", 1)
         parts = key.strip().split(".")
         if not all(parts):
-            raise CaseError(f"--set {item!r}: empty key")
+            raise CaseError(f"{source} {short_text(repr(item))}: empty key")
         node = out
         for p in parts[:-1]:
             if not isinstance(node.get(p, {}), dict):
-                raise CaseError(f"--set {key}: {p} is not a mapping")
+                raise CaseError(f"{source} {key}: {p} is not a mapping")
             node = node.setdefault(p, {})
-        node[parts[-1]] = parse_yaml(value, f"--set {key}")
+        node[parts[-1]] = parse_yaml(value, f"{source} {key}")
     return out
 
 

@@ -276,7 +276,7 @@ class OutputTarget:
 
     def _check_policy(self) -> None:
         p = self.path
-        if len(p.name.encode()) > 200:
+        if len(os.fsencode(p.name)) > 200:
             raise OutputError(f"output: folder name of {len(p.name)} characters is too long "
                               "(at most 200)")
         _refuse_inside_runs(p)
