@@ -231,9 +231,12 @@ def _scheduler_address(value: str) -> str:
             or parts.fragment or "?" in rest or "#" in rest or any(c.isspace() for c in rest):
         raise ValueError(f"an address such as {scheme}://HOST:8786 (HOST:PORT and nothing "
                          f"else), got {value!r}")
-    if port is None or not 1 <= port <= 65535:
+    if port is None:
+        raise ValueError(f"{value!r} has no port: write it out, HOST:PORT (a scheduler listens "
+                         "on 8786 by default)")
+    if not 1 <= port <= 65535:
         raise ValueError(f"{value!r}: the port must be a number in 1..65535 (the scheduler's "
-                         "port, 8786 by default, written out: HOST:8786)")
+                         "port, 8786 by default)")
     return value
 
 

@@ -420,7 +420,8 @@ def _handshake(address: str, security: Any, left: float, timeout: float) -> str 
     thread.join(max(left, 0.1) + 5.0)  # the wait_for above ends it; 5 s to unwind
     reply = outcome[0] if outcome else TimeoutError()
     if isinstance(reply, TimeoutError):
-        return f"no answer within {timeout:g} s"
+        return (f"no answer within {timeout:g} s (the port accepts connections but sends no "
+                "Dask handshake)")
     if isinstance(reply, OSError):  # closed, reset, or timed out inside Dask's connect
         text = one_line(str(reply))
         return (f"no answer within {timeout:g} s" if "Timed out" in text
