@@ -224,21 +224,107 @@ SCHEDULER_PROTOCOLS = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
 
 
 def _scheduler_address(value: str) -> str:
-    if value.split("://", 1)[0] not in SCHEDULER_PROTOCOLS or "://" not in value:
+    """``value`` if it is a Dask scheduler address this tool can reach: a protocol Dask speaks
+    between processes, then ``HOST:PORT`` with a port in 1..65535 and nothing after it (Dask
+    itself fails on the others only when it connects, with a traceback); else ValueError."""
+    from importlib.util import find_spec
+    from urllib.parse import urlsplit
+
+    scheme, sep, rest = value.partition("://")
+    if not sep or scheme not in SCHEDULER_PROTOCOLS:
         raise ValueError(f"an address such as tcp://HOST:8786 ({', '.join(SCHEDULER_PROTOCOLS)}"
                          f"), got {value!r}")
+    if scheme == "inproc":
+        raise ValueError(f"{value!r}: an inproc:// scheduler lives inside one process; give "
+                         "the address of a running `dask scheduler` (tcp://HOST:8786)")
+    if scheme == "ucx" and find_spec("distributed_ucxx") is None:
+        raise ValueError(f"{value!r}: ucx:// needs the distributed-ucxx package, which is not "
+                         "installed (or use the scheduler's tcp:// address)")
+    try:
+        parts = urlsplit(f"//{rest}")
+        port = parts.port
+    except ValueError:  # a port that is not a number in 0..65535
+        port = -1
+    if not parts.hostname or parts.username is not None or parts.path or parts.query \
+            or parts.fragment or "?" in rest or "#" in rest or any(c.isspace() for c in rest):
+        raise ValueError(f"an address such as {scheme}://HOST:8786 (HOST:PORT and nothing "
+                         f"else), got {value!r}")
+    if port is None:
+        raise ValueError(f"{value!r} has no port: write it out, HOST:PORT (a scheduler listens "
+                         "on 8786 by default)")
+    if not 1 <= port <= 65535:
+        raise ValueError(f"{value!r}: the port must be a number in 1..65535 (the scheduler's "
+                         "port, 8786 by default)")
     return value
+
+
+#: local Dask workers per usable core, at most: a worker computes on one core; a few per core
+#: still keep the cores busy, more only share them (and each holds its own memory)
+WORKERS_PER_CORE = 4
+#: available memory each local Dask worker needs, at least (GB): a worker process with NumPy,
+#: CasADi and its problem holds 0.2-0.4 GB before its branch's points
+WORKER_MEMORY_GB = 0.5
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity, else the machine's count)."""
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def available_memory_gb() -> float | None:
+    """The memory available to new processes now (GB; Linux ``MemAvailable``, else psutil's
+    ``available``), or None when it cannot be measured (then only the cores limit workers)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) / 1024**2
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import psutil
+    except ImportError:
+        return None
+    return float(psutil.virtual_memory().available) / 1024**3
+
+
+def _local_workers(n: int) -> int:
+    """``n`` if this machine can run that many local worker processes (:data:`WORKERS_PER_CORE`
+    per usable core, :data:`WORKER_MEMORY_GB` of available memory each); else ValueError naming
+    both limits: a local cluster of 1000 workers would start spawning before failing."""
+    cores, gb = usable_cores(), available_memory_gb()
+    by_cores = WORKERS_PER_CORE * cores
+    by_memory = by_cores if gb is None else max(1, int(gb / WORKER_MEMORY_GB))
+    if n > min(by_cores, by_memory):
+        memory = ("available memory unknown" if gb is None else
+                  f"{WORKER_MEMORY_GB} GB of the {gb:.1f} GB of available memory each: "
+                  f"at most {by_memory}")
+        raise ValueError(f"{n} local workers are more than this machine runs: at most "
+                         f"{min(by_cores, by_memory)} ({WORKERS_PER_CORE} per usable core, "
+                         f"{cores} cores: at most {by_cores}; {memory})")
+    return n
 
 
 class ExecutionSpec(BaseModel):
     """``execution:``: where the branches are computed (:mod:`nsm_continuation.runs.execution`):
     serially in this process (default), on a local cluster of ``workers`` processes, or on
-    the Dask cluster at ``scheduler`` (``tcp://HOST:8786``)."""
+    the Dask cluster at ``scheduler`` (``tcp://HOST:8786``). ``workers`` is bounded by this
+    machine (:func:`_local_workers`); ``no_workers_timeout``: seconds without any worker (all
+    lost, or none joined an existing cluster) after which the tasks still waiting end their
+    branches with that reason instead of waiting forever."""
 
     model_config = ConfigDict(extra="forbid")
-    workers: Annotated[int, Field(ge=1, le=1024, strict=True)] | None = None
+    workers: Annotated[int, Field(ge=1, le=1024, strict=True),
+                       AfterValidator(_local_workers)] | None = None
     scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True),
                          AfterValidator(_scheduler_address)] | None = None
+    no_workers_timeout: Annotated[float, Field(gt=0, le=86_400, allow_inf_nan=False,
+                                               strict=True)] = 30.0
 
     @model_validator(mode="after")
     def _one_cluster(self) -> ExecutionSpec:
@@ -260,7 +346,8 @@ def with_execution(case: Case, workers: int | None, scheduler: str | None,
         raise CaseError(f"{names[0]} and {names[1]} exclude each other: a local cluster of "
                         "that many workers, or the existing cluster at that address")
     try:
-        spec = ExecutionSpec(workers=workers, scheduler=scheduler)
+        spec = ExecutionSpec(workers=workers, scheduler=scheduler,
+                             no_workers_timeout=case.execution.no_workers_timeout)
     except ValidationError as exc:
         err = exc.errors()[0]
         name = names[0] if err["loc"] and err["loc"][0] == "workers" else names[1]

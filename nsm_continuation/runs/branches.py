@@ -91,7 +91,8 @@ def run_branches(case: Case, problem: Problem, progress: bool = True,
     if starts is not None and not algorithm.takes_start_points:
         raise CaseError(f"start: the {name} algorithm starts from the start: block only (a "
                         "lattice problem has no start guess)")
-    execution = execution or Execution(case.execution.workers, case.execution.scheduler)
+    execution = execution or Execution(case.execution.workers, case.execution.scheduler,
+                                       case.execution.no_workers_timeout)
     # one Dask client for the whole run, started when a phase has work to spread
     with lazy_session(execution) if execution.distributed else nullcontext() as session:
         result = _run(case, problem, algorithm, settings, window, progress, starts, poll,

@@ -211,7 +211,7 @@ def grow(res: RunResult, poll: Callable[[], None] | None = None,
             futures = {k: session.submit(switch_task, *case, key=f"nsm-switch-{depth}-{k}")
                        for k, case in cases.items()}
             tasks += len(futures)
-            wait_all(list(futures.values()), poll)
+            wait_all(list(futures.values()), poll, session=session)
         children: list[Branch] = []
         for k, c in enumerate(cands):
             node: dict[str, Any] = {

@@ -32,9 +32,18 @@ diagram's switches, :func:`nsm_continuation.runs.diagrams.grow`) and serves the 
 A problem class the registry does not know (the Python API's) is sent to the workers by
 reference, with the case.
 
-``--workers N`` starts a local cluster of ``N`` single-threaded worker processes for the run;
+``--workers N`` starts a local cluster of ``N`` single-threaded worker processes for the run
+(at most what the machine runs: :func:`nsm_continuation.cases.schema._local_workers`);
 ``--scheduler tcp://HOST:8786`` uses an existing cluster (``dask scheduler``, ``dask worker``),
 whose workers need this package (and any plugin problem) installed.
+
+Every address and every state of a cluster ends in a bounded, named outcome: the address's
+syntax is checked with the case (:func:`nsm_continuation.cases.schema._scheduler_address`); a
+scheduler that refuses the connection, does not answer within :data:`CONNECT_TIMEOUT_S`, or
+answers in another protocol (an HTTP server: Dask would read its reply as a frame of 2.8 EiB)
+is refused in one line (:func:`check_scheduler`); a cluster left without any worker for
+``execution.no_workers_timeout`` seconds ends the tasks still waiting, whose branches record
+why and which workers were lost (:meth:`DaskSession.watch`); the branches computed are kept.
 """
 
 from __future__ import annotations
@@ -45,11 +54,16 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
+from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.records import Branch
 from nsm_continuation.runs.setup import rebuild_case
 
 #: retries of a task whose worker died (Dask reschedules it on another worker)
 TASK_RETRIES = 2
+#: seconds an existing scheduler has to accept the connection and answer Dask's handshake
+CONNECT_TIMEOUT_S = 10.0
+#: a recorded reason that is not a task's own failure (the merge records it as it is)
+NOT_COMPUTED = "not computed: "
 
 
 @dataclass
@@ -59,6 +73,8 @@ class Execution:
 
     workers: int | None = None
     scheduler: str | None = None
+    #: seconds without any worker after which the waiting tasks end (``execution:``)
+    no_workers_timeout: float = 30.0
 
     @property
     def distributed(self) -> bool:
@@ -71,6 +87,13 @@ _WORKER_CACHE: dict[str, tuple[Any, list[Any]]] = {}
 _WORKER_CACHE_SIZE = 4
 
 
+def _task_case(raw_case: dict[str, Any]) -> dict[str, Any]:
+    """The case a task rebuilds: without its ``execution:`` block, which concerns the master
+    (and whose ``workers`` is checked against the machine's available memory, which the
+    workers themselves now hold)."""
+    return {k: v for k, v in raw_case.items() if k != "execution"}
+
+
 def _prepared(raw_case: dict[str, Any], explicit: list[Any] | None,
               problem_class: type | None = None,
               restart: tuple[Any, Any, Any] | None = None) -> tuple[Any, list[Any]]:
@@ -81,7 +104,8 @@ def _prepared(raw_case: dict[str, Any], explicit: list[Any] | None,
         "" if x is None else pickle.dumps(x).hex() for x in (explicit, problem_class, restart))
     hit = _WORKER_CACHE.get(key)
     if hit is None:
-        case, _problem, window, algorithm = rebuild_case(raw_case, problem_class, restart)
+        case, _problem, window, algorithm = rebuild_case(_task_case(raw_case), problem_class,
+                                                         restart)
         seeds = (algorithm.starts(case.start, window) if explicit is None
                  else algorithm.seeds_from_points(explicit))
         algorithm.prepare()
@@ -129,7 +153,7 @@ def seed_piece_task(raw_case: dict[str, Any], piece: Any) -> tuple[Any, float]:
     key = json.dumps(raw_case, sort_keys=True, default=str)
     hit = _PIECE_CACHE.get(key)
     if hit is None:
-        case, _problem, window, algorithm = rebuild_case(raw_case)
+        case, _problem, window, algorithm = rebuild_case(_task_case(raw_case))
         if len(_PIECE_CACHE) >= _WORKER_CACHE_SIZE:
             _PIECE_CACHE.pop(next(iter(_PIECE_CACHE)))
         hit = _PIECE_CACHE[key] = (case, window, algorithm)
@@ -170,16 +194,13 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     from dask.distributed import Client, LocalCluster
 
     if execution.scheduler:
-        from nsm_continuation.core.errors import CaseError
-
-        refused = _refused(execution.scheduler)
+        security = check_scheduler(execution.scheduler)
         try:
-            if refused is not None:  # nothing listens there: no need to wait 10 s
-                raise ConnectionRefusedError(refused)
-            return Client(execution.scheduler, timeout="10s"), None
-        except (OSError, TimeoutError) as exc:  # nothing listening, or not a scheduler
-            raise CaseError(f"execution.scheduler (--scheduler): no Dask scheduler answers at "
-                            f"{execution.scheduler} ({one_line(str(exc))})") from None
+            return Client(execution.scheduler, timeout=CONNECT_TIMEOUT_S,
+                          security=security), None
+        except (OSError, TimeoutError) as exc:  # it went away since it answered the check
+            raise CaseError(f"{_SCHEDULER}: no Dask scheduler answers at "
+                            f"{execution.scheduler}: {one_line(str(exc))}") from None
     import multiprocessing
 
     if getattr(multiprocessing.current_process(), "_inheriting", False):
@@ -192,6 +213,9 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     pre_spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ",
                                                   {}).items()
                  if k != "MALLOC_TRIM_THRESHOLD_"}
+    from distributed.deploy.spec import SpecCluster
+
+    before = set(SpecCluster._instances)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": {**pre_spawn, **one},
                           "distributed.worker.profile.enabled": False,
                           "distributed.admin.tick.interval": "1s"}):
@@ -199,6 +223,9 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
             cluster = LocalCluster(n_workers=int(execution.workers or 1),
                                    threads_per_worker=1, processes=True,
                                    dashboard_address=":0", silence_logs=40, env=one)
+        except (KeyboardInterrupt, SystemExit) as exc:  # SIGINT / SIGTERM while it starts
+            _abandon(set(SpecCluster._instances) - before)
+            raise exc from None
         except RuntimeError as exc:  # e.g. "Nanny failed to start."
             raise RuntimeError(
                 f"the local Dask cluster of {execution.workers} workers did not start ({exc}); "
@@ -206,6 +233,23 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
                 "`if __name__ == \"__main__\":` (each worker process imports the script "
                 "again)") from None
     return Client(cluster), cluster
+
+
+def _abandon(clusters: set[Any]) -> None:
+    """End quietly the local ``clusters`` whose start was interrupted (SIGINT or SIGTERM,
+    which end the run): Dask's own exit hook would close them and print three tracebacks
+    (the half-started workers' status, "Nanny failed to start", an asyncio task never
+    retrieved) after the run's one line. Their worker processes are daemonic: they end with
+    this process. Dask's and asyncio's loggers are silenced for the shutdown."""
+    import logging
+
+    for name in ("distributed", "asyncio", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    from distributed.deploy.spec import SpecCluster
+
+    for cluster in clusters:
+        SpecCluster._instances.discard(cluster)
+        cluster.shutdown_on_close = False
 
 
 class DaskSession:
@@ -219,8 +263,13 @@ class DaskSession:
         self.futures: list[Any] = []
         #: seconds spent connecting, or starting the local cluster (0 until used)
         self.start_s = 0.0
+        #: why the tasks still waiting were ended (:meth:`watch`), else None
+        self.lost: str | None = None
         self._client: Any = None
         self._cluster: Any = None
+        self._seen: set[str] = set()  # every worker seen in the cluster
+        self._alone_since: float | None = None  # since when there has been no worker
+        self._checked = 0.0
 
     @property
     def client(self) -> Any:
@@ -249,6 +298,36 @@ class DaskSession:
         for f in self.futures:
             f.cancel()
 
+    def watch(self) -> str | None:
+        """Why the tasks still waiting will not be computed, else None: the cluster has had no
+        worker for ``execution.no_workers_timeout`` seconds (every worker died, or none
+        joined the scheduler); Dask would keep them waiting for a worker forever. Asks the
+        scheduler at most once a second; once it holds, it holds for the rest of the run."""
+        now = time.monotonic()
+        if self.lost is not None or self._client is None or now - self._checked < 1.0:
+            return self.lost
+        self._checked = now
+        try:
+            workers = set(self._client.scheduler_info().get("workers", {}))
+        except Exception:  # noqa: BLE001 - no answer this time: decide at the next one
+            return None
+        if workers:
+            self._seen |= workers
+            self._alone_since = None
+            return None
+        if self._alone_since is None:
+            self._alone_since = now
+        timeout = self.execution.no_workers_timeout
+        if now - self._alone_since < timeout:
+            return None
+        where = self.execution.scheduler or "the local cluster"
+        self.lost = one_line(
+            f"{NOT_COMPUTED}no Dask worker in {where} for {timeout:g} s "
+            f"(execution.no_workers_timeout); "
+            + (f"workers lost: {', '.join(sorted(self._seen))}" if self._seen
+               else "no worker joined it"))
+        return self.lost
+
     def close(self) -> None:
         if self._client is not None:
             self._client.close()
@@ -257,22 +336,103 @@ class DaskSession:
         self._client = self._cluster = None
 
 
-def _refused(address: str) -> str | None:
-    """Why a TCP connection to the scheduler ``address`` (``tcp://HOST:PORT``) is refused at
-    once (nothing listens on that port), else None (it may answer, or take time to)."""
+#: how messages name the scheduler's address (the YAML key and the flag)
+_SCHEDULER = "execution.scheduler (--scheduler)"
+#: what an address that answered, but not as Dask does, is
+_OTHER_PROTOCOL = "not a Dask scheduler (it answered in another protocol)"
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> Any:
+    """The Dask security settings to reach the scheduler at ``address`` if it is one, else
+    :class:`CaseError` naming why, within ``timeout`` seconds: connection refused (at once),
+    no answer within ``timeout`` s (a port that accepts and says nothing: Dask's own connect
+    waits for the handshake forever), not a Dask scheduler (it answered in another protocol:
+    Dask reads an HTTP reply as the length of a frame, 2.8 EiB, and fails with MemoryError or
+    struct.error), a Dask worker, or a ``tls://`` address without Dask's TLS settings.
+    ``timeout``: default :data:`CONNECT_TIMEOUT_S`."""
+    from distributed.security import Security
+
+    timeout = CONNECT_TIMEOUT_S if timeout is None else timeout
+    security = Security()
+    if address.startswith("tls://") and \
+            security.get_connection_args("client").get("ssl_context") is None:
+        raise CaseError(f"{_SCHEDULER}: {address} is a tls:// address and Dask's TLS settings "
+                        "are not configured (distributed.comm.tls.ca-file, "
+                        "distributed.comm.tls.client.cert and .key, e.g. "
+                        "DASK_DISTRIBUTED__COMM__TLS__CA_FILE=...)")
+    deadline = time.monotonic() + timeout
+    why = _tcp_refusal(address, timeout) or _handshake(address, security,
+                                                      deadline - time.monotonic(), timeout)
+    if why is not None:
+        raise CaseError(f"{_SCHEDULER}: no Dask scheduler answers at {address}: {why}")
+    return security
+
+
+def _tcp_refusal(address: str, timeout: float) -> str | None:
+    """Why a TCP connection to the host and port of ``address`` fails (refused: nothing
+    listens there, which Dask's connect would retry for the whole timeout; an unknown host;
+    no answer within ``timeout`` s), else None."""
     import socket
     from urllib.parse import urlsplit
 
     parts = urlsplit(address)
-    if parts.scheme != "tcp" or parts.hostname is None or parts.port is None:
-        return None
+    if parts.hostname is None or parts.port is None:
+        return None  # not a HOST:PORT address (the schema checks the syntax)
     try:
-        with socket.create_connection((parts.hostname, parts.port), timeout=2.0):
+        with socket.create_connection((parts.hostname, parts.port), timeout=timeout):
             return None
-    except ConnectionRefusedError as exc:
-        return f"connection refused: {exc}"
-    except OSError:
-        return None  # unreachable or slow: the client's own timeout decides
+    except ConnectionRefusedError:
+        return "connection refused: nothing listens on that port"
+    except TimeoutError:
+        return f"no answer within {timeout:g} s"
+    except OSError as exc:
+        return f"cannot connect: {one_line(str(exc))}"
+
+
+def _handshake(address: str, security: Any, left: float, timeout: float) -> str | None:
+    """Dask's handshake with ``address`` and its ``identity``, bounded by ``left`` seconds
+    (in a thread of its own: the caller may be inside an event loop, e.g. Jupyter's): why
+    it is not a Dask scheduler, else None."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect
+
+    async def identity() -> Any:
+        comm = await connect(address, timeout=left,
+                             **security.get_connection_args("client"))
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    outcome: list[Any] = []
+
+    def probe() -> None:
+        try:
+            outcome.append(asyncio.run(asyncio.wait_for(identity(), max(left, 0.1))))
+        except BaseException as exc:  # noqa: BLE001 - every way of failing is named below
+            outcome.append(exc)
+
+    thread = threading.Thread(target=probe, name="nsm-scheduler-check", daemon=True)
+    thread.start()
+    thread.join(max(left, 0.1) + 5.0)  # the wait_for above ends it; 5 s to unwind
+    reply = outcome[0] if outcome else TimeoutError()
+    if isinstance(reply, TimeoutError):
+        return (f"no answer within {timeout:g} s (the port accepts connections but sends no "
+                "Dask handshake)")
+    if isinstance(reply, OSError):  # closed, reset, or timed out inside Dask's connect
+        text = one_line(str(reply))
+        return (f"no answer within {timeout:g} s" if "Timed out" in text
+                else f"{_OTHER_PROTOCOL}: {text}" if text else _OTHER_PROTOCOL)
+    if isinstance(reply, BaseException) or not isinstance(reply, dict):
+        return _OTHER_PROTOCOL  # MemoryError, struct.error, a decoding error, ...
+    if reply.get("type") == "Worker":
+        return "a Dask worker, not the scheduler: give the scheduler's address"
+    if reply.get("type") != "Scheduler":
+        return _OTHER_PROTOCOL
+    return None
 
 
 def one_line(text: str) -> str:
@@ -304,13 +464,21 @@ def dask_session(execution: Execution) -> Iterator[tuple[Any, list[Any]]]:
 
 
 def wait_all(futures: list[Any], poll: Callable[[], None] | None,
-              done_callback: Callable[[Any], None] | None = None) -> None:
+             done_callback: Callable[[Any], None] | None = None,
+             session: DaskSession | None = None) -> None:
     """Wait for every future, calling ``poll`` (the signals) every 0.25 s and
-    ``done_callback`` on each future as it finishes."""
+    ``done_callback`` on each future as it finishes. With the ``session``, when its cluster
+    has had no worker for too long (:meth:`DaskSession.watch`), the futures still pending are
+    cancelled with that reason (their ``result()`` raises it) and the wait ends."""
     from dask.distributed import wait
 
     pending = set(futures)
     while pending:
+        why = None if session is None else session.watch()
+        if why is not None:
+            for f in pending:
+                f.cancel(reason=why)
+            return
         try:
             done, pending = wait(list(pending), timeout=0.25, return_when="FIRST_COMPLETED")
         except TimeoutError:  # nothing finished yet: only the signals are polled
@@ -368,7 +536,9 @@ def search_seeds_distributed(session: DaskSession, raw_case: dict[str, Any], alg
             t_adopt += time.perf_counter() - t2
             per_piece.append(dt)
 
-    wait_all(futures, poll, adopt_in_order)
+    wait_all(futures, poll, adopt_in_order, session)
+    if session.lost is not None:  # the search is incomplete: no seeds (a failed start)
+        raise ValueError(f"start: {session.lost}")
     adopt_in_order()
     t_wall = time.perf_counter() - t1
     return {"seed_pieces": len(per_piece), "seed_pieces_s": per_piece,
@@ -406,7 +576,7 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
     futures = [[session.submit(branch_task, raw_case, i, i, explicit, problem_class, restart,
                                None if n == 1 else k, key=f"nsm-branch-{i}-{k}")
                 for k in range(n)] for i, n in enumerate(pieces)]
-    wait_all([f for fs in futures for f in fs], poll, advance)
+    wait_all([f for fs in futures for f in fs], poll, advance, session)
     results: list[tuple[Branch | None, float, dict[str, Any], str | None, Any]] = []
     for i, fs in enumerate(futures):
         try:
@@ -421,7 +591,9 @@ def run_distributed(session: DaskSession, raw_case: dict[str, Any], algorithm: A
                     progress(branch.n_points)
             results.append((branch, dt, counters, None, state))
         except Exception as exc:  # noqa: BLE001 - recorded on the branch, never raised
-            results.append((None, 0.0, {}, one_line(f"{type(exc).__name__}: {exc}"), None))
+            why = (session.lost if session.lost is not None and any(f.cancelled() for f in fs)
+                   else one_line(f"{type(exc).__name__}: {exc}"))
+            results.append((None, 0.0, {}, why, None))
     return merge_in_seed_order(algorithm, seeds, results)
 
 
@@ -431,7 +603,8 @@ def merge_in_seed_order(algorithm: Any, seeds: list[Any],
     """The serial loop's rule applied to results computed independently: in seed order, a
     seed that lies on an already accepted branch is skipped; the accepted branches are
     numbered ``0, 1, ...``; a failed task becomes a branch without points whose termination
-    names the failure. ``results``: ``(branch, seconds, counters, error)``, optionally with the
+    names the failure (a reason starting with :data:`NOT_COMPUTED`, as it is). ``results``:
+    ``(branch, seconds, counters, error)``, optionally with the
     task's state, which the algorithm adopts when its branch is accepted
     (:meth:`~nsm_continuation.algorithms.base.Algorithm.adopt_branch`), before the next seed."""
     branches: list[Branch] = []
@@ -444,8 +617,9 @@ def merge_in_seed_order(algorithm: Any, seeds: list[Any],
             skipped.append(algorithm.label(seed))
             continue
         if branch is None:
-            branch = Branch(len(branches), algorithm.label(seed), [], [],
-                            {"task": f"task failed on a worker: {error}"})
+            reason = (error if str(error).startswith(NOT_COMPUTED)
+                      else f"task failed on a worker: {error}")
+            branch = Branch(len(branches), algorithm.label(seed), [], [], {"task": reason})
         elif adopt is not None and rest:
             adopt(branch, rest[0])
         branch.id = len(branches)
