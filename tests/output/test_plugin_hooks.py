@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 import yaml
+from nsm_continuation.problems.chain.presentation import ChainPresentation
 
 from nsm_continuation import cli
-from problems.chain.ndof_impact import ChainPresentation
 
 CASE = {
     "name": "hooks",
