@@ -49,6 +49,7 @@ why and which workers were lost (:meth:`DaskSession.watch`); the branches comput
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -365,7 +366,36 @@ def check_scheduler(address: str, timeout: float | None = None) -> Any:
                                                       deadline - time.monotonic(), timeout)
     if why is not None:
         raise CaseError(f"{_SCHEDULER}: no Dask scheduler answers at {address}: {why}")
+    warn_if_unauthenticated(address)
     return security
+
+
+class UnauthenticatedClusterWarning(UserWarning):
+    """The scheduler is reached without TLS on another machine: whoever can reach it runs
+    code in this process's tasks, and sees them."""
+
+
+def warn_if_unauthenticated(address: str) -> None:
+    """One warning line when ``address`` is a plain (``tcp://``, ``ws://``) scheduler that is not
+    on this machine (a loopback address or ``localhost``): the cluster runs this process's
+    tasks, pickled Python, without authentication (README, "Who may do what")."""
+    import ipaddress
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address)
+    if parts.scheme not in ("tcp", "ws") or parts.hostname is None:
+        return
+    host = parts.hostname
+    try:
+        local = ipaddress.ip_address(host).is_loopback
+    except ValueError:  # a name
+        local = host == "localhost" or host.endswith(".localhost")
+    if not local:
+        warnings.warn_explicit(
+            f"{_SCHEDULER}: {address} is not this machine and {parts.scheme}:// is not "
+            "authenticated: the cluster runs this process's tasks (pickled Python) and anyone "
+            "who can reach it can too; use tls:// with Dask's security settings on a network "
+            "you do not control", UnauthenticatedClusterWarning, "nsm-continuation", 0)
 
 
 def _tcp_refusal(address: str, timeout: float) -> str | None:
