@@ -301,13 +301,11 @@ class EventLocator(EnginePart):
                 found.append(self._locate_test_presence(a, b, name, sv - a.s, b.s - a.s,
                                                         True))
             for lo, flo, hi, fhi in brackets:
-                p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
-                if not self._on_arc(a, b, p):
-                    if self.retry_allowed:
-                        raise RetryStep(f"test function '{name}' changes sign but its zero "
-                                         "is not on the step's arc")
-                    self.engine.unlocated_events += 1
+                located = self._zero_on_arc(a, b, fun, (lo, flo, hi, fhi),
+                                            f"test function '{name}'")
+                if located is None:
                     continue
+                p, w = located
                 leaving = flo >= 0 > fhi
                 kind = self.problem.monitors.kind(Source.TEST, name)
                 ev = Event(kind, p, f"test function '{name}' "
@@ -329,10 +327,25 @@ class EventLocator(EnginePart):
                                                     name in a.tests))
         return found, stops
 
+    def _zero_on_arc(self, a: Point, b: Point, fun: Callable[[Point], float],
+                     bracket: tuple[float, float, float, float], what: str
+                     ) -> tuple[Point, float] | None:
+        """The zero of ``fun`` in ``bracket`` located on the curve (:meth:`_locate_continuous`)
+        with its bracket width, or None (counted in ``unlocated_events``) when it is not on
+        the step's arc; :class:`RetryStep` instead where a shorter step may be tried."""
+        lo, flo, hi, fhi = bracket
+        p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
+        if self._on_arc(a, b, p):
+            return p, w
+        if self.retry_allowed:
+            raise RetryStep(f"{what} changes sign but its zero is not on the step's arc")
+        self.engine.unlocated_events += 1
+        return None
+
     def _event_function_events(self, a: Point, b: Point, history: list[Point]) -> list[Event]:
         """Zeros of the problem's event functions (:meth:`Problem.event_functions`) on the
         step, each located on the curve to ``event_tol`` (Illinois) and recorded with the kind
-        the kind the problem's monitors give it (default ``grazing``); they never stop the branch. A
+        the problem's monitors give it (default ``grazing``); they never stop the branch. A
         function missing or not finite at either end raises nothing, nor does one that is
         exactly zero at ``a`` (that zero was recorded by the step that reached it)."""
         found: list[Event] = []
@@ -346,13 +359,11 @@ class EventLocator(EnginePart):
 
             brackets, _ = self._sign_change_brackets(a, b, history, fun)
             for lo, flo, hi, fhi in brackets:
-                p, w = self._locate_continuous(a, b, fun, lo, flo, hi, fhi)
-                if not self._on_arc(a, b, p):
-                    if self.retry_allowed:
-                        raise RetryStep(f"event function '{name}' changes sign but its zero "
-                                         "is not on the step's arc")
-                    self.engine.unlocated_events += 1
+                located = self._zero_on_arc(a, b, fun, (lo, flo, hi, fhi),
+                                            f"event function '{name}'")
+                if located is None:
                     continue
+                p, w = located
                 if not abs(fun(p)) < min(abs(flo), abs(fhi)):
                     # the sign changed through a pole or a jump (e.g. a margin -v^2/(2a) as
                     # the acceleration at an impact passes zero), not a zero: no event
