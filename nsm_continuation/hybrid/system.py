@@ -282,7 +282,7 @@ class HybridSystem:
         blocks = [ca.vertcat(H, v, a, jerk) for H, v, a, jerk, *_ in parts]
         probe = blocks[0] if m == 1 else ca.vertcat(*blocks)
         fF, steps, probe_field, ext = _step_functions(
-            X, F, [(pt[7], pt[1]) for pt in parts], blocks, method)
+            X, F, [(pt[7], pt[1]) for pt in parts], blocks, [pt[0] for pt in parts], method)
         surfaces = []
         for i, (H, v, a, _jerk, LWH, r, lam, _Fs, R, Q1, q1, P, W) in enumerate(parts):
             fFs, fFe, probe_e, Xe = ext[i]
@@ -367,13 +367,15 @@ def probe_layout(m: int, active: int | None, extended: bool) -> list[int]:
 
 
 def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
-                    blocks: list[ca.SX], method: str) -> tuple[Any, ...]:
+                    blocks: list[ca.SX], Hs: list[ca.SX], method: str) -> tuple[Any, ...]:
     """The fields ``F``, ``F'_i`` of each surface ``i`` (``sticking[i] = (F'_i, v_i)``) and the
     scaled extended field of sec. 4.3, eq. (44) (``(X, h, u)``, ``h' = v_i/u``, ``u' = 0``), with
     one Runge-Kutta step of each and its exact Jacobian, each with its probe (the blocks
     ``(H, v, a, jerk)`` of every surface in the order of :func:`probe_layout`):
     ``(fF, steps, probe_field, ext)``; ``probe_field[key]`` gives the probe and the field of
-    ``key`` at a state in one call; ``ext[i] = (fFs_i, fFe_i, probe_e_i, Xe)``."""
+    ``key`` at a state in one call; ``ext[i] = (fFs_i, fFe_i, probe_e_i, Xe)``. While sticking
+    on surface ``i`` the other surfaces' blocks are Lie derivatives along ``F'_i`` (the field
+    integrated), so that each watched function's next entry is its time derivative."""
     hs, us = ca.SX.sym("h"), ca.SX.sym("u")
     Xe = ca.vertcat(X, hs, us)
     m = len(blocks)
@@ -387,7 +389,14 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         probe_e = ca.vertcat(blocks[i], hs, v / us, *others)
         fFs = ca.Function("Fs", [X], [Fs])
         fFe = ca.Function("Fe", [Xe], [Fe])
-        probe_s = blocks[i] if m == 1 else ca.vertcat(blocks[i], *others)
+        along = []
+        for j in range(m):
+            if j != i:
+                h = Hs[j]
+                vj = _lie(h, X, Fs)
+                aj = _lie(vj, X, Fs)
+                along.append(ca.vertcat(h, vj, aj, _lie(aj, X, Fs)))
+        probe_s = blocks[i] if m == 1 else ca.vertcat(blocks[i], *along)
         layouts += [(_key("stick", i), fFs, X, probe_s), (_key("ext", i), fFe, Xe, probe_e)]
         ext.append((fFs, fFe, probe_e, Xe))
     dt = ca.SX.sym("dt")
