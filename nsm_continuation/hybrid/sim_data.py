@@ -91,6 +91,8 @@ class SimResult:
     #: with ``a > 0`` (``-v^2 / (2a) < 0``: where the free flight continued through the wall
     #: would turn), in time order; each crosses zero where that approach becomes an impact
     grazing_margins: list[float] = field(default_factory=list)
+    #: the surface of each grazing margin (index into the system's surfaces)
+    grazing_surfaces: list[int] = field(default_factory=list)
     #: the surfaces' names of a system with several (None: one surface)
     surface_names: list[str] | None = None
 
@@ -110,6 +112,15 @@ class SimResult:
         if rivals.size and np.min(np.abs(rivals)) < separation * abs(g):
             return float("nan")
         return g
+
+    def grazing_surface(self) -> str | None:
+        """Name of the surface whose grazing margin is closest to zero (the margin of
+        :meth:`grazing_function`); None for a one-surface system or without margins."""
+        if self.surface_names is None or not self.grazing_margins:
+            return None
+        m = np.abs(np.asarray(self.grazing_margins, dtype=float))
+        m[~np.isfinite(m)] = np.inf
+        return self.surface_names[self.grazing_surfaces[int(np.argmin(m))]]
 
     @property
     def sticking_time(self) -> float:

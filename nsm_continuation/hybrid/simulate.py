@@ -134,6 +134,8 @@ class _Walk:
     seq: list[Any] = field(default_factory=list)
     #: signed grazing margins of the near approaches and decelerating impacts, in time order
     margins: list[float] = field(default_factory=list)
+    #: the surface of each margin
+    margin_surfaces: list[int] = field(default_factory=list)
     #: unit normal (position components) of the surface at the impact that began the current
     #: chattering flight (:meth:`Simulator._same_contact`)
     seq_normal: np.ndarray | None = None
@@ -520,6 +522,7 @@ class Simulator(Transitions):
         if info.get("near_approach") is not None:
             w.graze = min(w.graze, info["near_approach"])
             w.margins.append(info["near_approach"])
+            w.margin_surfaces.append(surface)
         if info.get("chatter_count") is not None:
             w.chatter_counts.append(info["chatter_count"])
         if mode == S4 and newmode != S4 and w.stick_start is not None:
@@ -634,7 +637,7 @@ class Simulator(Transitions):
             min_impact_velocity=float(w.vmin), grazing_margin=float(w.graze),
             chatter_errors=w.chatter_errors, trajectory=w.traj, n_steps=w.n_steps,
             ended_by=ended_by, extremes=np.column_stack([w.lo, w.hi]),
-            grazing_margins=list(w.margins),
+            grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
             surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
 
     def _gx(self, name: str, idx: int, Y: np.ndarray, surface: int) -> np.ndarray:

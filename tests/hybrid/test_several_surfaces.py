@@ -193,3 +193,22 @@ def test_declarations_name_what_is_wrong() -> None:
     # a column of constraints in the generic constructor, one W column per surface
     two = HybridSystem.mechanical("s", q, qd, p, ca.SX(1.0), -q, [p["d"] - q, p["d"] + q], 0.5)
     assert two.m == 2 and two.surface_names == ["H1", "H2"] and two.W.shape == (2, 2)
+
+
+def test_grazing_margin_names_its_surface() -> None:
+    """The grazing margin closest to zero is attributed to its surface: recomputed from the
+    events (a turn of ``v`` off a surface: ``H`` there; an impact with ``a > 0``:
+    ``-v^2 / (2a)``), each on the surface the event names."""
+    c = two_sided("surfaces", 0.8, amp=1.5).compile({"omega": 0.8})
+    res = Simulator(c, SimOptions()).run(np.array([0.3, 0.1, 0.0]), t_end=60.0)
+    margins = []
+    for ev in res.events:
+        if "H" in ev.info:
+            margins.append((float(ev.info["H"]), ev.surface))
+        elif ev.kind == "impact" and ev.info["a"] > 0:
+            margins.append((-ev.info["v"] ** 2 / (2 * ev.info["a"]), ev.surface))
+    assert len(margins) == len(res.grazing_margins) >= 5
+    assert {s for _, s in margins} == {0, 1}
+    value, surface = min(margins, key=lambda m: abs(m[0]))
+    assert res.grazing_surface() == ["upper", "lower"][surface]
+    assert abs(value) == pytest.approx(min(abs(m) for m in res.grazing_margins), rel=1e-15)
