@@ -499,7 +499,8 @@ class Simulator(Transitions):
         self._apply_transition(w, name, pre, surface)
         return False
 
-    def _apply_transition(self, w: _Walk, name: str, pre: np.ndarray, surface: int) -> None:
+    def _apply_transition(self, w: _Walk, name: str, pre: np.ndarray, surface: int,
+                          coincident: bool = True) -> None:
         """Apply the transition of ``name`` on ``surface`` in its current state
         (:meth:`_transition`) and keep the walk's bookkeeping (impacts, sticking intervals,
         the surfaces' states, next step size). An impact on another surface than the one that
@@ -542,6 +543,8 @@ class Simulator(Transitions):
         self._relayout(w)
         if name in ("H", "h") and self.c.m > 1:
             self._reclassify_others(w, surface)
+        if name == "v" and coincident and self.c.m > 1:
+            self._coincident_turns(w, surface)
         if newmode in EXTENDED and name in ("H", "h"):
             # next flight lasts about 2u/|a| (constant acceleration)
             u, a = w.Y[self.c.N + 1], w.pr[2]
@@ -561,6 +564,26 @@ class Simulator(Transitions):
                 w.modes[j], changed = new, True
         if changed:
             self._relayout(w, probe=False)
+
+    def _coincident_turns(self, w: _Walk, surface: int) -> None:
+        """Turns of ``v`` of other surfaces at the instant of the turn on ``surface`` (parallel
+        constraints such as a floor and a ceiling turn together: ``v_floor = -v_ceiling``).
+        At the located turn their ``v`` is zero to round-off, and a round-off sign would hide
+        their crossing from the next step (a lost near approach): each is fired here, in the
+        direction its ``a`` gives."""
+        tiny = 1e-12 * (1.0 + float(np.max(np.abs(w.Y[: self.c.n]))))
+        fired = set(w.just)
+        for j, mode in enumerate(w.modes):
+            if j == surface or mode not in (S1, S2, S5, S6) or ("v", j) in fired:
+                continue
+            off = w.offsets[j]
+            v, a = float(w.pr[off + 1]), float(w.pr[off + 2])
+            if abs(v) > tiny:
+                continue
+            if (mode in (S1, S5) and a < 0) or (mode in (S2, S6) and a > 0):
+                self._apply_transition(w, "v", w.pr, j, coincident=False)
+                fired |= w.just
+        w.just = fired
 
     #: cosine of the angle between the surface's normals beyond which two impacts of one
     #: constraint are on different parts of it (:meth:`Simulator._same_contact`)

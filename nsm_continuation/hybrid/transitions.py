@@ -65,7 +65,7 @@ class Transitions:
             # J at the turn: the grazing normal form (:mod:`.grazing`) needs the
             # gradient of H_min = H(x(t_turn)) (dH/dt = v = 0 there) and the tail sensitivity
             events.append(SimEvent("near_approach", t, Y[: c.n].copy(),
-                                   {"H": float(pr[0]), "J": None if J is None else J.copy()},
+                                   {"H": float(pr[0]), "J": None if J is None else J[:N].copy()},
                                    surface=surface))
             return S1, Y, J, Jt, t, info
         if mode == S3 and name == "a":                                  # XII

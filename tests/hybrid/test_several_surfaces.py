@@ -212,3 +212,22 @@ def test_grazing_margin_names_its_surface() -> None:
     value, surface = min(margins, key=lambda m: abs(m[0]))
     assert res.grazing_surface() == ["upper", "lower"][surface]
     assert abs(value) == pytest.approx(min(abs(m) for m in res.grazing_margins), rel=1e-15)
+
+
+def test_near_approach_of_one_surface_during_a_chattering_flight_on_another() -> None:
+    """A ball thrown down from ``q = 0.2`` with the energy of a drop from ``h = 1`` onto a floor
+    (``e = 0.5``) rises to ``e^2 h = 0.25`` below a ceiling at 0.3: the ceiling's near approach
+    (``H = 0.05``) happens inside the floor's chattering flight (the extended state of sec.
+    4.3), and its sensitivities are those of the state (``N x N``), not of the extended
+    state."""
+    q, qd = ca.SX.sym("q"), ca.SX.sym("qd")
+    p = {"g": ca.SX.sym("g")}
+    sys = HybridSystem.mechanical("ball", q, qd, p, ca.SX(1.0), -p["g"], [q, 0.3 - q], 0.5,
+                                  surfaces=["floor", "ceiling"])
+    c = sys.compile({"g": 9.81})
+    res = Simulator(c, SimOptions()).run(np.array([0.2, -np.sqrt(2 * 9.81 * 0.8)]), t_end=0.5)
+    near = [ev for ev in res.events if ev.kind == "near_approach"]
+    assert len(near) == 1 and near[0].surface == 1
+    assert near[0].info["H"] == pytest.approx(0.3 - 0.25, abs=1e-10)
+    assert near[0].info["J"].shape == (c.N, c.N)
+    assert res.grazing_surface() == "ceiling"
