@@ -94,12 +94,13 @@ def normal_form(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray) -> Norma
         _, Gy = sh.residual_jacobian(yn)
         ev = res.events[grazing_approach(res)]  # type: ignore[index]
         Xg = np.concatenate([ev.x, sh.x0(yn)[c.n:]])
-        grad_h = (np.asarray(c.grads(Xg), dtype=float)[0] @ ev.info["J"])[cols]
+        sf = c.surfaces[ev.surface]
+        grad_h = (np.asarray(sf.grads(Xg), dtype=float)[0] @ ev.info["J"])[cols]
         tail = sh.sim.run(Xg, section=(sec.index, sec.value + sec.shift, sec.direction))
     except (ShootingFailure, SimulationError, np.linalg.LinAlgError):
         return None
-    a = float(np.asarray(c.probe(Xg), dtype=float).ravel()[2])
-    u = (tail.J @ (-np.asarray(c.jump(Xg), dtype=float).ravel()))[fi]
+    a = float(np.asarray(c.probe(Xg), dtype=float).ravel()[4 * ev.surface + 2])
+    u = (tail.J @ (-np.asarray(sf.jump(Xg), dtype=float).ravel()))[fi]
     n = len(fi)
     A = np.zeros((n + 1, n + 2))
     A[:n, : n + 1] = Gy
@@ -142,11 +143,11 @@ def margin_gradient(sh: HybridShooting, y: np.ndarray) -> tuple[float, np.ndarra
         X = np.concatenate([ev.x, sh.x0(y)[c.n:]])
         if "H" in ev.info:  # a turn of v off the surface
             value = float(ev.info["H"])
-            row = np.asarray(c.grads(X), dtype=float)[0]
+            row = np.asarray(c.surfaces[ev.surface].grads(X), dtype=float)[0]
         elif "v" in ev.info and ev.info["a"] > 0:  # a decelerating impact
             v, a = float(ev.info["v"]), float(ev.info["a"])
             value = -v * v / (2 * a)
-            gr = np.asarray(c.grads(X), dtype=float)
+            gr = np.asarray(c.surfaces[ev.surface].grads(X), dtype=float)
             row = (-v / a) * gr[1] + (v * v / (2 * a * a)) * gr[2]
         else:
             continue
