@@ -217,7 +217,8 @@ def test_continued_orbits_are_the_closed_form(sys: tw.TwoWall, omega: float, bra
                                               window: tuple[float, float], visits: set[int],
                                               encoding: str) -> None:
     """Every point of a continuation with the package (its Python API) is a symmetric orbit
-    of the closed form: its state at the point's section phase to 1e-9, period ``2 pi /
+    of the closed form: its state at the point's section phase to 1e-9 (1e-11 over the
+    distance of the nearest multiplier from 1 next to a fold or pitchfork), period ``2 pi /
     omega``, multipliers to 1e-8 (relative to the largest)."""
     pb = _problem(sys, omega, encoding)
     start = np.append(tw.state_at(tw.orbit(sys, omega, branch), PHASE), omega)
@@ -234,7 +235,11 @@ def test_continued_orbits_are_the_closed_form(sys: tw.TwoWall, omega: float, bra
         dist, o = min(((np.abs(tw.state_at(o, b["section_phase"][i]) - y).max(), o)
                        for o in tw.orbits(sys, om)), key=lambda t: t[0])
         branches.add(o.branch)
-        assert dist < 1e-9, f"omega = {om}: state {y} is {dist:.2e} from the closed form"
+        # a fixed point's error is the period map's (integration, ~1e-12) over the distance of
+        # the multipliers from 1: 1e-9 but within 1e-2 of a fold or pitchfork (~1e-9 at 1e-3)
+        gap = np.abs(o.multipliers - 1.0).min()
+        assert dist * min(1.0, 100 * gap) < 1e-9, (
+            f"omega = {om}: state {y} is {dist:.2e} from the closed form ({gap:.1e} from 1)")
         assert b["period"][i] == pytest.approx(2 * np.pi / om, rel=1e-12)
         mu = np.asarray(b.multipliers[i])
         scale = max(1.0, np.abs(o.multipliers).max())
