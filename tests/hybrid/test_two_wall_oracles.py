@@ -10,8 +10,6 @@ branches, for each way of declaring the two walls the hybrid layer accepts.
 
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 import pytest
 from helpers import msd
@@ -22,7 +20,6 @@ from pydantic import ValidationError
 
 import nsm_continuation as nsm
 from nsm_continuation.cases import registry
-from nsm_continuation.hybrid.system import HybridSystem
 
 #: the bundled cases' parameters (yaml_cases/two_sided_oscillator.yaml, impact_damper.yaml)
 OSC = {"zeta": 0.05, "clearance": 0.5, "restitution": 0.6}
@@ -172,12 +169,8 @@ def test_grazing_ends_the_physical_family(damper_events) -> None:
 
 
 # ------------------------------------------------------------- the package's plugins
-def _surfaces_declared() -> bool:
-    return "surfaces" in inspect.signature(HybridSystem.mechanical).parameters
-
-
-ENCODINGS = ["single", pytest.param("surfaces", marks=pytest.mark.skipif(
-    not _surfaces_declared(), reason="HybridSystem.mechanical takes one constraint"))]
+#: the two walls as two constraints, or as one whose zero set is both
+ENCODINGS = ["surfaces", "single"]
 
 
 def test_registered() -> None:
@@ -245,3 +238,22 @@ def test_continued_orbits_are_the_closed_form(sys: tw.TwoWall, omega: float, bra
         scale = max(1.0, np.abs(o.multipliers).max())
         assert msd(mu, o.multipliers) < 1e-8 * scale, f"omega = {om}: {mu} vs {o.multipliers}"
     assert branches == visits
+
+
+@pytest.mark.parametrize(("cls", "params", "sys"), [
+    (ImpactDamperProblem, {}, damper()), (ImpactDamperProblem, {"zeta": 0.05},
+                                          damper(DAMPED_DAMPER)),
+    (TwoSidedOscillatorProblem, {}, osc())], ids=["damper", "damped-damper", "oscillator"])
+def test_default_start_settles_on_the_symmetric_orbit(cls, params: dict[str, float],
+                                                      sys: tw.TwoWall) -> None:
+    """From ``default_initial`` (the ball moving in the middle of its cavity; the oscillator at
+    rest) a transient of 100 periods at the default omega = 2 ends on the stable symmetric
+    orbit of the closed form."""
+    pb = cls({"omega": 2.0, **params})
+    res = nsm.continuation(pb, {"transient": 100}, min=1.99, max=2.01, max_points=3)
+    b = res.branches[0]
+    names = pb.variables[:-1]
+    for i in range(len(b)):
+        y = np.array([b[f"y_{n}"][i] for n in names])
+        o = tw.orbit(sys, b["omega"][i], -1)
+        assert np.abs(tw.state_at(o, b["section_phase"][i]) - y).max() < 1e-9
