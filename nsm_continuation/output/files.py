@@ -205,6 +205,39 @@ def presentation_warnings(problem: Any, failures: list[str]) -> list[str]:
     return call_hook(problem, "warnings", lambda: pres.warnings(), _str_list, [], failures)
 
 
+def _problem_parts(res: RunResult, branches: list[dict[str, Any]], failures: list[str]
+                   ) -> tuple[dict[str, Any], dict[str, Any], list[str]]:
+    """The problem's summary and results (its presentation hooks, guarded) and the run's
+    warnings: the hooks' failures, the problem's warnings, what ``output.orbits`` cannot
+    draw, and the branches whose trivial multiplier drifts."""
+    pr = res.problem
+    pres = pr.presentation
+    warnings = presentation_warnings(pr, failures)
+    summary_part = call_hook(pr, "summary", lambda: pres.summary(), _json_dict, {}, failures)
+    extras = call_hook(pr, "report_extras", lambda: pres.report_extras(res.branches),
+                       _json_dict, {}, failures)
+    warnings = [*failures, *warnings]
+    if res.case.output.orbits is not None:
+        from nsm_continuation.figures.orbit_selection import spec_warnings
+
+        warnings += spec_warnings(res)
+    for b in branches:
+        err = b["max_trivial_multiplier_error"]
+        if err is not None and err > 1e-6:
+            warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
+                            " multipliers near the unit circle are not reliable there")
+    return summary_part, extras, warnings
+
+
+def unchecked_note(res: RunResult) -> str | None:
+    """What the run's algorithm does not check (:attr:`Algorithm.unchecked
+    <nsm_continuation.algorithms.base.Algorithm.unchecked>`), or None."""
+    from nsm_continuation.algorithms.registry import ALGORITHMS
+
+    algorithm = ALGORITHMS.get(res.case.continuation.algorithm or res.problem.algorithms[0])
+    return None if algorithm is None else algorithm.unchecked
+
+
 def build_report(res: RunResult, folder: str | None = None,
                  failures: list[str] | None = None) -> dict[str, Any]:
     """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
@@ -246,20 +279,16 @@ def build_report(res: RunResult, folder: str | None = None,
             "events": events,
         })
     s = res.settings
-    warnings = presentation_warnings(pr, failures)
-    summary_part = call_hook(pr, "summary", lambda: pres.summary(), _json_dict, {}, failures)
-    extras = call_hook(pr, "report_extras", lambda: pres.report_extras(res.branches),
-                       _json_dict, {}, failures)
-    warnings = [*failures, *warnings]
-    if res.case.output.orbits is not None:
-        from nsm_continuation.figures.orbit_selection import spec_warnings
-
-        warnings += spec_warnings(res)
-    for b in branches:
-        err = b["max_trivial_multiplier_error"]
-        if err is not None and err > 1e-6:
-            warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
-                            " multipliers near the unit circle are not reliable there")
+    saved = res.saved_report
+    if saved is not None:  # read back: what the problem said at the end of the run
+        warnings = list(saved.get("warnings", []))
+        summary_part = saved.get("problem_summary", {})
+        extras = saved.get("problem_results", {})
+    else:
+        summary_part, extras, warnings = _problem_parts(res, branches, failures)
+        note = unchecked_note(res)
+        if note is not None:
+            warnings.append(note)
     rep = {
         "case": {"name": res.case.name, "description": res.case.description,
                  "input": res.case.model_dump(mode="json")},

@@ -12,11 +12,11 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from oracles.linear_flight import free_flight
 from scipy.optimize import brentq
 
 from nsm_continuation.hybrid.simulate import SimOptions, SimulationError, Simulator
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
-from tests.oracles.linear_flight import free_flight
 
 D, ZETA, E = 1.0, 0.05, 0.7
 
