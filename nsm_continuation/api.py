@@ -4,7 +4,7 @@
 
     import nsm_continuation as nsm
 
-    case = nsm.load_case("ndof_default")             # a bundled case, a YAML path or a dict
+    case = nsm.load_case("ndof_default")                        # a bundled case, a path, a dict
     result = nsm.run(case)
     branch = result.branches[0]
     branch["omega"], branch["energy"]                           # numpy arrays, one per column
@@ -16,7 +16,8 @@
     flip = nsm.run("chain_two_mass_wall")
     period2 = flip.restart(event="period_doubling", switch=True)  # the period-2 family
 
-    problem = nsm.problem("ndof_impact", {"chain": {"n": 3, "mass": 1, "stiffness": 1}})
+    problem = nsm.problem("ndof_impact", {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0},
+                                          "gap": 1.0})
     result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
 
 A case is validated exactly as on the command line

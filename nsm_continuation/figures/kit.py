@@ -18,6 +18,7 @@ instead of laying every label out twice.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
@@ -101,12 +102,23 @@ _GRID_KEYS = ("sharex", "sharey", "squeeze", "width_ratios", "height_ratios", "s
               "gridspec_kw")
 
 
+class NotebookFigure(Figure):
+    """A :class:`~matplotlib.figure.Figure` that Jupyter shows as a PNG when it is a cell's
+    value, also where ``pyplot`` (which registers matplotlib's own display) was never
+    imported."""
+
+    def _repr_png_(self) -> bytes:
+        buf = io.BytesIO()
+        self.savefig(buf, format="png", bbox_inches="tight")
+        return buf.getvalue()
+
+
 def figure(**kw: Any) -> Figure:
-    """A new :class:`~matplotlib.figure.Figure` (``kw``: its ``figsize``, ``dpi``, ``layout``,
-    ...) with its own Agg canvas, outside ``pyplot``: no backend is chosen and ``pyplot``'s
-    figures are not touched (module docstring). It can be saved (``fig.savefig``), drawn
-    (``fig.canvas.draw()``) and shown by Jupyter as the value of a cell."""
-    fig = Figure(**kw)
+    """A new figure (``kw``: its ``figsize``, ``dpi``, ``layout``, ...) with its own Agg
+    canvas, outside ``pyplot``: no backend is chosen and ``pyplot``'s figures are not touched
+    (module docstring). It can be saved (``fig.savefig``), drawn (``fig.canvas.draw()``) and
+    shown by Jupyter as the value of a cell (:class:`NotebookFigure`)."""
+    fig = NotebookFigure(**kw)
     FigureCanvasAgg(fig)
     return fig
 

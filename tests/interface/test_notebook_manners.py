@@ -54,15 +54,17 @@ case = {SMALL!r}
 res = nsm_continuation.run(case)
 fig = res.plot()
 orbits = res.plot_orbits(points=["first", "last"], view="phase")
-res.save({str(tmp_path / "run")!r})
+res.save({str(tmp_path / "run")!r})  # every figure of the run, the problem's own included
+png = fig._repr_png_()  # what Jupyter shows of a cell's value
 after = (matplotlib.get_backend(), plt.get_fignums())
 print(json.dumps({{"before": before, "after": after, "drawn": len(fig.axes[0].get_lines()),
-                  "orbits": len(orbits.axes[0].get_lines())}}))
+                  "orbits": len(orbits.axes[0].get_lines()), "png": png[:8].hex()}}))
 """
     out = json.loads(run_fresh(code, tmp_path).strip().splitlines()[-1])
     assert out["before"] == ["svg", [1]]
     assert out["after"] == out["before"]
     assert out["drawn"] > 0 and out["orbits"] > 0
+    assert bytes.fromhex(out["png"]) == b"\x89PNG\r\n\x1a\n"
     assert (tmp_path / "run" / "fep.png").stat().st_size > 10_000
 
 
