@@ -266,17 +266,22 @@ def _settings(rep: dict[str, Any], case: Case, problem: Problem
 def _problems(record: RunRecord, case: Case) -> tuple[Problem, dict[int, Problem]]:
     """The run's problem and the problems of branches computed with another one (a switched
     branch of a diagram: its period multiple), built as a restart from the run's own record
-    would build them; for an algorithm that cannot restart, the case's problem."""
+    would build them; for an algorithm that cannot restart, or where that restart is refused,
+    the case's problem (:func:`_case_problem`)."""
     from nsm_continuation.algorithms.registry import ALGORITHMS
     from nsm_continuation.cases import registry
     from nsm_continuation.cases.validation import validate
 
-    cls = registry.get(str(record.restart["problem"]))
+    name = str(record.restart["problem"])
+    try:
+        cls = registry.get(name)
+    except registry.UnknownProblemError:
+        raise CaseError(f"problem {name!r} is not registered here (nsm-continuation list): a "
+                        "run of a problem class the registry does not know cannot be read "
+                        "back") from None
     algorithm = ALGORITHMS.get(case.continuation.algorithm or cls.algorithms[0])
     if algorithm is not None and not algorithm.takes_start_points:
-        raw = json.loads(json.dumps(record.case_input))
-        raw["output"] = {**raw.get("output", {}), "plots": False, "progress": False}
-        return validate(raw)[1], {}
+        return _case_problem(record, cls), {}
     by_multiple: dict[int, Problem] = {}
     per_branch: dict[int, Problem] = {}
     for b in record.restart["branches"]:
@@ -286,15 +291,37 @@ def _problems(record: RunRecord, case: Case) -> tuple[Problem, dict[int, Problem
         if key not in by_multiple:
             start = {"from": record.label, "branch": int(b["id"]),
                      "point": int(b["n_points"]) // 2}
-            by_multiple[key] = validate({"start": start,
-                                         "output": {"plots": False, "progress": False}},
-                                        restart_record=record)[1]
+            try:
+                by_multiple[key] = validate({"start": start,
+                                             "output": {"plots": False, "progress": False}},
+                                            restart_record=record)[1]
+            except CaseError:  # e.g. a start check the saved point does not pass
+                by_multiple[key] = _case_problem(record, cls)
         per_branch[int(b["id"])] = by_multiple[key]
-    if not per_branch:  # no branch with points: the problem of the saved parameters
-        params = cls.Parameters.model_validate(record.restart["parameters"])
-        return cls(params), {}
+    if not per_branch:  # no branch with points
+        return _case_problem(record, cls), {}
     main = next(iter(per_branch.values()))
     return main, {i: p for i, p in per_branch.items() if p is not main}
+
+
+def _case_problem(record: RunRecord, cls: type[Problem]) -> Problem:
+    """The problem of the saved case as ``nsm-continuation validate`` builds it, else (a
+    restart case, whose run it started from may be gone) of the run's full parameters."""
+    from nsm_continuation.cases.validation import validate
+
+    raw = json.loads(json.dumps(record.case_input))
+    start = raw.get("start")
+    if not (isinstance(start, dict) and "from" in start):
+        raw["output"] = {**raw.get("output", {}), "plots": False, "progress": False}
+        try:
+            return validate(raw)[1]
+        except CaseError:
+            pass
+    try:
+        return cls(cls.Parameters.model_validate(record.restart["parameters"]))
+    except (ValueError, ArithmeticError) as exc:
+        raise CaseError(f"its parameters do not build problem {cls.name!r} "
+                        f"({short_text(str(exc), 200)})") from None
 
 
 def load_result(source: str | Path) -> tuple[RunResult, dict[str, Any]]:

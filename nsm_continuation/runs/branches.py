@@ -52,12 +52,15 @@ class _LineProgress:
 
 
 def progress_bar(desc: str, total: int) -> Any:
-    """A progress bar of ``total`` points that shows wherever it is asked for: tqdm's
-    (``tqdm.auto``: a widget in a Jupyter notebook, text in a terminal, also without a TTY),
+    """A progress bar of ``total`` points that shows wherever it is asked for: tqdm's (text on
+    a terminal; elsewhere ``tqdm.auto``: a widget in a Jupyter notebook, text without a TTY),
     else a plain line (:class:`_LineProgress`). Whether to show one at all is the caller's
     choice (the command line: only on a terminal)."""
     try:
-        from tqdm.auto import tqdm
+        if sys.stderr.isatty():  # a terminal: the text bar (tqdm.auto would import IPython)
+            from tqdm import tqdm
+        else:
+            from tqdm.auto import tqdm
     except ImportError:
         return _LineProgress(desc, total)
     # no monitor thread: a process without threads may draw its figures in a forked child

@@ -11,14 +11,18 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
+import casadi as ca
 import numpy as np
 import pytest
+from helpers import NoParameters
+from pydantic import BaseModel
 
 import nsm_continuation as nsm
 from nsm_continuation.cases.saved_runs import MARKER, sha256
 from nsm_continuation.core.errors import CaseError
+from nsm_continuation.core.problem import Problem
 from nsm_continuation.output.files import _f
 
 #: the chain near omega_1 (Fig. 5.1, branch 1): folds, period doublings, stability changes,
@@ -168,3 +172,27 @@ def test_a_run_of_a_newer_format_is_one_line(saved, tmp_path: Path) -> None:
     with pytest.raises(CaseError, match=r"^load: .* holds a restart record of version 2; "
                                         r"this version reads 1$"):
         nsm.load(newer)
+
+
+class _Circle(Problem):
+    """``x^2 + p^2 = 1``, a problem no registry knows."""
+
+    name: ClassVar[str] = "unregistered_circle"
+    Parameters: ClassVar[type[BaseModel]] = NoParameters
+
+    def __init__(self, params: BaseModel | None = None) -> None:
+        super().__init__(params or NoParameters())
+        self.variables = ["x", "p"]
+        self.parameter = "p"
+
+    def residual(self, y: Any) -> Any:
+        return ca.vertcat(y[0] ** 2 + y[1] ** 2 - 1.0)
+
+
+def test_a_run_of_an_unregistered_problem_is_one_line(tmp_path: Path) -> None:
+    res = nsm.continuation(_Circle(), [0.6, 0.8], min=-0.9, max=0.9, max_points=5)
+    folder = res.save(tmp_path / "circle", plots=False)
+    with pytest.raises(CaseError, match=r"^load: .*: the run's problem cannot be rebuilt "
+                                        r"\(problem 'unregistered_circle' is not registered"):
+        nsm.load(folder)
+
