@@ -120,8 +120,8 @@ class _Layout:
                    slice(y0, y0 + len(ys)), len(mult) // 2)
 
 
-def _point(row: list[Any], lay: _Layout, derived_order: list[str], variables: list[str],
-           cols: list[str], tol: float) -> Point:
+def _point(row: list[Any], lay: _Layout, derived_order: list[str], cols: list[str],
+           tol: float) -> Point:
     """The point of one CSV row (its cells already :func:`_cell`)."""
     cell = dict(zip(cols, row, strict=True))
     y = np.array(row[lay.y], dtype=float)
@@ -160,8 +160,8 @@ def _derived_order(events: list[dict[str, Any]], lay: _Layout, variables: list[s
     return order
 
 
-def _event(rec: dict[str, Any], saved: dict[str, Any], points: list[Point],
-           derived_order: list[str], tol: float) -> Event:
+def _event(rec: dict[str, Any], saved: dict[str, Any], points: list[Point], tol: float
+           ) -> Event:
     """An event from its ``report.json`` record ``rec`` and its restart record ``saved``."""
     keys = list(rec)
     data_keys = keys[keys.index("location_bracket") + 1:keys.index("y")] \
@@ -228,7 +228,7 @@ def _branch(rep_b: dict[str, Any], rec_b: dict[str, Any], record: RunRecord,
         raise CaseError(f"{where}: {len(rows)} rows, the report says {rec_b['n_points']}")
     lay = _Layout.of(cols, variables, where)
     order = _derived_order(rep_b["events"], lay, variables, problem.monitor_names())
-    points = [_point(r, lay, order, variables, cols, tol) for r in rows]
+    points = [_point(r, lay, order, cols, tol) for r in rows]
     for move in rec_b.get("charts", []):
         for p in points[int(move["from_row"]):]:
             p.chart = dict(move["chart"]) or None
@@ -236,7 +236,7 @@ def _branch(rep_b: dict[str, Any], rec_b: dict[str, Any], record: RunRecord,
         raise CaseError(f"load: {record.label}/report.json: branch {rep_b['id']} lists "
                         f"{len(rep_b['events'])} events and {len(rec_b['events'])} restart "
                         "records")
-    events = [_event(rec, saved, points, order, tol)
+    events = [_event(rec, saved, points, tol)
               for rec, saved in zip(rep_b["events"], rec_b["events"], strict=True)]
     return Branch(int(rep_b["id"]), rep_b["label"], points, events,
                   dict(rep_b.get("termination_by_direction") or {}), dict(rep_b["info"]))
