@@ -73,8 +73,12 @@ def _visible_name(name: str) -> str:
 
 class StepSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: the first pseudo-arclength step (arclength in the scaled unknowns)
     initial: PosFloat = 1e-2
+    #: the smallest step: a branch whose step falls below it ends, with the reason
     min: PosFloat = 1e-9
+    #: the largest step (the step grows with easy Newton solves and shrinks at
+    #: events, turning tangents and moving multipliers)
     max: PosFloat = 0.2
 
     @model_validator(mode="after")
@@ -94,13 +98,25 @@ class ContinuationSpec(BaseModel):
     #: (``Problem.case_parameter``, else ``Problem.parameter``), resolved by :func:`validate`
     #: once the problem is built
     parameter: str | None = None
+    #: lower edge of the window of the continued parameter (a branch ends there with
+    #: an ``endpoint``); default none
     min: Finite | None = None
+    #: upper edge of the window of the continued parameter; default none
     max: Finite | None = None
+    #: the pseudo-arclength step sizes
     step: StepSpec = StepSpec()
+    #: points per direction of each branch, at most
     max_points: Annotated[int, Field(ge=2, le=MAX_POINTS, strict=True)] = 400
+    #: a branch ends when the energy (the problem's ``energy_quantity``) exceeds it
     max_energy: PosFloat | None = None
+    #: which way along ``continuation.parameter`` a branch is followed from its
+    #: start (a problem whose internal parameter runs the other way turns it round:
+    #: ``Problem.parameter_orientation``)
     direction: Literal["both", "increase", "decrease"] = "both"
+    #: tolerance of the corrector's Newton iteration, on the step and the residual
+    #: relative to the unknowns
     newton_tol: PosFloat = 1e-11
+    #: the largest turn of the tangent in one step (radians)
     max_angle: PosFloat = 0.25
     #: bounds on derived quantities ``{name: [min, max]}`` (null for none), e.g.
     #: ``period: [null, 60]``; the branch stops where one is reached (an event of the kind the
@@ -139,7 +155,9 @@ class BranchSwitchingSpec(BaseModel):
     deep, into the same run."""
 
     model_config = ConfigDict(extra="forbid")
+    #: generations of switched branches (children of children ...)
     depth: Annotated[int, Field(ge=1, le=MAX_DIAGRAM_DEPTH, strict=True)] = 1
+    #: the event kinds at which the branch born there is followed
     kinds: Annotated[list[Literal["period_doubling", "branch_point"]], Field(min_length=1),
                      AfterValidator(_unique)] = list(DIAGRAM_KINDS)
     #: at most this many branches in the run (root branches included); the events beyond it
@@ -153,13 +171,24 @@ class AnalysisSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     #: follow the branches born at detected points, recursively (a bifurcation diagram)
     branch_switching: BranchSwitchingSpec | None = None
+    #: Floquet multipliers at every admissible point (and the events they locate)
     stability: Bool = True
+    #: locate folds, branch points and multiplier crossings
     bifurcations: Bool = True
+    #: end a branch where it loses admissibility (at the grazing), instead of
+    #: following its phantom (non-physical) part
     stop_on_inadmissible: Bool = False
+    #: also compute the multipliers of phantom (inadmissible) orbits
     stability_on_phantom: Bool = False
+    #: a multiplier with ``|lambda| > 1 + unit_circle_tol`` counts as outside the unit
+    #: circle (raised to ``1e3 eps |DF|`` where the matrix is large)
     unit_circle_tol: PosFloat = 1e-7
+    #: location tolerance of events, in arclength
     event_tol: PosFloat = 1e-12
+    #: bracket of the bisection on the count of multipliers outside the circle that
+    #: detects a crossing (before it is located on the modulus)
     multiplier_event_tol: PosFloat = 1e-9
+    #: the largest move of a multiplier near the unit circle in one step
     max_multiplier_step: PosFloat = 0.02
 
 
@@ -190,23 +219,35 @@ class OrbitsSpec(BaseModel):
     the paper figure it reproduces), put in its title."""
 
     model_config = ConfigDict(extra="forbid")
+    #: the points whose orbits are drawn: ``first``, ``last`` (of each branch),
+    #: ``events`` (every located event but the branch ends), an event kind, or a number (the
+    #: point nearest that value of ``continuation.parameter``)
     points: Annotated[list[Name | Finite], Field(min_length=1, max_length=MAX_ORBIT_POINTS)
                       ] = ["first", "last"]
+    #: the figures: ``time`` (``orbits_time.png``, signals against t / T), ``phase``
+    #: (``orbits_phase.png``), ``manifold`` (``manifold.png``, orbits spread along the first
+    #: branch in 3-D)
     views: Annotated[list[OrbitView], Field(min_length=1), AfterValidator(_unique)] = [
         "time", "phase"]
+    #: periods drawn per orbit
     periods: Annotated[int, Field(ge=1, le=MAX_ORBIT_PERIODS, strict=True)] = 1
+    #: signals of the time view drawn as ``|value|`` on a log scale
     log: list[Name] = []
     #: the branches (ids, as in ``branch_<id>.csv``) the points and the manifold are taken
     #: from; default every branch (the manifold: the first with points)
     branches: Annotated[list[Annotated[int, Field(ge=0, strict=True)]], Field(min_length=1),
                         AfterValidator(_unique)] | None = None
+    #: a caption per view, put in its title (e.g. ``{time: "Fig. 5.2"}``)
     figures: dict[OrbitView, Annotated[str, Field(max_length=200, strict=True)]] = {}
 
 
 class OutputSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: the output folder (default ``runs/<name>``; ``--out`` overrides it)
     dir: Annotated[str, Field(min_length=1, strict=True)] | None = None
+    #: draw the figures (the CSVs and reports are always written)
     plots: Bool = True
+    #: a progress bar on stderr (the command line draws it on a terminal only)
     progress: Bool = True
     #: an existing output folder holding a previous run: refuse (error), replace the files that
     #: run wrote (overwrite, as ``--overwrite``), or write to a numbered sibling (new)
@@ -319,10 +360,16 @@ class ExecutionSpec(BaseModel):
     branches with that reason instead of waiting forever."""
 
     model_config = ConfigDict(extra="forbid")
+    #: compute the branches on a local Dask cluster of this many worker processes
+    #: (at most 4 per usable core and one per 0.5 GB of available memory)
     workers: Annotated[int, Field(ge=1, le=1024, strict=True),
                        AfterValidator(_local_workers)] | None = None
+    #: compute the branches on the existing Dask cluster at this address
+    #: (``tcp://HOST:8786``); excludes ``workers``
     scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True),
                          AfterValidator(_scheduler_address)] | None = None
+    #: seconds without any worker after which the tasks still waiting end their
+    #: branches with that reason
     no_workers_timeout: Annotated[float, Field(gt=0, le=86_400, allow_inf_nan=False,
                                                strict=True)] = 30.0
 
@@ -357,16 +404,26 @@ def with_execution(case: Case, workers: int | None, scheduler: str | None,
 
 class Case(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: the output folder's name (``runs/<name>``: a plain name, no path) and the
+    #: report's title
     name: Annotated[str, Field(strict=True), AfterValidator(_plain_name)] = "case"
+    #: free text, copied into the report
     description: Annotated[str, Field(max_length=10_000, strict=True)] = ""
     #: required, except in a restart (``start: {from: <run>}``), which inherits it
     problem: Annotated[str, Field(strict=True), AfterValidator(_visible_name)] | None = None
     #: required, except in a restart, which inherits the run's (these override them)
     parameters: dict[str, Any] | None = None
+    #: where branches start: a mapping or a list of mappings of the problem's start
+    #: forms (its page of the reference), or a restart from a saved run (``{from: <run>,
+    #: ...}``)
     start: Any
+    #: the continuation: its parameter, window, steps and algorithm
     continuation: ContinuationSpec = ContinuationSpec()
+    #: what is computed at each point and which events are located
     analysis: AnalysisSpec = AnalysisSpec()
+    #: where and what the run writes
     output: OutputSpec = OutputSpec()
+    #: where the branches are computed (default: serially, in this process)
     execution: ExecutionSpec = ExecutionSpec()
     #: the resolved restart (:class:`nsm_continuation.cases.restart.Restart`) of a ``start: {from:
     #: ...}`` case, set by :func:`validate`

@@ -33,7 +33,7 @@ class SimOptions:
     atol: float = 1e-12
     h_init: float = 1e-3
     h_max: float = np.inf
-    #: tolerance on the chatter map's estimated error (scaled by 1 + |x|, sec. 3.4)
+    #: tolerance on the chatter map's estimated error (scaled by ``1 + |x|``, sec. 3.4)
     chatter_tol: float = 1e-10
     #: 1: eqs. (30)-(31); 2: the improved estimate of eq. (35); 3: one more extrapolation level
     chatter_order: int = 3

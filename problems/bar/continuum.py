@@ -63,9 +63,14 @@ class BarContinuumParameters(CanonicalNames):
 
 
     model_config = STRICT
+    #: Young's modulus ``E``
     E: PosFloat = 1.0
+    #: density ``rho`` (wave speed ``c = sqrt(E / rho)``)
     rho: PosFloat = 1.0
+    #: the bar's length ``L`` (clamped at ``x = 0``, contact at ``x = L``)
     L: PosFloat = 1.0
+    #: the gap ``g0``: contact at ``u(L) = gap``; > 0 open, < 0 prestressed (nonzero:
+    #: the vertical line of ``gap = 0`` is ``problem: wfem_bar``'s)
     gap: Annotated[float, Field(allow_inf_nan=False)]
 
     @field_validator("gap")
@@ -82,27 +87,34 @@ class _StartBase(BaseModel):
     model_config = STRICT
     #: starting frequency; default: middle of the admissible interval for the sign of g0
     omega_ratio: PosFloat | None = None
+    #: which way along ``continuation.parameter`` the branch is followed
     direction: Literal["both", "increase", "decrease"] = "both"
 
 
 class MainStart(_StartBase):
     """Main backbone of mode k (sec. 6.1)."""
 
+    #: the main backbone
     branch: Literal["main"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=100)] = 1
 
 
 class SubharmonicStart(_StartBase):
     """n-th subharmonic backbone of mode k (sec. 6.2)."""
 
+    #: a subharmonic backbone
     branch: Literal["subharmonic"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=100)] = 1
+    #: the subharmonic's order ``n``
     n: Annotated[int, Field(ge=1, le=100)] = 1
 
 
 class SignatureStart(_StartBase):
     """An explicit signature ``[a, b]``: the branch ``t_f = a T + b`` (``m = a M + b N``)."""
 
+    #: ``[a, b]``: the free time ``t_f = a T + b`` in units of ``L / c``
     signature: Annotated[list[int], Field(min_length=2, max_length=2)]
 
     @field_validator("signature")

@@ -63,10 +63,16 @@ class WfemBarParameters(CanonicalNames):
 
 
     model_config = STRICT
+    #: Young's modulus ``E``
     E: PosFloat = 1.0
+    #: density ``rho`` (wave speed ``c = sqrt(E / rho)``)
     rho: PosFloat = 1.0
+    #: the bar's length ``L`` (clamped at ``x = 0``, contact at ``x = L``)
     L: PosFloat = 1.0
+    #: the number of WFEM cells (the paper's ``N``)
     cells: Annotated[int, Field(ge=2, le=200_000)] = 200
+    #: the gap ``g0``: contact at ``u(L) = gap``; > 0 open, 0 static grazing (vertical
+    #: backbones), < 0 prestressed
     gap: Annotated[float, Field(allow_inf_nan=False)] = 1e-3
     #: filter: largest number of profile jumps kept, as a fraction of N (grid-scale orbits jump at
     #: O(N) places); persistence under N -> 2N is always checked

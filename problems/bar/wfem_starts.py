@@ -29,7 +29,10 @@ class MainStart(BaseModel):
     """The main backbone of mode k (section 6.1)."""
 
     model_config = STRICT
+    #: the main backbone (from ``omega_k`` if g0 > 0, from ``Omega_k`` if g0 < 0, the
+    #: vertical line if g0 = 0)
     branch: Literal["main"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=50)] = 1
 
 
@@ -37,8 +40,11 @@ class SubharmonicStart(BaseModel):
     """The n-th subharmonic backbone of mode k (g0 > 0), starting near eq. (15)."""
 
     model_config = STRICT
+    #: a subharmonic backbone (g0 > 0)
     branch: Literal["subharmonic"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=50)] = 1
+    #: the subharmonic's order ``n`` (eq. 15)
     n: Annotated[int, Field(ge=1, le=50)] = 1
 
 
@@ -46,6 +52,7 @@ class ScanStart(BaseModel):
     """Every physical admissible orbit in the window seeds a branch (Fig. 12, 16)."""
 
     model_config = STRICT
+    #: ``true``: scan the lattice nodes of every period in the window
     scan: Annotated[Literal[True], exactly(True)]
     #: at most this many seeds (fewest profile jumps, then lowest energy); default every one
     max_seeds: Annotated[int, Field(ge=1)] | None = None
@@ -55,7 +62,9 @@ class NodeStart(BaseModel):
     """An explicit lattice node (m, p) or (m, p, k, l) (eq. 18)."""
 
     model_config = STRICT
+    #: ``[m, p]`` (eq. 12) or ``[m, p, k, l]`` (eq. 18): the phase lengths, in time steps
     node: list[Annotated[int, Field(ge=1)]]
+    #: which way along ``continuation.parameter`` the branch is followed
     direction: Literal["both", "increase", "decrease"] = "both"
 
 

@@ -82,7 +82,7 @@ def test_the_sdist_takes_what_its_tests_read() -> None:
     assert "*.py" in recursive["tests"]  # tests/oracles/*.py among them
     assert (ROOT / "tests" / "oracles" / "__init__.py").is_file()
     assert "*.yaml" in recursive["yaml_cases"]
-    assert {"*.md", "*.png"} <= set(recursive["docs"])
+    assert {"*.md", "*.png", "*.py"} <= set(recursive["docs"])  # the reference generator too
     assert {"LICENSE", "CHANGELOG.md", "CITATION.cff", "README.md"} <= included
     for name in included:
         assert (ROOT / name).is_file(), name
