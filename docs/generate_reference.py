@@ -407,8 +407,10 @@ def events_page(problems: dict[str, type]) -> str:
                   "| monitor | source | raises | located | ends the branch |",
                   "|---|---|---|---|---|"]
         for m in cls.monitors.declared:
-            lines.append(f"| `{m.name}` | `{m.source.value}` | `{m.kind}` | "
-                         f"{'yes' if m.located else 'no'} | {'yes' if m.terminal else 'no'} |")
+            located = ("extrapolated" if m.source is Source.ASYMPTOTE
+                       else "yes" if m.located else "no")
+            lines.append(f"| `{m.name}` | `{m.source.value}` | `{m.kind}` | {located} | "
+                         f"{'yes' if m.terminal else 'no'} |")
         extra = [f"tests and event functions it does not list raise "
                  f"`{cls.monitors.default_kind}`"]
         for quantity, kind in (getattr(cls, "character_kinds", None) or {}).items():
