@@ -163,7 +163,7 @@ def chart(rows: list[dict[str, Any]], out: Path) -> None:
     for r in rows:
         if "dop853" in r and "exact" in r:
             ratio = r["dop853"]["per_point"] / r["exact"]["per_point"]
-            ax.annotate(f"{ratio:.0f}x", (r["N"], r["exact"]["per_point"]),
+            ax.annotate(f"{ratio:.1f}x", (r["N"], r["exact"]["per_point"]),
                         textcoords="offset points", xytext=(4, -12), fontsize=8)
     ax.set_xlabel("N (masses)")
     ax.set_ylabel("wall time per continuation point [s]")
@@ -195,6 +195,11 @@ def main() -> None:
             continue
         omega0, y = found
         row: dict[str, Any] = {"N": n, "omega0": omega0}
+        orbit = ForcedChain({"n": n, "omega": omega0,
+                             "integrator": {"method": "exact"}}).shooting.simulate(y)
+        print(f"N = {n:4d} start orbit at omega0 = {omega0}: events "
+              f"{[e.kind for e in orbit.events]} (sticking and chattering flights: "
+              "Runge-Kutta in both paths)")
         methods = ["exact", "dop853"] if n <= args.rk_max else ["exact"]
         for method in methods:
             row[method] = continue_chain(n, method, omega0, y, args.points)

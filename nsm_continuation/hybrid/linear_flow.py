@@ -237,6 +237,7 @@ class ModalFlow:
         #: ``|lambda_j|^4`` of the modes, e-fold grown when one is unstable (bounds of the
         #: fourth derivatives, :mod:`.modal_sums`)
         self.lam4_grown = np.abs(self.lam_s) ** 4 * (np.e if growth > 0 else 1.0)
+        self.lam2_grown = np.abs(self.lam_s) ** 2 * (np.e if growth > 0 else 1.0)
         self._absVS4 = np.abs(self._VS) * self.lam4_grown
         self._size0 = float(np.max(np.abs(x0), initial=0.0))
         self._k = fld.orders.astype(float)
@@ -483,11 +484,13 @@ class ExactStep:
         return np.concatenate(parts)
 
     def max_step(self, Y: np.ndarray, watched: list[int],
-                 section: tuple[int, float, int] | None = None) -> float:
+                 section: tuple[int, float, int] | None = None,
+                 fired: tuple[int, ...] = ()) -> float:
         """The next step from ``Y``: one Hermite cell (:meth:`ModalFlow.hermite_cell`), or,
         when the probe is affine in the state, as many cells as the ``watched`` probe entries
         (and the coordinate of a ``section`` on a dynamic component) are certified clear of
-        zero (:func:`.modal_sums.certified_length`)."""
+        zero (:func:`.modal_sums.certified_length`; ``fired``: the positions in ``watched`` of
+        those that fired at ``Y``)."""
         flow = self.flow
         cell = flow.hermite_cell(Y)
         if flow.probe_modes is None or not watched or not np.isfinite(cell):
@@ -503,7 +506,7 @@ class ExactStep:
             self._q_key = key
         if self._q is None:
             return cell
-        return min(modal_sums.certified_length(flow, Y, watched, cell, self._q, sec),
+        return min(modal_sums.certified_length(flow, Y, watched, cell, self._q, sec, fired),
                    flow.h_growth)
 
     def extremes(self, Y0: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:

@@ -88,11 +88,18 @@ def _bernstein_clear(g0: np.ndarray, m0: np.ndarray, g1: np.ndarray, m1: np.ndar
 
 def certified_length(flow: ModalFlow, Y: np.ndarray, rows: list[int], cell: float,
                      q: tuple[np.ndarray, np.ndarray, np.ndarray],
-                     section: tuple[int, float] | None = None) -> float:
+                     section: tuple[int, float] | None = None,
+                     fired: tuple[int, ...] = ()) -> float:
     """The longest step from ``Y`` (whole ``cell`` widths, at least one, at most
     ``MAX_CELLS``) before the first cell where a watched function (probe ``rows``; and the
     section's coordinate minus its value, ``section``, when it is a dynamic component) is not
-    certified clear of zero (module docstring). ``q``: :func:`clock_sum`."""
+    certified clear of zero (module docstring). ``q``: :func:`clock_sum`.
+
+    ``fired``: positions in ``rows`` of functions that fired at ``Y`` (zero there, for the
+    simulator): their first cell is clear when ``g`` leaves zero at a rate ``|g'(0)|`` that its
+    curvature cannot undo within the cell, ``|g(t)| >= |g'(0)| t - M_2 t^2 / 2 > 0`` for
+    ``t <= cell < 2 |g'(0)| / M_2`` (``M_2`` bounds ``|g''|`` like ``M_4`` bounds ``|g^(4)|``),
+    instead of the step stopping one cell after every event."""
     omega, phase, xi = flow.modal(Y)
     modes = flow.probe_modes[rows]                               # functions x modes
     const, orders, gamma = q[0][rows], q[1], q[2][:, rows]
@@ -103,19 +110,29 @@ def certified_length(flow: ModalFlow, Y: np.ndarray, rows: list[int], cell: floa
         if orders.size or part[1].size:
             orders, gamma = _merge(orders, gamma, part[1], part[2])
     beta = modes * xi
+    nf = beta.shape[0]
     t = cell * np.arange(MAX_CELLS + 1)
     E = np.exp(np.outer(t, flow.lam_s))
     g = (E @ beta.T).real + const
     dg = ((E * flow.lam_s) @ beta.T).real
-    bound4 = np.abs(beta) @ flow.lam4_grown
+    absb = np.abs(beta)
+    bound4 = absb @ flow.lam4_grown
+    bound2 = absb @ flow.lam2_grown if fired else np.zeros(nf)
     if orders.size:
         kw = orders * omega
         e = np.exp(1j * np.outer(phase + omega * t, orders))
         g += (e @ gamma).real
         dg += ((e * (1j * kw)) @ gamma).real
         bound4 += np.abs(kw) ** 4 @ np.abs(gamma)
+        if fired:
+            bound2 += np.abs(kw) ** 2 @ np.abs(gamma)
     delta = cell ** 4 / 384.0 * bound4 * (1.0 + 1e-12) + 1e-14 * np.max(np.abs(g), axis=0)
-    clear = _bernstein_clear(g[:-1], dg[:-1] * cell, g[1:], dg[1:] * cell, delta).all(axis=1)
+    clear = _bernstein_clear(g[:-1], dg[:-1] * cell, g[1:], dg[1:] * cell, delta)
+    for r in fired:
+        slope, end = dg[0, r], g[1, r]
+        clear[0, r] = (bound2[r] * cell * (1.0 + 1e-12) < 2.0 * abs(slope) * (1.0 - 1e-12)
+                       and slope * end > 0.0)
+    clear = clear.all(axis=1)
     first = int(np.argmin(clear)) if not clear.all() else MAX_CELLS
     return cell * max(first, 1)
 

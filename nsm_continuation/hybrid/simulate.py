@@ -36,6 +36,17 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
 equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
 
+**Exact flows** (:mod:`.linear_flow`, ``integrator: {method: exact | auto}``). A field whose
+steps are an exact flow (the free flight of a system linear between events) has no integration
+error to control: it gives the length of its next step itself (as long as the watched functions,
+and a section on a dynamic coordinate, are certified clear of zero, else one cell over which the
+cubic Hermite interpolants are accurate, :func:`.modal_sums.certified_length`), so its steps are
+not checked at the midpoint; it gives the extremes of the state over a step
+(:func:`.modal_sums.grid_extremes`); and since its steps compose exactly, the sensitivity product
+``J <- J_step J`` of its steps is deferred to the next event, where the Jacobian of the flow over
+their total time is one evaluation (:meth:`Simulator._deferred`). Runge-Kutta fields run as
+before, to the bit.
+
 **Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
 tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
 tests/engine/test_bound_casadi_buffers_equal_plain_call.py`` check each against the
@@ -239,7 +250,8 @@ class Simulator(Transitions):
             if w.key in self._exact:
                 # no integration error to control: the flow says how far it may go
                 dt = min(self.o.h_max, self._exact[w.key].max_step(
-                    w.Y, [wa[0] for wa in w.watch], section))
+                    w.Y, [wa[0] for wa in w.watch], section,
+                    tuple(i for i, wa in enumerate(w.watch) if (wa[2], wa[3]) in w.just)))
             last = False
             if t_stop is not None and w.t + dt >= t_stop:
                 dt, last = t_stop - w.t, True

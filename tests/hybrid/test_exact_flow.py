@@ -244,3 +244,28 @@ def test_integrator_spec_and_report_name_the_flow() -> None:
     assert summary["flow"].startswith("exact")
     assert "flow" not in TwoMassChainProblem({}).presentation_class(
         TwoMassChainProblem({})).summary()
+
+
+def test_autonomous_system_with_a_section_on_a_dynamic_coordinate() -> None:
+    """A damped mass on a spring under gravity bouncing on the floor (no clock: the particular
+    solution is the static deflection), returning to the section ``q = 0.5`` crossed upwards:
+    the exact path's long steps certify the section coordinate too; its section state,
+    Jacobian and events equal the Runge-Kutta path's."""
+    q, qd = ca.SX.sym("q"), ca.SX.sym("qd")
+    p = {"floor": ca.SX.sym("floor")}
+    system = HybridSystem.mechanical("mass_spring_floor", q, qd, p, ca.SX(1.0),
+                                     -1.3 * (q - 1.0) - 0.05 * qd - 2.0, q - p["floor"], 0.7)
+    X0 = np.array([0.5, 3.0, 0.0])
+    out = []
+    for method in ("exact", "dop853"):
+        c = system.compile({}, free=["floor"], method=method)
+        assert c.flow == method
+        res = Simulator(c).run(X0, section=(0, 0.5, 1), t_min_section=1e-3)
+        out.append(res)
+    a, b = out
+    assert [e.kind for e in a.events] == [e.kind for e in b.events]
+    assert "impact" in [e.kind for e in a.events]
+    assert abs(a.t - b.t) <= 1e-9
+    assert np.max(np.abs(a.X - b.X)) <= 1e-9
+    assert np.max(np.abs(a.J - b.J)) <= 1e-7 * np.max(np.abs(b.J))
+    assert a.n_steps < b.n_steps
