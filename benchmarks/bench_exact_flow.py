@@ -16,6 +16,8 @@ the wall); from that orbit both paths continue in omega over ``[omega_0, omega_0
 with the same settings (``max_points``, steps, ``newton_tol 1e-9``, stability and bifurcation
 detection on). Time per point = wall time of ``nsm.continuation`` / points on the branch (both
 paths find the same points: the largest difference of their section states is printed). The
+start orbits of the sizes in ``--accuracy`` are also solved by DOP853 at ``rtol = 1e-13``:
+the distance of each path's section state to it is printed. The
 Runge-Kutta path is skipped above ``--rk-max`` (default 40: at N = 200 its compile alone takes
 minutes and its points tens of seconds).
 
@@ -24,7 +26,8 @@ and after: the cores are shared with other jobs, so absolute times drift; the ra
 paths, measured alternately in one run, is the number to read.
 
     python benchmarks/bench_exact_flow.py [--sizes 2 5 10 20 40 200] [--rk-max 40]
-                                          [--points 12] [--out FILE.png] [--docs FILE.png]
+                                          [--accuracy 10 20 40] [--points 12]
+                                          [--out FILE.png] [--docs FILE.png]
 
 Writes the chart (time per point against N, log-log, both paths) to ``--out`` (default
 ``benchmarks/results/exact_flow.png``) and, with ``--docs``, a copy for the README. The
@@ -151,6 +154,34 @@ def continue_chain(n: int, method: str, omega0: float, y: np.ndarray, points: in
             "y": Y, "events": [(e.kind, e.parameter) for e in res.events]}
 
 
+def newton(pb: ForcedChain, y: np.ndarray) -> np.ndarray:
+    """The orbit near ``y`` at fixed omega (Newton on the shooting residual to its floor)."""
+    y = y.copy()
+    sh = pb.shooting
+    best = np.inf
+    for _ in range(8):
+        r, J = sh.residual_jacobian(y)
+        res = float(np.max(np.abs(r)))
+        if res >= best:
+            break
+        best = res
+        y[:-1] -= np.linalg.solve(J[:, :-1], r)
+    return y
+
+
+def accuracy(n: int, omega0: float, y: np.ndarray) -> tuple[float, float]:
+    """Section state of the start orbit by the exact flow and by DOP853 at its default
+    ``rtol`` 1e-10, each against DOP853 at ``rtol = 1e-13`` (``atol`` 1e-15, chatter tolerance
+    1e-13): the largest differences."""
+    ref = newton(ForcedChain({"n": n, "omega": omega0, "integrator": {
+        "method": "dop853", "rtol": 1e-13, "atol": 1e-15, "chatter_tol": 1e-13}}), y)
+    out = []
+    for method in ("exact", "dop853"):
+        z = newton(ForcedChain({"n": n, "omega": omega0, "integrator": {"method": method}}), y)
+        out.append(float(np.max(np.abs(z - ref))))
+    return out[0], out[1]
+
+
 def chart(rows: list[dict[str, Any]], out: Path) -> None:
     """Time per point against N, log-log, both paths."""
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
@@ -184,6 +215,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path,
                     default=Path(__file__).parent / "results" / "exact_flow.png")
     ap.add_argument("--docs", type=Path, default=None)
+    ap.add_argument("--accuracy", type=int, nargs="*", default=[10, 20, 40],
+                    help="sizes whose start orbit is also solved by DOP853 at rtol 1e-13")
     args = ap.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"load average {os.getloadavg()[0]:.2f} (1 min) at the start")
@@ -207,6 +240,10 @@ def main() -> None:
             print(f"N = {n:4d} {method:7s} omega0 {omega0:.2f}: {r['points']} points, "
                   f"{r['per_point']:.4f} s/point (build {r['build']:.1f} s), "
                   f"events {[k for k, _ in r['events']]}")
+        if n in args.accuracy:
+            ea, eb = accuracy(n, omega0, y)
+            print(f"           start orbit against DOP853 at rtol 1e-13: exact {ea:.1e}, "
+                  f"DOP853 at rtol 1e-10 {eb:.1e}")
         if "dop853" in row:
             a, b = row["exact"], row["dop853"]
             same = a["y"] is not None and b["y"] is not None and a["y"].shape == b["y"].shape

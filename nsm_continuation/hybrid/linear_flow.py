@@ -6,7 +6,16 @@ with constant matrices and a periodic forcing. Their flow between events is know
 so the free-flight steps of the simulator need no Runge-Kutta integration: this module detects
 the structure from the compiled CasADi declaration and builds steps with the same interface as
 the Runge-Kutta step Functions of :func:`.system._step_functions` (``.flat(Y, dt)``, the same flat
-layout), so that :class:`~.simulate.Simulator` runs unchanged on them.
+layout), which :class:`~.simulate.Simulator` calls as it calls those. It also asks them how long
+their next step may be (no integration error to control: as long as the watched functions are
+certified clear of zero, :mod:`.modal_sums`) and the extremes of the state over a step.
+
+Why the choice is not automatic by default: the exact path changes a run's numbers at the
+Runge-Kutta tolerance (about 1e-10), so the bundled cases keep ``dop853`` and a case asks for
+``method: exact`` (or ``auto``: exact where it applies) in ``parameters.integrator``. Sticking
+and chattering flights keep their Runge-Kutta steps: in a chattering flight the scaled
+height ``h = H / u`` of sec. 4.3 must keep its relative precision as ``u -> 0``, which the modal
+sum (velocities as sums of O(1) modal terms) would lose.
 
 **Detection** (:func:`detect`). With ``X`` the compiled state (the system state, then the freed
 parameters) and ``F = f(X)``, write ``x`` for the dynamic components (every state component but
@@ -53,9 +62,9 @@ weight ``w_j = 1`` or ``2``, ``Phi(dt) = Re(sum_{j in S} w_j e^{lambda_j dt} v_j
 
 **Composition.** The flow of the extended autonomous system ``(x, phi, omega)`` is exact, so its
 steps compose, ``phi_a o phi_b = phi_{a+b}``: the Jacobian over several steps without an event
-is one evaluation over their total time. The step objects say so (``composes``) and the simulator
+is one evaluation over their total time. The step objects say so (``exact``) and the simulator
 defers the sensitivity products of such steps to the next event
-(:meth:`~.simulate.Simulator._accept`).
+(:meth:`~.simulate.Simulator._deferred`).
 """
 
 from __future__ import annotations
