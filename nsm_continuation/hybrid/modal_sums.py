@@ -126,7 +126,9 @@ def certified_length(flow: ModalFlow, Y: np.ndarray, rows: list[int], cell: floa
         bound4 += np.abs(kw) ** 4 @ np.abs(gamma)
         if fired:
             bound2 += np.abs(kw) ** 2 @ np.abs(gamma)
-    delta = cell ** 4 / 384.0 * bound4 * (1.0 + 1e-12) + 1e-14 * np.max(np.abs(g), axis=0)
+    # the interpolants' error, and the rounding of sums of terms of size |beta|, |gamma|
+    size = absb.sum(axis=1) + np.abs(const) + (np.abs(gamma).sum(axis=0) if orders.size else 0.0)
+    delta = cell ** 4 / 384.0 * bound4 * (1.0 + 1e-12) + 1e-13 * size
     clear = _bernstein_clear(g[:-1], dg[:-1] * cell, g[1:], dg[1:] * cell, delta)
     for r in fired:
         slope, end = dg[0, r], g[1, r]
