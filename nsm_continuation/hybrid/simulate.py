@@ -36,6 +36,17 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
 equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
 
+**Exact flows** (:mod:`.linear_flow`, ``integrator: {method: exact | auto}``). A field whose
+steps are an exact flow (the free flight of a system linear between events) has no integration
+error to control: it gives the length of its next step itself (as long as the watched functions,
+and a section on a dynamic coordinate, are certified clear of zero, else one cell over which the
+cubic Hermite interpolants are accurate, :func:`.modal_sums.certified_length`), so its steps are
+not checked at the midpoint; it gives the extremes of the state over a step
+(:func:`.modal_sums.grid_extremes`); and since its steps compose exactly, the sensitivity product
+``J <- J_step J`` of its steps is deferred to the next event, where the Jacobian of the flow over
+their total time is one evaluation (:meth:`Simulator._deferred`). Runge-Kutta fields run as
+before, to the bit.
+
 **Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
 tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
 tests/engine/test_bound_casadi_buffers_equal_plain_call.py`` check each against the
@@ -139,6 +150,9 @@ class _Walk:
     #: unit normal (position components) of the surface at the impact that began the current
     #: chattering flight (:meth:`Simulator._same_contact`)
     seq_normal: np.ndarray | None = None
+    #: the steps of an exact flow taken since the last event: the field, the state they
+    #: started from and their total time (:meth:`Simulator._deferred`)
+    defer: tuple[str, np.ndarray, float] | None = None
 
     @property
     def mode(self) -> str:
@@ -160,6 +174,10 @@ class Simulator(Transitions):
         self.o = opts or SimOptions()
         #: chatter error estimates of the current sequence (stall detection)
         self._errs: list[float] = []
+        #: the fields integrated by an exact flow (:mod:`.linear_flow`): steps of their own
+        #: length, extremes of their own, sensitivity products deferred to the next event
+        self._exact = {k: fs[0] for k, fs in self.calls.steps.items()
+                       if getattr(fs[0], "exact", False)}
 
     # ------------------------------------------------------------------ helpers
     def _key(self, modes: list[str], active: int | None) -> str:
@@ -229,6 +247,11 @@ class Simulator(Transitions):
         while True:
             self._guard(w, clock0)
             dt = min(w.h, self.o.h_max)
+            if w.key in self._exact:
+                # no integration error to control: the flow says how far it may go
+                dt = min(self.o.h_max, self._exact[w.key].max_step(
+                    w.Y, [wa[0] for wa in w.watch], section,
+                    tuple(i for i, wa in enumerate(w.watch) if (wa[2], wa[3]) in w.just)))
             last = False
             if t_stop is not None and w.t + dt >= t_stop:
                 dt, last = t_stop - w.t, True
@@ -247,6 +270,8 @@ class Simulator(Transitions):
                 return self._result(w, "section")
         if w.active is not None and w.mode == S4 and w.stick_start is not None:
             w.stick_iv.append((w.stick_start, w.t))
+        if w.defer is not None:
+            w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
             # fixed end time: t_end - t_k(X0) is the last flow time
             w.J = w.J - np.outer(w.F, w.Jt)
@@ -328,7 +353,8 @@ class Simulator(Transitions):
         ``Y_new``: both are the same CasADi expressions,
         ``tests/hybrid/test_rk_step_functions_equal_stagewise_step.py``).
         """
-        jac = w.J is not None and w.mode not in EXTENDED
+        exact = w.key in self._exact
+        jac = w.J is not None and w.mode not in EXTENDED and not exact
         outs = self._step(w.key, w.Y, dt, jac)
         if not jac:
             outs = (*outs, None)
@@ -344,7 +370,7 @@ class Simulator(Transitions):
             if w.h < 1e-14 * (1 + abs(w.t)):
                 raise SimulationError(f"step size underflow at t = {w.t:.6g}")
             return None
-        if en < HERMITE_CHECK_BELOW and not self._hermite_trustworthy(w, dt, outs):
+        if en < HERMITE_CHECK_BELOW and not exact and not self._hermite_trustworthy(w, dt, outs):
             w.h = dt * 0.25
             return None
         return (*outs, en)
@@ -406,7 +432,10 @@ class Simulator(Transitions):
         """Take the whole step (no crossing inside it) and choose the next step size."""
         Yn, prn, Fn, en = outs[0].ravel(), outs[3].ravel(), outs[4].ravel(), outs[-1]
         w.just = set()
-        if w.J is not None:
+        if w.J is not None and w.key in self._exact:
+            _key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
+            w.defer = (w.key, Y0, T + dt)
+        elif w.J is not None:
             Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
             w.J = Jstep @ w.J
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
@@ -424,6 +453,13 @@ class Simulator(Transitions):
         value on the true flow at the extremum of the cubic Hermite interpolant (ends and
         slopes ``F``). The location error ``ds`` of the interpolant costs ``O(ds^2)`` in the
         value: the extremes are exact to about the integration tolerance."""
+        exact = self._exact.get(w.key)
+        if exact is not None:
+            # the exact flow's own, on a grid as fine as these interpolants need
+            lo, hi = exact.extremes(Y0, dt)
+            np.minimum(w.lo, lo, out=w.lo)
+            np.maximum(w.hi, hi, out=w.hi)
+            return
         n = self.c.n
         a, b = Y0[:n], Y1[:n]
         np.minimum(w.lo, np.minimum(a, b), out=w.lo)
@@ -485,6 +521,8 @@ class Simulator(Transitions):
                 tau, Ye, pre, Fe, Jstep = self._refine(key, Y, tau, tau * a0 / (a0 - a1),
                                                        name, idx, section)
         if w.J is not None:
+            if key in self._exact:
+                Jstep = self._deferred(w, tau)
             Je = Jstep @ w.J
             gx = self._gx(name, idx, Ye, surface)
             dtau = -(gx @ Je) / (gx @ Fe)
@@ -663,6 +701,15 @@ class Simulator(Transitions):
             grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
             surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
 
+    def _deferred(self, w: _Walk, tau: float) -> np.ndarray:
+        """The Jacobian of an exact flow from the start of the steps deferred since the last
+        event (or from ``w.Y``) over their time and ``tau`` more: one evaluation instead of a
+        product per step (the flow composes, ``Phi(a) Phi(b) = Phi(a + b)``,
+        :mod:`.linear_flow`). Clears the deferral."""
+        key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
+        w.defer = None
+        return self._step(key, Y0, T + tau, True)[5]
+
     def _gx(self, name: str, idx: int, Y: np.ndarray, surface: int) -> np.ndarray:
         """Gradient of the event function ``name`` of ``surface`` with respect to the
         (extended) state."""
@@ -683,8 +730,9 @@ class Simulator(Transitions):
 
         ``g(tau)`` is the watched function after one RK step of length ``tau`` from ``Y`` (field
         ``key``, under error control, since ``tau <= dt``); ``g'(tau)`` its exact time
-        derivative there."""
-        sens = self.o.sensitivities
+        derivative there. The Jacobian of an exact flow's step is left to the caller
+        (:meth:`_deferred`)."""
+        sens = self.o.sensitivities and key not in self._exact
         m = Y.size
         off = 0.0
         if name == "section":

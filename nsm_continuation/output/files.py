@@ -78,6 +78,30 @@ def event_record(ev: Event) -> dict[str, Any]:
     return rec
 
 
+def location_uncertainty(br: Branch, ev: Event, names: list[str],
+                         variables: list[str]) -> dict[str, float]:
+    """How far each quantity of ``names`` (a derived quantity or an unknown) may lie from its
+    value at the event: the event's bracket (the accuracy of its location in arclength) times
+    the quantity's rate along the branch, the largest secant slope over the intervals of the
+    branch's points around the event (0 for an event located exactly, as a bound)."""
+    w = float(ev.bracket)
+    pts = br.points
+    if not np.isfinite(w) or len(pts) < 2:
+        return {}
+    s = np.array([p.s for p in pts], dtype=float)
+    i = int(np.searchsorted(s, float(ev.point.s)))
+    spans = [(j, j + 1) for j in range(max(i - 2, 0), min(i + 1, len(pts) - 1))]
+    out = {}
+    for name in names:
+        slope = 0.0
+        for j, k in spans:
+            dv = pts[k].value(name, variables) - pts[j].value(name, variables)
+            if s[k] > s[j] and np.isfinite(dv):
+                slope = max(slope, abs(dv) / (s[k] - s[j]))
+        out[name] = slope * w
+    return out
+
+
 def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
 
@@ -259,6 +283,9 @@ def build_report(res: RunResult, folder: str | None = None,
             for c in columns:  # a column that is an unknown, not a derived quantity
                 if c not in rec and c in bpr.variables:
                     rec[c] = _f(ev.point.y[bpr.variables.index(c)])
+            # what the location's accuracy leaves of each printed value (report.md's digits)
+            rec["location_uncertainty"] = {k: _f(v) for k, v in location_uncertainty(
+                br, ev, list(dict.fromkeys([*columns, bpr.parameter])), bpr.variables).items()}
             if link is not None:
                 rec["parent"] = link  # the event's branch was born there
             events.append(rec)
