@@ -50,10 +50,14 @@ CORE_EVENT_KINDS: dict[str, str] = {
 #: falsi with Dekker's closing step, to ``analysis.event_tol`` in arclength
 #: (:mod:`nsm_continuation.core.palc.locate`)
 CORE_EVENT_LOCATION: dict[str, str] = {
-    "fold": "a sign change of the tangent's parameter component, located on the curve; or a "
-            "multiplier crossing at +1, as period_doubling",
+    "fold": "a sign change of the tangent's parameter component, located on the curve (a +1 "
+            "crossing of the same step is that fold); in a conservative family a pair "
+            "colliding at +1, located as neimark_sacker "
+            "(:mod:`nsm_continuation.core.palc.branch_points`)",
     "branch_point": "a sign change of the bordered determinant ``det[G_y; t^T]`` (tangents "
-                    "oriented continuously), located on the curve",
+                    "oriented continuously), located on the curve, or from the cubic through "
+                    "its values at resolved points on both sides where the corrector cannot "
+                    "converge near it; merged with the +1 crossing of the same step",
     "period_doubling": "the count of multipliers outside ``1 + analysis.unit_circle_tol`` "
                        "changes over a step: bisection on the count (to "
                        "``analysis.multiplier_event_tol``), then the zero of ``|lambda| - 1`` "
@@ -63,6 +67,9 @@ CORE_EVENT_LOCATION: dict[str, str] = {
                       "located on the colliding pair's discriminant ``(nu_1 - nu_2)^2``, and a "
                       "window opened and closed inside one step is found from the Krein signs "
                       "at its ends (:mod:`nsm_continuation.core.floquet.krein`)",
+    "unresolved_crossing": "not located: recorded at the bracket where the count of "
+                           "multipliers outside the circle changes, the multiplier responsible "
+                           "staying within the multipliers' noise on one side",
     "stability_change": "with the crossing that makes the number of unstable multipliers zero "
                         "or non-zero (at a grazing, where the multipliers jump, at the "
                         "grazing)",
