@@ -420,6 +420,21 @@ def events_page(problems: dict[str, type]) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
+def undescribed_keys() -> list[str]:
+    """``module.Model: key`` of every key of a case, of a restart block and of each bundled
+    problem's ``parameters:`` and ``start:`` models that has no description."""
+    from nsm_continuation.cases.restart import RestartSpec
+    from nsm_continuation.cases.schema import Case
+
+    models = [m for m, _ in walk(Case, "") + walk(RestartSpec, "start")]
+    for cls in bundled_problems().values():
+        models += [m for m, _ in walk(cls.Parameters, "parameters")]
+        for start in start_models(cls):
+            models += [m for m, _ in walk(start, "start")]
+    return [f"{m.__module__}.{m.__qualname__}: {key}"
+            for m in dict.fromkeys(models) for key in undocumented(m)]
+
+
 def pages() -> dict[str, str]:
     """``{path relative to docs/reference: text}`` of every generated page."""
     problems = bundled_problems()
@@ -447,6 +462,8 @@ def main(argv: list[str]) -> int:
         print(f"{verb}: docs/reference/{rel}")
     for rel in extra:
         print(f"not generated (remove it): docs/reference/{rel}")
+    for key in undescribed_keys():
+        print(f"no description (write a #: comment above the field): {key}")
     return 1 if "--check" in argv and (stale or extra) else 0
 
 

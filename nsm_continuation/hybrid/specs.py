@@ -28,6 +28,9 @@ class IntegratorSpec(BaseModel):
     in the case (``parameters: {integrator: {method: auto}}``)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
+    #: the free flight's integrator: ``dop853`` or ``dopri5`` (Runge-Kutta), ``exact`` (the
+    #: closed-form flow of a system linear between events) or ``auto`` (``exact`` where it
+    #: applies, else ``dop853``)
     method: Literal["dop853", "dopri5", "exact", "auto"] = "dop853"
     #: at least 1e-14: below, the step error test asks for less than the round-off of a step
     rtol: float = Field(1e-10, ge=1e-14, lt=1e-2)

@@ -92,6 +92,13 @@ def test_the_glossary_holds_every_kind_with_how_it_is_located(pages, generator):
         assert f"| `{kind}` |" in text, kind
 
 
+def test_every_key_has_a_description(generator):
+    """The reference says what each key means: a ``#:`` comment above the field (or its
+    ``Field(description=...)``) for every key of a case and of each bundled problem."""
+    missing = generator.undescribed_keys()
+    assert not missing, f"keys without a description: {missing}"
+
+
 def test_comments_are_read_as_autodoc_reads_them(generator):
     """A field's description is the ``#:`` comment right above it (several lines joined), as
     Sphinx's autodoc reads attribute comments; a plain ``#`` comment is not one."""
