@@ -209,8 +209,6 @@ class Simulator(Transitions):
                 continue
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
-        if w.mode == S4 and w.stick_start is not None:
-            w.stick_iv.append((w.stick_start, w.t))
         if w.J is not None and t_end is not None:
             # fixed end time: t_end - t_k(X0) is the last flow time
             w.J = w.J - np.outer(self._field(w.mode, w.Y), w.Jt)
@@ -478,6 +476,10 @@ class Simulator(Transitions):
 
     def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
+        if w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
         return SimResult(
             X=w.Y[:N].copy(), t=w.t, J=None if w.J is None else w.J[:N].copy(),
             Jt=None if w.Jt is None else w.Jt.copy(), events=w.events, state=w.mode,
