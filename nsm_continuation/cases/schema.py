@@ -517,13 +517,15 @@ _CaseLoader.add_implicit_resolver(
 
 
 class _Yaml11Number(str):
-    """A plain scalar YAML 1.1 reads as a number and YAML 1.2 does not (or as another one):
-    ``010`` (octal 8 in 1.1, 10 in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2).
-    Kept as its text; :func:`parse_yaml` refuses it, naming its key and quoting it."""
+    """A plain scalar that would be read as another number than the one written: one YAML 1.1
+    reads as a number and YAML 1.2 does not (or as another one), ``010`` (octal 8 in 1.1, 10
+    in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2); or a float beyond double
+    precision, ``1e-400`` (0) or ``1e400`` (infinity). Kept as its text; :func:`parse_yaml`
+    refuses it, naming its key and quoting it."""
 
-    #: ``octal`` or ``base-60``
+    #: ``octal``, ``base-60``, ``underflow`` or ``overflow``
     form: str
-    #: the value YAML 1.1 gives it
+    #: the value it would be read as
     value: float | int
 
 
@@ -531,14 +533,28 @@ class _Yaml11Number(str):
 OCTAL = re.compile(r"^[-+]?0[0-7_]+$")
 
 
+#: the mantissa of a float literal with a nonzero digit (``1e-400``, not ``0.0e5``)
+NONZERO_FLOAT = re.compile(r"^[-+]?[0-9_]*\.?[0-9_]*[1-9]")
+#: ``.inf``, ``-.inf``, ``.nan`` (written as such: refused later as not finite)
+SPECIAL_FLOAT = re.compile(r"^[-+]?\.(?:inf|Inf|INF|nan|NaN|NAN)$")
+
+
 def _number(loader: _CaseLoader, node: yaml.ScalarNode, build: Any) -> Any:
     text = loader.construct_scalar(node)
-    if isinstance(text, str) and (":" in text or OCTAL.match(text)):
-        out = _Yaml11Number(text)
-        out.form = "base-60" if ":" in text else "octal"
-        out.value = build(loader, node)
-        return out
-    return build(loader, node)
+    if not isinstance(text, str):
+        return build(loader, node)
+    form = "base-60" if ":" in text else "octal" if OCTAL.match(text) else None
+    value = build(loader, node)
+    if form is None and isinstance(value, float) and not SPECIAL_FLOAT.match(text):
+        if value == 0.0 and NONZERO_FLOAT.match(re.split("[eE]", text)[0]):
+            form = "underflow"
+        elif math.isinf(value):
+            form = "overflow"
+    if form is None:
+        return value
+    out = _Yaml11Number(text)
+    out.form, out.value = form, value
+    return out
 
 
 _CaseLoader.add_constructor(
@@ -579,6 +595,11 @@ def _refuse_yaml11(obj: Any, where: str) -> None:
         return
     key, num, is_key = found
     text = str(num)
+    if num.form in ("underflow", "overflow"):
+        limit = "smallest" if num.form == "underflow" else "largest"
+        why = (f"is beyond the {limit} number double precision holds (it would be read as "
+               f"{num.value}); rescale the problem")
+        raise CaseError(f"{key or where}: {text!r} {why}")
     if num.form == "octal":
         sign = "-" if text.startswith("-") else ""
         decimal = sign + (text.replace("_", "").lstrip("+-").lstrip("0") or "0")
