@@ -311,6 +311,13 @@ class ContinuationEngine:
             step = control.plan(pts)
             if not isinstance(step, Step):  # no step: the branch ends here
                 return step if step is not None else self.locator.stop_on_edge(a, events)
+            if control.approaching_kink(step) and kink_tried != len(pts):
+                # an event function's zero approached geometrically: a kink may lie there
+                kink_tried = len(pts)
+                crossing = self.kinks.ahead(pts, step.h)
+                if crossing is not None:
+                    crossing.record(pts, events)
+                    continue
             y, t, it, control.why = self._predict_correct(a, step.h, step.edge)
             if y is None:
                 # the step may have failed on a kink of the branch ahead (e.g. a grazing
