@@ -410,10 +410,11 @@ class Simulator(Transitions):
         mode, Y, pr = w.mode, w.Y, w.pr
         s, name, idx, _direction = hit
         tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, dt, s * dt, name, idx, section)
-        if name == "v" and mode in (S2, S6):
-            # the turn of v came after the impact function went negative: an impact inside a
-            # dip the interpolant of H (or h) did not resolve. H (h) is monotone before the
-            # turn, so [0, tau] brackets exactly one impact.
+        if name in ("v", "section") and mode in (S2, S6):
+            # the turn of v (or the section) came after the impact function went negative: an
+            # impact inside a dip the interpolant of H (or h) did not resolve (or placed after
+            # the section). H (h) is monotone before the turn, so [0, tau] brackets exactly
+            # one impact.
             hi_, hn = (0, "H") if mode == S2 else (4, "h")
             if pre[hi_] < 0 <= pr[hi_]:
                 name, idx = hn, hi_
