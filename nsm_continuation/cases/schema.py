@@ -71,6 +71,10 @@ def _visible_name(name: str) -> str:
                      "(nsm-continuation list)")
 
 
+#: the smallest ``continuation.newton_tol`` (a few units of double precision's resolution)
+NEWTON_TOL_FLOOR = 1e-15
+
+
 class StepSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     initial: PosFloat = 1e-2
@@ -112,6 +116,11 @@ class ContinuationSpec(BaseModel):
 
     @model_validator(mode="after")
     def _bounds(self) -> ContinuationSpec:
+        if self.newton_tol < NEWTON_TOL_FLOOR:
+            raise ValueError(f"newton_tol: {self.newton_tol:g} is below {NEWTON_TOL_FLOOR:g}: "
+                             "a Newton step and a residual relative to the unknowns are "
+                             "resolved to ~1e-16 in double precision, so no iteration could "
+                             "meet it")
         if self.min is not None and self.max is not None and self.min >= self.max:
             raise ValueError(f"need min < max (got min = {self.min}, max = {self.max})")
         for name, (lo, hi) in self.bounds.items():
@@ -412,7 +421,16 @@ def _first_error(err: ValidationError) -> dict[str, Any]:
         if e["type"] == "extra_forbidden" and e["loc"] and isinstance(e["loc"][-1], str) \
                 and show_key(e["loc"][-1]) != e["loc"][-1]:
             return dict(e)
-    return dict(errors[0])
+    first = errors[0]
+    if first["type"].endswith("_type") and len(first["loc"]) > 1:
+        # a union (``float | list[float]``) whose first member does not even take the value's
+        # type: the member that took it and failed deeper (``stiffness[1]: greater than 0``)
+        # says what is wrong, not "should be a valid number"
+        n = len(first["loc"]) - 1
+        for e in errors[1:]:
+            if len(e["loc"]) > n + 1 and e["loc"][:n] == first["loc"][:n]:
+                return dict(e)
+    return dict(first)
 
 
 def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
@@ -448,6 +466,10 @@ def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
         msg = "unknown key"
     elif e["type"] == "missing":
         msg = "required key is missing"
+    elif e["type"] in ("model_type", "dict_type") and not isinstance(node, dict):
+        # pydantic names its model class ("or instance of ContinuationSpec"): the user wrote YAML
+        msg = (f"expected a mapping of keys (key: value), got "
+               f"{short_text(ascii(node) if isinstance(node, str) else repr(node))}")
     elif e["type"] in ("float_type", "int_type", "bool_type", "string_type") \
             and not isinstance(node, dict | list):
         msg = f"{msg} (got {short_text(ascii(node) if isinstance(node, str) else repr(node))})"
@@ -661,16 +683,29 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str],
         if "=" not in item:
             raise CaseError(f"{source} {short_text(repr(item))}: expected dotted.key=value")
         key, value = item.split("=", 1)
-        parts = key.strip().split(".")
-        if not all(parts):
+        if not all(key.strip().split(".")):
             raise CaseError(f"{source} {short_text(repr(item))}: empty key")
-        node = out
-        for p in parts[:-1]:
-            if not isinstance(node.get(p, {}), dict):
-                raise CaseError(f"{source} {key}: {p} is not a mapping")
-            node = node.setdefault(p, {})
-        node[parts[-1]] = parse_yaml(value, f"{source} {key}")
+        set_dotted(out, key.strip(), parse_yaml(value, f"{source} {key}"), source)
     return out
+
+
+def set_dotted(raw: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """``raw[a][b][c] = value`` for the dotted ``key`` ``a.b.c`` (mappings created on the
+    way); a part that is no mapping, or a list index (``start[0]``), is refused naming
+    ``source``."""
+    parts = key.split(".")
+    at = next((i for i, p in enumerate(parts) if re.search(r"\[-?\d*\]$", p)), None)
+    if at is not None:
+        whole = short_text(".".join([*parts[:at], parts[at].split("[")[0]]))
+        example = f"--set '{whole}=[...]'" if source == "--set" else f"{{'{whole}': [...]}}"
+        raise CaseError(f"{source} {short_text(key)}: {short_text(parts[at])} indexes a list, "
+                        f"which a dotted key cannot; set the whole list instead, e.g. {example}")
+    node = raw
+    for p in parts[:-1]:
+        if not isinstance(node.get(p, {}), dict):
+            raise CaseError(f"{source} {key}: {p} is not a mapping")
+        node = node.setdefault(p, {})
+    node[parts[-1]] = value
 
 
 def load_raw(path: str | Path) -> dict[str, Any]:
