@@ -12,6 +12,8 @@ sweep at the default tolerance (the attractor does not depend on the tolerance).
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 import pytest
 
@@ -21,6 +23,7 @@ PARAMS = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "ome
           "gap": 0.5, "restitution": 0.8}
 
 
+@cache
 def sweep(rtol: float) -> dict[str, np.ndarray]:
     res = nsm.run({"name": "loose", "problem": "two_mass_chain",
                    "parameters": {**PARAMS, "integrator": {"rtol": rtol}},
