@@ -71,6 +71,10 @@ def _visible_name(name: str) -> str:
                      "(nsm-continuation list)")
 
 
+#: the smallest ``continuation.newton_tol`` (a few units of double precision's resolution)
+NEWTON_TOL_FLOOR = 1e-15
+
+
 class StepSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     #: the first pseudo-arclength step (arclength in the scaled unknowns)
@@ -128,6 +132,11 @@ class ContinuationSpec(BaseModel):
 
     @model_validator(mode="after")
     def _bounds(self) -> ContinuationSpec:
+        if self.newton_tol < NEWTON_TOL_FLOOR:
+            raise ValueError(f"newton_tol: {self.newton_tol:g} is below {NEWTON_TOL_FLOOR:g}: "
+                             "a Newton step and a residual relative to the unknowns are "
+                             "resolved to ~1e-16 in double precision, so no iteration could "
+                             "meet it")
         if self.min is not None and self.max is not None and self.min >= self.max:
             raise ValueError(f"need min < max (got min = {self.min}, max = {self.max})")
         for name, (lo, hi) in self.bounds.items():
@@ -469,7 +478,16 @@ def _first_error(err: ValidationError) -> dict[str, Any]:
         if e["type"] == "extra_forbidden" and e["loc"] and isinstance(e["loc"][-1], str) \
                 and show_key(e["loc"][-1]) != e["loc"][-1]:
             return dict(e)
-    return dict(errors[0])
+    first = errors[0]
+    if first["type"].endswith("_type") and len(first["loc"]) > 1:
+        # a union (``float | list[float]``) whose first member does not even take the value's
+        # type: the member that took it and failed deeper (``stiffness[1]: greater than 0``)
+        # says what is wrong, not "should be a valid number"
+        n = len(first["loc"]) - 1
+        for e in errors[1:]:
+            if len(e["loc"]) > n + 1 and e["loc"][:n] == first["loc"][:n]:
+                return dict(e)
+    return dict(first)
 
 
 def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
@@ -505,6 +523,10 @@ def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
         msg = "unknown key"
     elif e["type"] == "missing":
         msg = "required key is missing"
+    elif e["type"] in ("model_type", "dict_type") and not isinstance(node, dict):
+        # pydantic names its model class ("or instance of ContinuationSpec"): the user wrote YAML
+        msg = (f"expected a mapping of keys (key: value), got "
+               f"{short_text(ascii(node) if isinstance(node, str) else repr(node))}")
     elif e["type"] in ("float_type", "int_type", "bool_type", "string_type") \
             and not isinstance(node, dict | list):
         msg = f"{msg} (got {short_text(ascii(node) if isinstance(node, str) else repr(node))})"
@@ -574,13 +596,15 @@ _CaseLoader.add_implicit_resolver(
 
 
 class _Yaml11Number(str):
-    """A plain scalar YAML 1.1 reads as a number and YAML 1.2 does not (or as another one):
-    ``010`` (octal 8 in 1.1, 10 in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2).
-    Kept as its text; :func:`parse_yaml` refuses it, naming its key and quoting it."""
+    """A plain scalar that would be read as another number than the one written: one YAML 1.1
+    reads as a number and YAML 1.2 does not (or as another one), ``010`` (octal 8 in 1.1, 10
+    in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2); or a float beyond double
+    precision, ``1e-400`` (0) or ``1e400`` (infinity). Kept as its text; :func:`parse_yaml`
+    refuses it, naming its key and quoting it."""
 
-    #: ``octal`` or ``base-60``
+    #: ``octal``, ``base-60``, ``underflow`` or ``overflow``
     form: str
-    #: the value YAML 1.1 gives it
+    #: the value it would be read as
     value: float | int
 
 
@@ -588,14 +612,28 @@ class _Yaml11Number(str):
 OCTAL = re.compile(r"^[-+]?0[0-7_]+$")
 
 
+#: the mantissa of a float literal with a nonzero digit (``1e-400``, not ``0.0e5``)
+NONZERO_FLOAT = re.compile(r"^[-+]?[0-9_]*\.?[0-9_]*[1-9]")
+#: ``.inf``, ``-.inf``, ``.nan`` (written as such: refused later as not finite)
+SPECIAL_FLOAT = re.compile(r"^[-+]?\.(?:inf|Inf|INF|nan|NaN|NAN)$")
+
+
 def _number(loader: _CaseLoader, node: yaml.ScalarNode, build: Any) -> Any:
     text = loader.construct_scalar(node)
-    if isinstance(text, str) and (":" in text or OCTAL.match(text)):
-        out = _Yaml11Number(text)
-        out.form = "base-60" if ":" in text else "octal"
-        out.value = build(loader, node)
-        return out
-    return build(loader, node)
+    if not isinstance(text, str):
+        return build(loader, node)
+    form = "base-60" if ":" in text else "octal" if OCTAL.match(text) else None
+    value = build(loader, node)
+    if form is None and isinstance(value, float) and not SPECIAL_FLOAT.match(text):
+        if value == 0.0 and NONZERO_FLOAT.match(re.split("[eE]", text)[0]):
+            form = "underflow"
+        elif math.isinf(value):
+            form = "overflow"
+    if form is None:
+        return value
+    out = _Yaml11Number(text)
+    out.form, out.value = form, value
+    return out
 
 
 _CaseLoader.add_constructor(
@@ -636,6 +674,11 @@ def _refuse_yaml11(obj: Any, where: str) -> None:
         return
     key, num, is_key = found
     text = str(num)
+    if num.form in ("underflow", "overflow"):
+        limit = "smallest" if num.form == "underflow" else "largest"
+        why = (f"is beyond the {limit} number double precision holds (it would be read as "
+               f"{num.value}); rescale the problem")
+        raise CaseError(f"{key or where}: {text!r} {why}")
     if num.form == "octal":
         sign = "-" if text.startswith("-") else ""
         decimal = sign + (text.replace("_", "").lstrip("+-").lstrip("0") or "0")
@@ -697,16 +740,29 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str],
         if "=" not in item:
             raise CaseError(f"{source} {short_text(repr(item))}: expected dotted.key=value")
         key, value = item.split("=", 1)
-        parts = key.strip().split(".")
-        if not all(parts):
+        if not all(key.strip().split(".")):
             raise CaseError(f"{source} {short_text(repr(item))}: empty key")
-        node = out
-        for p in parts[:-1]:
-            if not isinstance(node.get(p, {}), dict):
-                raise CaseError(f"{source} {key}: {p} is not a mapping")
-            node = node.setdefault(p, {})
-        node[parts[-1]] = parse_yaml(value, f"{source} {key}")
+        set_dotted(out, key.strip(), parse_yaml(value, f"{source} {key}"), source)
     return out
+
+
+def set_dotted(raw: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """``raw[a][b][c] = value`` for the dotted ``key`` ``a.b.c`` (mappings created on the
+    way); a part that is no mapping, or a list index (``start[0]``), is refused naming
+    ``source``."""
+    parts = key.split(".")
+    at = next((i for i, p in enumerate(parts) if re.search(r"\[-?\d*\]$", p)), None)
+    if at is not None:
+        whole = short_text(".".join([*parts[:at], parts[at].split("[")[0]]))
+        example = f"--set '{whole}=[...]'" if source == "--set" else f"{{'{whole}': [...]}}"
+        raise CaseError(f"{source} {short_text(key)}: {short_text(parts[at])} indexes a list, "
+                        f"which a dotted key cannot; set the whole list instead, e.g. {example}")
+    node = raw
+    for p in parts[:-1]:
+        if not isinstance(node.get(p, {}), dict):
+            raise CaseError(f"{source} {key}: {p} is not a mapping")
+        node = node.setdefault(p, {})
+    node[parts[-1]] = value
 
 
 def load_raw(path: str | Path) -> dict[str, Any]:

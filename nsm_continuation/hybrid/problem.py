@@ -281,7 +281,7 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
             "period": float(res.t),
             "sticking_time": res.sticking_time,
             "n_impacts_before_chatter": float(res.n_impacts_before_chatter),
-            "n_sticking_phases": float(len(res.sticking_intervals)),
+            "n_sticking_phases": float(res.n_sticking_phases),
             "n_impacts": float(res.n_impacts),
             "min_impact_velocity": (float(res.min_impact_velocity)
                                     if np.isfinite(res.min_impact_velocity) else np.nan),

@@ -127,6 +127,14 @@ class SimResult:
         return float(sum(b - a for a, b in self.sticking_intervals))
 
     @property
+    def n_sticking_phases(self) -> int:
+        """Sticking phases: the intervals, one that began at the start and one that lasts to
+        the end counted once (on a periodic orbit they are one phase, cut by the section)."""
+        iv = self.sticking_intervals
+        wraps = len(iv) > 1 and iv[0][0] == 0.0 and iv[-1][1] == self.t
+        return len(iv) - int(wraps)
+
+    @property
     def n_impacts_before_chatter(self) -> int:
         return int(sum(self.chatter_counts))
 

@@ -208,8 +208,6 @@ class Simulator(Transitions, SurfaceContacts):
                 continue
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
-        if w.active is not None and w.mode == S4 and w.stick_start is not None:
-            w.stick_iv.append((w.stick_start, w.t))
         if w.defer is not None:
             w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
@@ -441,16 +439,22 @@ class Simulator(Transitions, SurfaceContacts):
         key, Y, pr = w.key, w.Y, w.pr
         s, name, idx, _direction, surface = hit
         tau, Ye, pre, Fe, Jstep = self._refine(key, Y, dt, s * dt, name, idx, section)
-        smode = w.modes[surface] if surface >= 0 else None
-        if name == "v" and smode in (S2, S6):
-            # the turn of v came after the impact function went negative: an impact inside a
-            # dip the interpolant of H (or h) did not resolve. H (h) is monotone before the
-            # turn, so [0, tau] brackets exactly one impact.
-            hi_, hn = (w.offsets[surface], "H") if smode == S2 else (4, "h")
+        # the turn of v (or the section) came after an impact function went negative: an
+        # impact inside a dip the interpolant of H (or h) did not resolve (or placed after the
+        # section). H (h) is monotone before the turn, so [0, tau] brackets exactly one impact.
+        if name == "v":
+            candidates = [surface] if w.modes[surface] in (S2, S6) else []
+        elif name == "section":
+            candidates = [j for j, mo in enumerate(w.modes) if mo in (S2, S6)]
+        else:
+            candidates = []
+        for j in candidates:
+            hi_, hn = (w.offsets[j], "H") if w.modes[j] == S2 else (4, "h")
             if pre[hi_] < 0 <= pr[hi_]:
-                name, idx = hn, hi_
+                name, idx, surface = hn, hi_, j
                 tau, Ye, pre, Fe, Jstep = self._refine(
                     key, Y, tau, tau * pr[hi_] / (pr[hi_] - pre[hi_]), name, idx, section)
+                break
         if section is not None and name != "section":
             # the refined crossing may lie past the section (an event within round-off of
             # it, e.g. a turning point of q on a stroboscopic section): the section comes first
@@ -530,6 +534,14 @@ class Simulator(Transitions, SurfaceContacts):
 
     def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
+        if w.active is not None and w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
+        if w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
         return SimResult(
             X=w.Y[:N].copy(), t=w.t, J=None if w.J is None else w.J[:N].copy(),
             Jt=None if w.Jt is None else w.Jt.copy(), events=w.events, state=w.mode,

@@ -143,7 +143,10 @@ class Transitions:
             seq.clear()
         if vplus <= 1e-14 * (1.0 + abs(q["v"])):                          # r = 0 (IV, V)
             seq.clear()
-            if a < 0:
+            # stick or release on the acceleration at the post-impact state (on {H = 0,
+            # v = 0}): a force that depends on the velocity (damping) changes sign across the
+            # impact, and the pre-impact a would release into the wall or stick off it
+            if self.calls.probe.flat(Xp)[4 * surface + 2] < 0:
                 Xs, Js = self._project(Xp, Jp, surface)
                 events.append(SimEvent("plastic_stick", t, Xs[: c.n].copy(), surface=surface))
                 return S4, Xs, Js, Jt, t, info

@@ -33,6 +33,7 @@ from nsm_continuation.problems.bar.continuum_orbits import (
     subharmonic_signature,
 )
 from nsm_continuation.problems.bar.presentation import BarContinuumPresentation
+from nsm_continuation.problems.bar.wfem_operators import check_reference_energy
 from pydantic import (
     BaseModel,
     Discriminator,
@@ -172,11 +173,7 @@ class BarContinuumProblem(Problem):
         if not (np.isfinite(self.omega1) and self.omega1 > 0):
             raise ValueError(f"parameters.E: E, rho and L give omega_1 = pi c / (2L) = "
                              f"{self.omega1:.3g}, not a positive finite number: rescale them")
-        if not 1e-200 <= self.energy_ref <= 1e200:
-            raise ValueError(
-                f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
-                f"{self.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200], where double "
-                "precision resolves the energies: rescale E, L or the gap")
+        check_reference_energy(self.E, self.L, self.g0)
 
     # ------------------------------------------------------------------ preflight
     #: seconds of one orbit evaluation (jump set, end series, margins) ~ A + B |a| (laps + 1)

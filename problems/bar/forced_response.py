@@ -58,6 +58,7 @@ from nsm_continuation.problems.bar.linear_forced import (
     linear_wall_response,
 )
 from nsm_continuation.problems.bar.presentation import ForcedBarPresentation
+from nsm_continuation.problems.bar.wfem_operators import check_reference_energy
 from nsm_continuation.problems.bar.wfem_stepping import BarParams, Loading, rest_state
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
@@ -202,10 +203,7 @@ class WfemForcedBarProblem(SweepProblem):
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"parameters.E: E, rho and L give {name} = {v:.3g}, not a "
                                  "positive finite number: rescale them")
-        if bar.g0 != 0 and not 1e-200 <= bar.energy_ref <= 1e200:
-            raise ValueError(f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
-                             f"{bar.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200]: "
-                             "rescale E, L or the gap")
+        check_reference_energy(bar.E, bar.L, bar.g0)
 
     @property
     def energy_scale(self) -> float:
