@@ -7,17 +7,20 @@ Pure functions of the results and of what the problem was built from.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from nsm_continuation.core.records import OrbitTrace
 from nsm_continuation.hybrid.conservative import UNFOLDING
+from nsm_continuation.hybrid.orbit_trace import orbit_trace
 from nsm_continuation.hybrid.presentation import HybridPresentation
 
 
 class ConservativePresentation(HybridPresentation):
-    """Frequency-energy plot (period-energy without a declared energy... the energy when
-    declared, else the period, against the frequency ``omega = 2 pi / T``)."""
+    """The frequency-energy plot: the energy (the period when none is declared) against the
+    frequency ``omega = 2 pi / T``."""
 
     diagram_title = "Frequency-energy plot"  # type: ignore[assignment]
     diagram_yscale = "log"  # type: ignore[assignment]
@@ -45,6 +48,12 @@ class ConservativePresentation(HybridPresentation):
     def event_columns(self) -> list[str]:  # type: ignore[override]
         return ["omega", "period", *(["energy"] if self._has_energy else [])]
 
+    def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace:
+        """The orbit over ``periods`` periods: ``returns`` crossings of the section each."""
+        k = int(self.problem.returns)
+        trace = orbit_trace(self.problem, y, int(periods) * k)
+        return replace(trace, period=trace.period * k)
+
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
         return []
@@ -64,8 +73,8 @@ class ConservativePresentation(HybridPresentation):
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
         """Per branch: the ranges of the frequency and the energy, the largest ``|beta|`` and
-        ``|beta| T`` (the unfolding's check) and the largest removal error of the family's
-        multiplier (``trivial_error``)."""
+        ``|beta| T`` (the unfolding's check; the removal of the family's multiplier is the
+        branch's ``max_trivial_multiplier_error``)."""
         out = []
         for br in branches:
             pts = [p for p in br.points if np.isfinite(p.derived.get("period", np.nan))]
@@ -78,7 +87,5 @@ class ConservativePresentation(HybridPresentation):
                     rec[f"{key}_range"] = [float(np.nanmin(v)), float(np.nanmax(v))]
             rec["max_abs_beta"] = float(max(abs(p.derived.get(UNFOLDING, 0.0)) for p in pts))
             rec["max_unfolding"] = float(max(p.derived.get("unfolding", 0.0) for p in pts))
-            errs = [p.trivial_error for p in pts if p.multipliers is not None]
-            rec["max_multiplier_removal_error"] = float(max(errs)) if errs else None
             out.append(rec)
         return {"branches": out}
