@@ -185,12 +185,15 @@ class ConservativeShooting:
     ``beta`` the unfolding, ``s`` the continued ``quantity`` (``period``, ``omega`` or
     ``energy``; ``energy`` needs the Function ``energy(X)``). Residual ``[P(z, beta) - z;
     c(z, beta) - s]`` with the exact Jacobian ``[[P_z - I, P_beta, 0], [c_z, c_beta, -1]]``
-    (``c_z = J_t`` for the period, ``-2 pi J_t / t^2`` for the frequency (written ``t - 2 pi /
-    omega``: row ``J_t``, column ``2 pi / omega^2``), ``grad E`` for the energy). One simulation
-    per ``(z, beta)`` (cached: the same orbit at another ``s`` is not simulated again)."""
+    (``c_z = J_t / m`` for the period ``t / m``, the frequency written ``t - 2 pi m / omega``:
+    row ``J_t``, column ``2 pi m / omega^2``, ``grad E`` for the energy; ``m`` = ``multiple``,
+    1 but for a period-``2k`` family, whose period and frequency are its base period's, so
+    that it starts at the period doubling's values). One simulation per ``(z, beta)``
+    (cached: the same orbit at another ``s`` is not simulated again)."""
 
     def __init__(self, c: CompiledHybrid, section: CrossingSection, opts: SimOptions,
-                 quantity: str, energy: ca.Function | None = None, cache_size: int = 16) -> None:
+                 quantity: str, energy: ca.Function | None = None, cache_size: int = 16,
+                 multiple: int = 1) -> None:
         if c.free != [UNFOLDING]:
             raise ValueError(f"the unfolded system is compiled with free = [{UNFOLDING!r}] "
                              f"(got {c.free})")
@@ -202,6 +205,9 @@ class ConservativeShooting:
         self.sim = Simulator(c, opts)
         self.quantity = quantity
         self.energy = energy
+        #: the orbits are ``multiple`` periods of a base family (a period-``2k`` family born
+        #: at a period doubling): the period and the frequency are the base period's
+        self.multiple = int(multiple)
         self.free_idx = [i for i in range(c.n) if i != section.index]
         self._cache: OrderedDict[bytes, SimResult | str] = OrderedDict()
         self.cache_size = cache_size
@@ -295,20 +301,28 @@ class ConservativeShooting:
         A[:m, :m] -= np.eye(m)
         g = res.X[fi] - X0[fi]
         s = float(y[-1])
+        k = float(self.multiple)
         if self.quantity == "energy":
             E, dE = self.energy_gradient(y)
             A[m, : m + 1] = dE[cols]
             A[m, m + 1] = -1.0
             r = E - s
+        elif self.quantity == "period":
+            A[m, : m + 1] = res.Jt[cols] / k
+            A[m, m + 1] = -1.0
+            r = res.t / k - s
         else:
             A[m, : m + 1] = res.Jt[cols]
-            if self.quantity == "period":
-                A[m, m + 1] = -1.0
-                r = res.t - s
-            else:
-                A[m, m + 1] = 2.0 * np.pi / s ** 2
-                r = res.t - 2.0 * np.pi / s
+            A[m, m + 1] = 2.0 * np.pi * k / s ** 2
+            r = res.t - 2.0 * np.pi * k / s
         return np.append(g, r), A
+
+    def quantity_value(self, y: np.ndarray) -> float:
+        """The continued quantity of the orbit through ``y`` (its ``c(z, beta)``)."""
+        if self.quantity == "energy":
+            return self.energy_gradient(y)[0]
+        t = float(self.simulate(y).t) / self.multiple
+        return t if self.quantity == "period" else 2.0 * np.pi / t
 
     def poincare_jacobian(self, y: np.ndarray) -> np.ndarray:
         """``P_z`` (the section map's Jacobian in the section coordinates)."""

@@ -115,6 +115,8 @@ class ConservativeFamilyProblem(HybridShootingProblem):
             self.hybrid.x, *self.hybrid.params.values())], *sub)[0]
         self._dqp = ca.Function("dqp", [X], [dqp])
         self.shooting: ConservativeShooting  # type: ignore[assignment]
+        #: the orbits are this many periods of the family's (a period-doubled family: 2)
+        self.multiple = 1
         self.set_parameter(self.case_parameter or "period")
 
     # -- to implement -----------------------------------------------------------------------
@@ -146,7 +148,7 @@ class ConservativeFamilyProblem(HybridShootingProblem):
             sec = CrossingSection(sec.index, sec.value, sec.shift, sec.crossing, int(returns))
         self.shooting = ConservativeShooting(self.compiled_system, sec,
                                              self.integrator.options(), name,
-                                             self.energy_function)
+                                             self.energy_function, multiple=self.multiple)
         names = self.hybrid.state_names
         self.parameter = name
         self.variables = [names[i] for i in self.shooting.free_idx] + [UNFOLDING, name]
@@ -201,6 +203,7 @@ class ConservativeFamilyProblem(HybridShootingProblem):
         except ShootingFailure as exc:
             raise EvaluationError(f"simulation: {exc}") from None
         k = self.impacts_per_period()
+        k = None if k is None else k * self.multiple
         if k is not None and n != k:
             raise EvaluationError(
                 f"impact sequence: {n} impacts per period where the family has {k}: a near "
@@ -295,7 +298,19 @@ class ConservativeFamilyProblem(HybridShootingProblem):
                 "returns": self.returns}
 
     def period_multiple(self) -> int:
-        return self.returns
+        """The periods of the family's orbits each orbit makes (2 on a period-doubled
+        family)."""
+        return self.multiple
+
+    def iterated(self, multiple: int) -> ConservativeFamilyProblem:
+        """The same family's orbits of ``multiple`` periods (the period-``2k`` family born at
+        a period doubling): ``multiple / period_multiple`` times the crossings of the section
+        and the impacts per period; its continued period or frequency is the base period's
+        (the doubling's point is a point of both problems)."""
+        new = type(self)(self.params)
+        new.multiple = int(multiple)
+        new.set_parameter(self.parameter, self.returns * int(multiple) // self.multiple)
+        return new
 
     # -- starts ------------------------------------------------------------------------------
     def orbit_start(self, spec: Any) -> tuple[np.ndarray, float, str, dict[str, Any]]:
@@ -382,10 +397,11 @@ class ConservativeFamilyProblem(HybridShootingProblem):
             except ShootingFailure as exc:
                 raise ValueError(f"{start_key(i)}: the start does not return to the section "
                                  f"({exc})") from None
+            if T is not None and self.parameter != "energy" and self.multiple == 1:
+                y[-1] = T if self.parameter == "period" else 2.0 * np.pi / T  # as given
+            else:
+                y[-1] = sh.quantity_value(y)
             T = t if T is None else T
-            y[-1] = {"period": T, "omega": 2.0 * np.pi / T}.get(self.parameter, np.nan)
-            if self.parameter == "energy":
-                y[-1] = sh.energy_gradient(y)[0]
             d = {"both": 0, "increase": 1, "decrease": -1}[getattr(s, "direction", "both")]
             out.append(StartPoint(y, label or f"orbit of period {T:.6g}", d,
                                   {**info, "returns": k}))
