@@ -11,11 +11,11 @@ impacts, saltation-chained sensitivities) and continued as a conservative family
 crossed falling, the energy ``E = (u'^T M u' + u^T K u) / 2``).
 
 **Which model runs.** ``ndof_impact`` (the closed form (4.1)-(4.2), its multipliers from
-(A.8)) is the default: exact to round-off, ~4 ms per point, but only for one impact per period.
-This model assumes nothing about the impact sequence (several impacts per period, a damping or
-a restitution below 1 to check that the unfolding catches them); a case chooses it explicitly,
-and the report names it (``problem_summary.model``). The two agree on the one-impact modes
-(``tests/chain/test_two_models.py``).
+(A.8)) is the default: exact to round-off, 1.4 ms per point (0.25 s here), but only for one
+impact per period. This model assumes nothing about the impact sequence (several impacts per
+period, a damping or a restitution below 1 to check that the unfolding catches them); a case
+chooses it explicitly, and the report names it (``problem_summary.model``). The two agree on
+the one-impact modes (``tests/chain/test_two_models.py``).
 
 Starts: ``{omega: w}`` or ``{T: T}``: the closed-form orbit (4.2) at that period (a guess: the
 hybrid model corrects it in its own equations at that frequency), or ``{guess: {...}}`` on the
