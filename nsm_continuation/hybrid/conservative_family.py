@@ -50,9 +50,13 @@ class GuessStart(BaseModel):
     ``returns``: crossings of the section per period (default the section's)."""
 
     model_config = STRICT
+    #: the section coordinates of a periodic orbit, by state name
     guess: dict[str, float]
+    #: crossings of the section per period (null: the section's)
     returns: int | None = Field(None, ge=1)
+    #: the directions to continue in from the start
     direction: Literal["both", "increase", "decrease"] = "both"
+    #: a label for the start's branch
     label: str | None = None
 
 

@@ -50,10 +50,16 @@ class HybridChainParameters(BaseModel):
     ``damping * K`` (0: conservative) and the integrator (default ``rtol`` 1e-12)."""
 
     model_config = STRICT
+    #: the chain's masses and springs (as for ``problem: ndof_impact``)
     chain: ChainSpec
+    #: the wall's position: the impacting dof's displacement ``u_c <= gap``
     gap: Positive
+    #: the dof that hits the wall (1-based; null: the last)
     impacting_dof: Annotated[int, Field(ge=1)] | None = None
+    #: coefficient of restitution (1: elastic, the nonsmooth modes; below 1 the unfolding
+    #: parameter does not vanish and the branch ends, named)
     restitution: float = Field(1.0, gt=0, le=1, allow_inf_nan=False)
+    #: viscous damping ``damping * K`` (0: conservative)
     damping: float = Field(0.0, ge=0, allow_inf_nan=False)
     #: the section ``u_c = section_value`` (crossed falling: moving away from the wall)
     section_value: float = Field(0.0, allow_inf_nan=False)
@@ -61,6 +67,7 @@ class HybridChainParameters(BaseModel):
     #: branch ends where its impact sequence changes, e.g. at the nonlinear grazing orbit B);
     #: null: any
     impacts: Annotated[int, Field(ge=1)] | None = 1
+    #: the simulation's tolerances and integrator (default ``rtol`` 1e-12)
     integrator: IntegratorSpec = IntegratorSpec(rtol=1e-12, atol=1e-14)
 
     @model_validator(mode="after")
@@ -79,9 +86,13 @@ class ClosedFormStart(BaseModel):
     period, as the guess."""
 
     model_config = STRICT
+    #: the orbit's angular frequency (give this or ``T``)
     omega: Positive | None = None
+    #: the orbit's period (give this or ``omega``)
     T: Positive | None = None
+    #: the directions to continue in from the start
     direction: Literal["both", "increase", "decrease"] = "both"
+    #: a label for the start's branch
     label: str | None = None
 
     @model_validator(mode="after")
