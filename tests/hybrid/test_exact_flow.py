@@ -20,7 +20,7 @@ import nsm_continuation as nsm
 from nsm_continuation.hybrid.case import IntegratorSpec
 from nsm_continuation.hybrid.simulate import SimOptions, SimulationError, Simulator
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
-from tests.oracles.linear_flight import free_flight
+from oracles.linear_flight import free_flight
 
 
 def oscillator(force_of=None, zeta: float = 0.1) -> HybridSystem:

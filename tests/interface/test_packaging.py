@@ -202,3 +202,13 @@ def test_cases_lists_and_copies_the_bundled_cases(
         assert (dest / f"{name}.yaml").read_bytes() == path.read_bytes()
     assert cli.main(["cases", "--copy", str(dest)]) == 2  # never over a file
     assert "exists" in capsys.readouterr().err
+
+
+def test_tests_import_oracles_and_helpers_from_their_folder() -> None:
+    """The console ``pytest`` (CI's) puts ``tests/`` on ``sys.path``, not the repository: a test
+    importing ``tests.oracles...`` is not collected there (``conftest.py``)."""
+    root = Path(__file__).resolve().parents[1]
+    bad = [str(p.relative_to(root)) for p in root.rglob("*.py")
+           if any(line.startswith(("from tests.", "import tests."))
+                  for line in p.read_text().splitlines())]
+    assert bad == []
