@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from oracles.two_mass_wall import simulate
 
 import nsm_continuation as nsm
-from oracles.two_mass_wall import simulate
 
 PARAMS = {"m1": 1.0, "m2": 1.0, "k1": 1.0, "k2": 1.0, "c": 0.05, "F0": 0.5, "omega": 0.6,
           "gap": 0.5}
