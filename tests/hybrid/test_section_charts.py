@@ -190,7 +190,7 @@ def test_a_move_keeps_the_orbit(impact_through_the_section: Any,
     assert moved.y[-1] == p.y[-1]
     assert np.max(np.abs(moved.problem.evaluate(moved.y))) < 1e-8
     a, b = pb.derived(p.y), moved.problem.derived(moved.y)
-    for key in ("amplitude_q", "min_impact_velocity", "period"):
+    for key in ("amplitude_q", "min_impact_normal_velocity", "min_impact_dH_dt", "period"):
         assert b[key] == pytest.approx(a[key], rel=1e-8, abs=1e-10)
     ma = np.sort_complex(pb.floquet(p.y, p.tangent).multipliers)
     mb = np.sort_complex(moved.problem.floquet(moved.y, moved.tangent).multipliers)

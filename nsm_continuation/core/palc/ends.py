@@ -1,0 +1,254 @@
+"""Named ends: where a branch that cannot go on ends at a located event instead of a failed
+step.
+
+A half-branch that fails (the step falls below ``step_min`` or below the floating-point
+resolution) next to a boundary of its family ends *at* that boundary, named:
+
+* **a located kink it cannot cross** (:meth:`EndLocator.expect`): the problem located the zero of
+  an event function ahead of the last point (e.g. a grazing of a hybrid orbit,
+  :meth:`~nsm_continuation.core.problem.Problem.continue_beyond`) but no branch beyond it can be
+  followed; the zero is appended as the branch's last point, with its event;
+* **a vanishing quantity** (:func:`~nsm_continuation.core.monitors.vanishing`): a positive
+  derived quantity falls towards zero along the last points (e.g. the impact velocity of a
+  family of impacting orbits, which ends where it vanishes: beyond, the impact would have to
+  leave the surface). The branch cannot be followed to the zero itself (there the residual's
+  Jacobian blows up, and its noise with it), so the zero is *extrapolated*: the arclength and
+  every unknown as polynomials in the quantity ``q`` over the last resolved points (residual
+  at most ``RESOLVED x newton_tol``), evaluated at ``q = 0`` (:func:`extrapolate_to_zero`).
+  The location's uncertainty (the event's bracket, and the digits the reason prints) is the
+  largest change of that value with one degree less or without the point nearest the zero.
+  The zero must be simple (``q ~ (s* - s)^k`` with ``k`` near 1, :data:`ORDER`): the quantity
+  would change sign beyond it, the family ends (``k = 1/2``, a zero of a quantity whose square
+  is smooth, is a grazing the branch may cross: not an end). It is looked for after an
+  accepted point that is not resolved (:meth:`EndLocator.unresolved_end`: the branch would
+  creep on in noisy steps), after a failed step that would have reached it, and at the end of
+  a failing half-branch.
+
+Otherwise the failure's own reason stands.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from nsm_continuation.core.monitors import Source
+from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS
+from nsm_continuation.core.palc.kinks import KinkCrossing
+from nsm_continuation.core.palc.part import EnginePart
+from nsm_continuation.core.records import Event, Point
+
+#: points whose residual is at most this many times ``newton_tol`` (relative to ``1 + |y|``)
+#: are resolved: only they are extrapolated (near the zero the residual's noise grows)
+RESOLVED = 10.0
+#: the extrapolation fits (least squares: averaging their noise) the resolved points of the
+#: last monotone fall of the quantity whose values lie within SPAN times the smallest, or the
+#: MIN_POINTS smallest within SPAN_MAX times it where fewer do. Measured on the impact
+#: damper's end at omega = sqrt(3) (``tests/hybrid/test_named_ends.py``): SPAN 10 with degree 3
+#: is 8e-10 off, degree 2 4e-8 (the bracket); SPAN 30 degree 3 6e-9, 12 points 2e-8
+SPAN = 10.0
+SPAN_MAX = 100.0
+MIN_POINTS = 8
+#: degree of the polynomials in ``q`` (the bracket compares with one degree less)
+DEGREE = 3
+#: the quantity must have fallen at least this many times over the points fitted, and the zero
+#: must lie no farther beyond the last point than the span of those points (an extrapolation,
+#: not a prediction)
+FALL = 3.0
+#: the quantity must fall like ``(s* - s)^k`` with ``k`` in this range: a simple zero, where
+#: the quantity would change sign beyond it (the family ends); ``k = 1/2`` is a square root,
+#: the zero of a quantity whose square is smooth (a grazing the branch may cross)
+ORDER = (0.7, 1.5)
+
+
+def supported(value: float, uncertainty: float) -> str:
+    """``value`` with the significant digits its ``uncertainty`` supports (at least 3, at
+    most 15)."""
+    if not (np.isfinite(value) and np.isfinite(uncertainty)) or value == 0 or uncertainty <= 0:
+        return f"{value:.12g}"
+    digits = int(np.ceil(np.log10(abs(value) / uncertainty)))
+    return f"{value:.{min(max(digits, 3), 15)}g}"
+
+
+def extrapolate_to_zero(q: np.ndarray, values: np.ndarray, degree: int) -> np.ndarray:
+    """The columns of ``values`` (one row per point) as polynomials of ``degree`` in ``q``
+    (least squares), evaluated at ``q = 0``."""
+    q = np.asarray(q, dtype=float)
+    scale = float(np.max(np.abs(q)))
+    V = np.vander(q / scale, degree + 1)
+    coef, *_ = np.linalg.lstsq(V, np.asarray(values, dtype=float), rcond=None)
+    return np.asarray(coef[-1], dtype=float)
+
+
+def zero_order(s: np.ndarray, q: np.ndarray) -> float:
+    """The order ``k`` of the zero that ``q`` approaches along the arclength ``s``,
+    ``q ~ c (s* - s)^k``: the ``k`` in [0.25, 4] whose ``q^(1/k)`` is most nearly linear in
+    ``s`` (as :func:`~nsm_continuation.core.roots.pole_estimate` chooses its exponent)."""
+    ks = np.geomspace(0.25, 4.0, 97)
+    best, order = np.inf, float("nan")
+    for k in ks:
+        z = q ** (1.0 / k)
+        c = np.polyfit(s - s[-1], z, 1)
+        err = float(np.max(np.abs(np.polyval(c, s - s[-1]) - z)) / max(np.ptp(z), 1e-300))
+        if err < best:
+            best, order = err, float(k)
+    return order
+
+
+class EndLocator(EnginePart):
+    """Ends a failing half-branch at a located boundary of its family (module docstring)."""
+
+    def __init__(self, engine: Any) -> None:
+        super().__init__(engine)
+        #: a kink located ahead that the branch cannot be continued across, with the value of
+        #: its event function at the point it was located from
+        self._pending: tuple[KinkCrossing, str, float] | None = None
+
+    def begin(self) -> None:
+        """A new half-branch: nothing located ahead."""
+        self._pending = None
+
+    def expect(self, crossing: KinkCrossing, start: Point) -> None:
+        """A kink located ahead of ``start`` (an ``end`` crossing): the branch ends there if it
+        fails before passing it."""
+        name = crossing.events[0].data.get("function")
+        if name is not None:
+            self._pending = (crossing, str(name), float(start.event_values.get(name, np.nan)))
+
+    def expecting(self, last: Point) -> bool:
+        """Whether a kink located earlier still lies ahead of ``last``: its event function
+        keeps its sign there and is no farther from zero than where the kink was located
+        (else the branch has passed or turned away, and it is forgotten)."""
+        if self._pending is None:
+            return False
+        _, name, f0 = self._pending
+        f = last.event_values.get(name, np.nan)
+        if np.isfinite(f) and np.isfinite(f0) and np.sign(f) == np.sign(f0) \
+                and abs(f) <= abs(f0) * (1.0 + 1e-9):
+            return True
+        self._pending = None
+        return False
+
+    def named(self, pts: list[Point], events: list[Event], reason: str) -> str:
+        """The reason a failing half-branch ends: at a kink located ahead that it cannot
+        cross, or at the extrapolated zero of a vanishing quantity (appended to ``pts`` and
+        ``events``, the reason naming it), else ``reason`` itself."""
+        if self.expecting(pts[-1]):
+            crossing, _, _ = self._pending  # type: ignore[misc]
+            self._pending = None
+            zero = crossing.points[-1]
+            last = pts[-1]
+            zero.s = last.s + float(np.linalg.norm(zero.y - last.y))
+            pts.append(zero)
+            events.extend(crossing.events)
+            return f"{crossing.end} (last step: {reason})"
+        return self.vanishing_end(pts, events, f"the step towards it: {reason}") or reason
+
+    def vanishing_end(self, pts: list[Point], events: list[Event], why: str,
+                      reach: float = np.inf) -> str | None:
+        """The end of the half-branch at the extrapolated zero of a vanishing quantity within
+        ``reach`` of its last point (appended to ``pts`` and ``events``), and the reason naming
+        it (``why``: the failure of the step towards it); None if there is none."""
+        for m in self.problem.monitors.of(Source.VANISHING):
+            found = self._vanishing(pts, m.name, m.kind, reach)
+            if found is not None:
+                point, event = found
+                pts.append(point)
+                events.append(event)
+                where = supported(event.data["parameter_end"],
+                                  event.data["parameter_uncertainty"])
+                return (f"{m.kind} at {self.problem.parameter} = {where} (extrapolated; "
+                        f"{why})")
+        return None
+
+    def resolved(self, p: Point) -> bool:
+        """Whether the residual at ``p`` is at most ``RESOLVED`` times ``newton_tol`` (relative
+        to ``1 + |y|``)."""
+        scale = 1.0 + float(np.linalg.norm(p.y, np.inf))
+        return p.residual_norm <= RESOLVED * self.settings.newton_tol * scale
+
+    def unresolved_end(self, pts: list[Point], events: list[Event]) -> str | None:
+        """After an accepted point that is not resolved (its residual's noise exceeds
+        ``RESOLVED x newton_tol``): the end at the extrapolated zero of a vanishing quantity
+        the branch approaches (:meth:`vanishing_end`), or None. Near such a zero the residual's
+        noise grows like the return map's Jacobian: the branch would creep towards it in
+        ever shorter noisy steps and end on a failed one."""
+        if not self.problem.monitors.of(Source.VANISHING) or self.resolved(pts[-1]):
+            return None
+        why = (f"the orbits approaching it are no longer resolved: residual "
+               f"{pts[-1].residual_norm:.2g}")
+        return self.vanishing_end(pts, events, why)
+
+    def _resolved(self, pts: list[Point], name: str) -> list[Point]:
+        """The resolved points (oldest first) of the last monotone fall of ``name`` towards
+        zero along the half-branch whose values lie within ``SPAN`` times the smallest, or the
+        ``MIN_POINTS`` smallest within ``SPAN_MAX`` times it where fewer do."""
+        out: list[Point] = []
+        for p in reversed(pts):
+            q = float(p.derived.get(name, np.nan))
+            if not (np.isfinite(q) and q > 0):
+                if out:
+                    break
+                continue
+            if not self.resolved(p):
+                continue
+            if out and not q > float(out[-1].derived[name]):
+                break
+            if out and q > SPAN_MAX * float(out[0].derived[name]):
+                break
+            out.append(p)
+        if out:
+            q_min = float(out[0].derived[name])
+            near = [p for p in out if float(p.derived[name]) <= SPAN * q_min]
+            out = near if len(near) >= MIN_POINTS else out[:MIN_POINTS]
+        return out[::-1]
+
+    def _vanishing(self, pts: list[Point], name: str, kind: str, reach: float
+                   ) -> tuple[Point, Event] | None:
+        """The extrapolated zero of the vanishing quantity ``name`` ahead of the last points,
+        as the branch's end point and its event, or None (too few resolved points, the
+        quantity not falling enough, not to a simple zero, or a zero farther ahead than the
+        span of the points fitted or than ``reach`` from the last point of the branch)."""
+        fit = self._resolved(pts, name)
+        if len(fit) < MIN_POINTS:
+            return None
+        q = np.array([float(p.derived[name]) for p in fit])
+        s = np.array([p.s for p in fit])
+        if not q[0] >= FALL * q[-1] or not np.all(np.diff(s) > 0):
+            return None
+        cols = np.column_stack([s, np.array([p.y for p in fit])])
+        deg = min(DEGREE, len(fit) - 3)
+        at = extrapolate_to_zero(q, cols, deg)
+        # the uncertainty: against one degree less, and without the point nearest the zero
+        others = (extrapolate_to_zero(q, cols, deg - 1),
+                  extrapolate_to_zero(q[:-1], cols[:-1], min(deg, len(fit) - 4)))
+        s_end, y_end = float(at[0]), at[1:]
+        if not (np.all(np.isfinite(at)) and 0.0 < s_end - s[-1] <= s[-1] - s[0]
+                and 0.0 < s_end - pts[-1].s <= reach):
+            return None
+        order = zero_order(s, q)
+        if not ORDER[0] <= order <= ORDER[1]:
+            return None  # no simple zero: e.g. q ~ sqrt(s* - s), a grazing the branch crosses
+        # the tangent at the zero: d(y)/dq of the fitted polynomials, oriented along the branch
+        scale = float(np.max(q))
+        coef, *_ = np.linalg.lstsq(np.vander(q / scale, deg + 1), cols, rcond=None)
+        d = coef[-2][1:]
+        t = d / np.linalg.norm(d) if np.linalg.norm(d) > 0 else fit[-1].tangent
+        t = t if float(t @ fit[-1].tangent) >= 0 else -t
+        try:
+            end = self.engine.analyse(y_end, t, s_end, floquet=False)
+        except NUMERICAL_ERRORS:
+            return None
+        par = self.problem.parameter
+        p_end = float(y_end[self.ip])
+        uncertainty = max(abs(p_end - float(o[1 + self.ip])) for o in others)
+        bracket = max(abs(s_end - float(o[0])) for o in others)
+        detail = (f"{name} falls to zero at {par} = {supported(p_end, uncertainty)} "
+                  f"(extrapolated from {len(fit)} resolved points, {name} {q[0]:.3g} .. "
+                  f"{q[-1]:.3g}, ~ (s* - s)^{order:.2g}; {par} uncertain by {uncertainty:.2g})")
+        data = {"monitor": name, "parameter_end": p_end, "parameter_uncertainty": uncertainty,
+                "points_fitted": len(fit), "monitor_range": [float(q[-1]), float(q[0])],
+                "zero_order": order, "signature_before": fit[-1].signature,
+                "located_on": "extrapolation"}
+        return end, Event(kind, end, detail, data=data, bracket=bracket)
