@@ -19,14 +19,17 @@ import casadi as ca
 import numpy as np
 import pytest
 from oracles import damper_symmetric as sym
+from oracles import impact_oscillator as oscillator
 from pydantic import BaseModel, ConfigDict, Field
 
 import nsm_continuation as nsm
+from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.palc.ends import extrapolate_to_zero, zero_order
 from nsm_continuation.core.palc.kinks import KinkCrosser
 from nsm_continuation.core.palc.locate import EventSource
 from nsm_continuation.core.problem import StartPoint
 from nsm_continuation.core.records import Event, Point
+from nsm_continuation.core.settings import ContinuationSettings
 from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
 from nsm_continuation.hybrid.system import HybridSystem
 from nsm_continuation.output.report import family_runs, markdown
@@ -156,6 +159,60 @@ def test_a_grazing_crossed_is_a_family_change_labelled_on_the_points() -> None:
     assert [r["signature"] for r in runs] == ["-", "I"]
     text = markdown(res.report())
     assert "## Families" in text and "`-` (rows 0-" in text and "then `I`" in text
+
+
+def test_a_vanishing_impact_velocity_at_a_single_grazing_is_crossed_not_an_end() -> None:
+    """The impact velocity of the undamped oscillator's low-velocity orbit falls to a simple
+    zero at its grazing (sqrt(3)) too, but there the branch goes on along the free orbit: with
+    the approach's last point unresolved, the end locator asks the kink crosser first, and
+    the branch is continued across the grazing (a ``family_change`` ``I -> -`` at sqrt(3) to
+    1e-10, the point beyond it free, amplitude ``1/(omega^2 - 1)``), not ended. The impact
+    damper's end, asked the same, ends (no family beyond it)."""
+    params = {"zeta": 0.0, "omega": 1.76, "gap": -0.5, "restitution": 0.8,
+              "section_phase": np.pi}
+    pr = nsm.problem("impact_oscillator", params)
+    # the low-velocity orbit from its closed form (oracles.impact_oscillator): the flight
+    # from the impact at phase phi (q = gap, qdot = -r v-) to the section at phase pi
+    w, r, gap = 1.76, 0.8, -0.5
+    orbit = min(oscillator.orbits(w, gap, r), key=lambda o: abs(o["v_minus"]))
+    G, phi = 1.0 / (1.0 - w * w), orbit["phase"]
+    a, b = gap - G * np.cos(phi), -r * orbit["v_minus"] + G * w * np.sin(phi)
+    t = ((np.pi - phi) % (2 * np.pi)) / w
+    q = G * np.cos(np.pi) + a * np.cos(t) + b * np.sin(t)
+    qdot = -G * w * np.sin(np.pi) - a * np.sin(t) + b * np.cos(t)
+    impacting = nsm.continuation(pr, {"guess": {"q": q, "qdot": qdot}, "direction": "decrease"},
+                                 min=1.2, max=1.8, max_points=200, newton_tol=1e-10,
+                                 step={"initial": 0.005, "min": 1e-9, "max": 0.02})
+    # the branch up to the grazing it went through (the approach, impacting orbits only)
+    br = impacting.branches[0].raw
+    s_g = next(ev.point.s for ev in br.events if ev.kind == "grazing")
+    pts = [p for p in br.points if p.s < s_g - 1e-12]
+    assert all(p.derived["n_impacts"] == 1 for p in pts)
+    engine = ContinuationEngine(pr, ContinuationSettings(newton_tol=1e-10, param_min=1.2,
+                                                         param_max=2.0))
+    engine.ends.begin()
+    pts[-1].residual_norm = 1e-6  # as if the last orbit of the approach were not resolved
+    events: list[Event] = []
+    assert engine.ends.unresolved_end(pts, events) is None
+    fam = [ev for ev in events if ev.kind == "family_change"]
+    assert len(fam) == 1 and fam[0].point.y[-1] == pytest.approx(np.sqrt(3.0), abs=1e-10)
+    assert (fam[0].data["signature_before"], fam[0].data["signature_after"]) == ("I", "-")
+    assert pts[-1].derived["n_impacts"] == 0 and pts[-1].y[-1] > np.sqrt(3.0)
+    assert pts[-1].derived["max_q"] == pytest.approx(1.0 / (pts[-1].y[-1] ** 2 - 1.0),
+                                                     abs=1e-9)
+    damper, start = symmetric_start(1.76, 0.0, (-0.48, 0.0, 6.28), np.pi / 2)
+    approach = nsm.continuation(damper, start, min=1.6, max=1.8, max_points=200,
+                                step={"initial": 0.01, "min": 1e-9, "max": 0.05},
+                                newton_tol=1e-10)
+    pts = list(approach.branches[0].raw.points)[:-1]  # without the end it found
+    engine = ContinuationEngine(damper, ContinuationSettings(newton_tol=1e-10))
+    engine.ends.begin()
+    pts[-1].residual_norm = 1e-6
+    events = []
+    why = engine.ends.unresolved_end(pts, events)
+    assert why is not None and why.startswith("impact_velocity_vanishes at omega = 1.73205")
+    assert [ev.kind for ev in events] == ["impact_velocity_vanishes"]
+    assert abs(pts[-1].y[-1] - np.sqrt(3.0)) <= events[0].data["parameter_uncertainty"]
 
 
 def test_a_transient_without_impacts_is_named_when_the_start_fails() -> None:

@@ -18,11 +18,13 @@ resolution) next to a boundary of its family ends *at* that boundary, named:
   The location's uncertainty (the event's bracket, and the digits the reason prints) is the
   largest change of that value with one degree less or without the point nearest the zero.
   The zero must be simple (``q ~ (s* - s)^k`` with ``k`` near 1, :data:`ORDER`): the quantity
-  would change sign beyond it, the family ends (``k = 1/2``, a zero of a quantity whose square
-  is smooth, is a grazing the branch may cross: not an end). It is looked for after an
-  accepted point that is not resolved (:meth:`EndLocator.unresolved_end`: the branch would
-  creep on in noisy steps), after a failed step that would have reached it, and at the end of
-  a failing half-branch.
+  would change sign beyond it, the family ends. The zero of an impact velocity is a grazing,
+  where the *branch* may go on along another family (the free orbit beyond a single grazing,
+  eq. G2): the kink crosser is asked first, and where it crosses the branch goes on; where it
+  locates the zero but finds nothing beyond, the branch ends at that located zero. It is
+  looked for after an accepted point that is not resolved (:meth:`EndLocator.unresolved_end`:
+  the branch would creep on in noisy steps), after a failed step that would have reached it,
+  and at the end of a failing half-branch.
 
 Otherwise the failure's own reason stands.
 """
@@ -49,7 +51,7 @@ RESOLVED = 10.0
 #: is 8e-10 off, degree 2 4e-8 (the bracket); SPAN 30 degree 3 6e-9, 12 points 2e-8
 SPAN = 10.0
 SPAN_MAX = 100.0
-MIN_POINTS = 8
+MIN_POINTS = 6
 #: degree of the polynomials in ``q`` (the bracket compares with one degree less)
 DEGREE = 3
 #: the quantity must have fallen at least this many times over the points fitted, and the zero
@@ -57,8 +59,8 @@ DEGREE = 3
 #: not a prediction)
 FALL = 3.0
 #: the quantity must fall like ``(s* - s)^k`` with ``k`` in this range: a simple zero, where
-#: the quantity would change sign beyond it (the family ends); ``k = 1/2`` is a square root,
-#: the zero of a quantity whose square is smooth (a grazing the branch may cross)
+#: the quantity would change sign beyond it (the family ends), not a turn of the branch
+#: (``k = 1/2``: the quantity's square is smooth in the arclength)
 ORDER = (0.7, 1.5)
 
 
@@ -135,31 +137,51 @@ class EndLocator(EnginePart):
         cross, or at the extrapolated zero of a vanishing quantity (appended to ``pts`` and
         ``events``, the reason naming it), else ``reason`` itself."""
         if self.expecting(pts[-1]):
-            crossing, _, _ = self._pending  # type: ignore[misc]
-            self._pending = None
-            zero = crossing.points[-1]
-            last = pts[-1]
-            zero.s = last.s + float(np.linalg.norm(zero.y - last.y))
-            pts.append(zero)
-            events.extend(crossing.events)
-            return f"{crossing.end} (last step: {reason})"
+            return self._end_at_kink(pts, events, f"last step: {reason}")
         return self.vanishing_end(pts, events, f"the step towards it: {reason}") or reason
 
+    def _end_at_kink(self, pts: list[Point], events: list[Event], why: str) -> str:
+        """End at the kink located ahead (:meth:`expect`): its zero appended with its event."""
+        crossing, _, _ = self._pending  # type: ignore[misc]
+        self._pending = None
+        zero = crossing.points[-1]
+        last = pts[-1]
+        zero.s = last.s + float(np.linalg.norm(zero.y - last.y))
+        pts.append(zero)
+        events.extend(crossing.events)
+        return f"{crossing.end} ({why})"
+
     def vanishing_end(self, pts: list[Point], events: list[Event], why: str,
-                      reach: float = np.inf) -> str | None:
-        """The end of the half-branch at the extrapolated zero of a vanishing quantity within
-        ``reach`` of its last point (appended to ``pts`` and ``events``), and the reason naming
-        it (``why``: the failure of the step towards it); None if there is none."""
+                      reach: float = np.inf, cross: bool = False) -> str | None:
+        """The end of the half-branch at the zero of a vanishing quantity ahead, within
+        ``reach`` of its last point, and the reason naming it (``why``: what stopped the
+        branch short of it); None if there is none. Where a kink was located ahead
+        (:meth:`expect`, or, with ``cross``, by the kink crosser asked now: the zero of an
+        impact velocity is a grazing, and the branch may go on beyond it along another
+        family), the kink decides: the branch goes on across it (its points and events
+        appended, None returned) or ends at its located zero; otherwise at the extrapolated
+        zero (appended to ``pts`` and ``events``)."""
         for m in self.problem.monitors.of(Source.VANISHING):
             found = self._vanishing(pts, m.name, m.kind, reach)
-            if found is not None:
-                point, event = found
-                pts.append(point)
-                events.append(event)
-                where = supported(event.data["parameter_end"],
-                                  event.data["parameter_uncertainty"])
-                return (f"{m.kind} at {self.problem.parameter} = {where} (extrapolated; "
-                        f"{why})")
+            if found is None:
+                continue
+            point, event = found
+            if cross and not self.expecting(pts[-1]):
+                # the kink is located from where the quantity began to fall: the last points
+                # may lie too close to it for its solves to start from
+                h = max(2.0 * (point.s - pts[-1].s), self.engine.step_control.h)
+                crossing = self.engine.kinks.ahead(pts, h, self._fall_start(pts, m.name))
+                if crossing is not None and crossing.end is None:
+                    crossing.record(pts, events)
+                    return None
+                if crossing is not None:
+                    self.expect(crossing, pts[-1])
+            if self.expecting(pts[-1]):
+                return self._end_at_kink(pts, events, why)
+            pts.append(point)
+            events.append(event)
+            where = supported(event.data["parameter_end"], event.data["parameter_uncertainty"])
+            return f"{m.kind} at {self.problem.parameter} = {where} (extrapolated; {why})"
         return None
 
     def resolved(self, p: Point) -> bool:
@@ -170,15 +192,31 @@ class EndLocator(EnginePart):
 
     def unresolved_end(self, pts: list[Point], events: list[Event]) -> str | None:
         """After an accepted point that is not resolved (its residual's noise exceeds
-        ``RESOLVED x newton_tol``): the end at the extrapolated zero of a vanishing quantity
-        the branch approaches (:meth:`vanishing_end`), or None. Near such a zero the residual's
-        noise grows like the return map's Jacobian: the branch would creep towards it in
-        ever shorter noisy steps and end on a failed one."""
+        ``RESOLVED x newton_tol``) next to the zero of a vanishing quantity: the branch goes
+        on across a kink there, or ends at it (:meth:`vanishing_end`, asking the kink crosser
+        first); None to go on. Near such a zero the residual's noise grows like the return
+        map's Jacobian: the branch would creep towards it in ever shorter noisy steps and end
+        on a failed one."""
         if not self.problem.monitors.of(Source.VANISHING) or self.resolved(pts[-1]):
             return None
         why = (f"the orbits approaching it are no longer resolved: residual "
                f"{pts[-1].residual_norm:.2g}")
-        return self.vanishing_end(pts, events, why)
+        return self.vanishing_end(pts, events, why, cross=True)
+
+    def _fall_start(self, pts: list[Point], name: str) -> Point:
+        """The resolved point where the last monotone fall of ``name`` along the half-branch
+        began."""
+        start = pts[-1]
+        for p in reversed(pts):
+            q = float(p.derived.get(name, np.nan))
+            if not (np.isfinite(q) and q > 0):
+                break
+            if not self.resolved(p):
+                continue
+            if q < float(start.derived.get(name, np.nan)):
+                break
+            start = p
+        return start
 
     def _resolved(self, pts: list[Point], name: str) -> list[Point]:
         """The resolved points (oldest first) of the last monotone fall of ``name`` towards
@@ -229,7 +267,7 @@ class EndLocator(EnginePart):
             return None
         order = zero_order(s, q)
         if not ORDER[0] <= order <= ORDER[1]:
-            return None  # no simple zero: e.g. q ~ sqrt(s* - s), a grazing the branch crosses
+            return None  # no simple zero (e.g. q ~ sqrt(s* - s): the branch turns there)
         # the tangent at the zero: d(y)/dq of the fitted polynomials, oriented along the branch
         scale = float(np.max(q))
         coef, *_ = np.linalg.lstsq(np.vander(q / scale, deg + 1), cols, rcond=None)

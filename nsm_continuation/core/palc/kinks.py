@@ -142,11 +142,15 @@ class KinkCrosser(EnginePart):
                                    "at": zero.kind}, bracket=zero.bracket))
         return out
 
-    def ahead(self, pts: list[Point], h_step: float) -> KinkCrossing | None:
+    def ahead(self, pts: list[Point], h_step: float, start: Point | None = None
+              ) -> KinkCrossing | None:
         """After a step from ``pts[-1]`` that failed: the crossing of a kink the step may have
         met (:meth:`_approaching`), or None (an ``end`` crossing: the kink is located, the
-        branch cannot be continued beyond it)."""
+        branch cannot be continued beyond it). ``start``: an earlier point of the branch to
+        locate the kink from (where the last ones are too close to it to be resolved)."""
         kink = self._approaching(pts, h_step)
+        if kink is not None and start is not None and kink.function in start.event_values:
+            kink = Kink(kink.function, float(start.event_values[kink.function]), start)
         return None if kink is None else self.cross(pts[-1], kink, h_step)
 
     def _approaching(self, pts: list[Point], h_step: float) -> Kink | None:
@@ -186,9 +190,12 @@ class KinkCrosser(EnginePart):
                 return None
             path: list[Point] = []
             prev = a
+            # the approach from ``a`` on (from an earlier start it may pass points behind it)
+            reach = float(np.linalg.norm(a.y - np.asarray(out.zero, dtype=float)))
             for z in out.approach:
                 z = np.asarray(z, dtype=float)
-                if np.linalg.norm(z - prev.y) <= 1e-12 * (1.0 + np.linalg.norm(z)):
+                if np.linalg.norm(z - prev.y) <= 1e-12 * (1.0 + np.linalg.norm(z)) \
+                        or np.linalg.norm(z - out.zero) >= reach:
                     continue
                 t = self.engine.tangent(z, prev.tangent)
                 prev = self.engine.analyse(z, t, prev.s + float(np.linalg.norm(z - prev.y)))
