@@ -58,6 +58,12 @@ DEGREE = 3
 #: must lie no farther beyond the last point than the span of those points (an extrapolation,
 #: not a prediction)
 FALL = 3.0
+#: the kink crosser is asked to locate the zero from points of the last fall where the
+#: quantity was these many times its last value, then from where the fall began, until one
+#: locates it (the margin-fixed solves of a grazing do not start from orbits next to it:
+#: measured on the impact oscillator, from 1000 times the last impact velocity they do, from
+#: 100 times they do not; each attempt that fails does so at its first solve)
+START_SPANS = (30.0, 1000.0)
 #: the quantity must fall like ``(s* - s)^k`` with ``k`` in this range: a simple zero, where
 #: the quantity would change sign beyond it (the family ends), not a turn of the branch
 #: (``k = 1/2``: the quantity's square is smooth in the arclength)
@@ -167,15 +173,17 @@ class EndLocator(EnginePart):
                 continue
             point, event = found
             if cross and not self.expecting(pts[-1]):
-                # the kink is located from where the quantity began to fall: the last points
-                # may lie too close to it for its solves to start from
+                # the kink is located from earlier points of the fall: the last ones may lie
+                # too close to it for its solves to start from
                 h = max(2.0 * (point.s - pts[-1].s), self.engine.step_control.h)
-                crossing = self.engine.kinks.ahead(pts, h, self._fall_start(pts, m.name))
-                if crossing is not None and crossing.end is None:
-                    crossing.record(pts, events)
-                    return None
-                if crossing is not None:
-                    self.expect(crossing, pts[-1])
+                for start in self._fall_starts(pts, m.name):
+                    crossing = self.engine.kinks.ahead(pts, h, start)
+                    if crossing is not None and crossing.end is None:
+                        crossing.record(pts, events)
+                        return None
+                    if crossing is not None:
+                        self.expect(crossing, pts[-1])
+                        break
             if self.expecting(pts[-1]):
                 return self._end_at_kink(pts, events, why)
             pts.append(point)
@@ -203,20 +211,29 @@ class EndLocator(EnginePart):
                f"{pts[-1].residual_norm:.2g}")
         return self.vanishing_end(pts, events, why, cross=True)
 
-    def _fall_start(self, pts: list[Point], name: str) -> Point:
-        """The resolved point where the last monotone fall of ``name`` along the half-branch
-        began."""
-        start = pts[-1]
+    def _fall_starts(self, pts: list[Point], name: str) -> list[Point]:
+        """Points of the last monotone fall of ``name`` along the half-branch (resolved) to
+        locate its zero from, nearest first: the last where it was at least ``START_SPANS``
+        times its last value, and where the fall began."""
+        last = float(pts[-1].derived.get(name, np.nan))
+        fall: list[Point] = []
         for p in reversed(pts):
             q = float(p.derived.get(name, np.nan))
             if not (np.isfinite(q) and q > 0):
                 break
             if not self.resolved(p):
                 continue
-            if q < float(start.derived.get(name, np.nan)):
+            if fall and q < float(fall[-1].derived[name]):
                 break
-            start = p
-        return start
+            fall.append(p)
+        starts: list[Point] = []
+        for span in START_SPANS:
+            near = next((p for p in fall if float(p.derived[name]) >= span * last), None)
+            if near is not None and all(near is not p for p in starts):
+                starts.append(near)
+        if fall and all(fall[-1] is not p for p in starts):
+            starts.append(fall[-1])
+        return starts
 
     def _resolved(self, pts: list[Point], name: str) -> list[Point]:
         """The resolved points (oldest first) of the last monotone fall of ``name`` towards
