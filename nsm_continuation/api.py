@@ -4,18 +4,20 @@
 
     import nsm_continuation as nsm
 
-    case = nsm.load_case("yaml_cases/ndof_default.yaml")        # or a dict, with overrides
+    case = nsm.load_case("ndof_default")                        # a bundled case, a path, a dict
     result = nsm.run(case)
     branch = result.branches[0]
     branch["omega"], branch["energy"]                           # numpy arrays, one per column
     [(e.kind, e.parameter) for e in result.events]
     result.save("runs/my_study")                                # the CLI's files, same policy
-    again = result.restart(event="fold", max_points=50)        # from a point of the result
+    again = nsm.load("runs/my_study")                           # read back, days later
+    fold = result.restart(event="fold", max_points=50)         # from a point of the result
     nsm.run({"start": {"from": "runs/my_study", "point": 12}})  # or of a saved run
-    flip = nsm.run("yaml_cases/chain_two_mass_wall.yaml")
+    flip = nsm.run("chain_two_mass_wall")
     period2 = flip.restart(event="period_doubling", switch=True)  # the period-2 family
 
-    problem = nsm.problem("ndof_impact", {"chain": {"n": 3, "mass": 1, "stiffness": 1}})
+    problem = nsm.problem("ndof_impact", {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0},
+                                          "gap": 1.0})
     result = nsm.continuation(problem, {"mode": 1}, parameter="omega", min=0.3, max=0.9)
 
 A case is validated exactly as on the command line
@@ -53,6 +55,7 @@ from nsm_continuation.output.files import (
     write_outputs,
 )
 from nsm_continuation.output.folders import OutputError
+from nsm_continuation.output.loading import load_result
 from nsm_continuation.runs.result import RunResult
 from nsm_continuation.runs.runner import run_case
 
@@ -174,7 +177,20 @@ def run(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] = (),
     progress = _flag(progress, "progress")
     case, problem = _validated(source, overrides)
     case = schema.with_execution(case, workers, scheduler)
-    return Result(run_case(case, problem, progress=progress))
+    return Result(run_case(case, problem, progress=progress))._logged()
+
+
+@_api_words
+def load(folder: str | Path) -> Result:
+    """The run saved in ``folder`` (by the command line or :meth:`Result.save`) read back as
+    a :class:`Result`: its branches, events, tree and report as the run had them, and its
+    figures, orbits and restarts as from the run itself
+    (:mod:`nsm_continuation.output.loading`: the files are read, nothing is unpickled or
+    computed). A folder that is not a run of this tool, a file changed since the run, or a run
+    of a newer format is a :class:`CaseError` whose one line names the folder and the
+    problem."""
+    res, _ = load_result(folder)
+    return Result(res, source=Path(os.fsdecode(folder)))
 
 
 @_api_words
@@ -248,7 +264,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
         raise CaseError(schema._keyed("continuation.parameter", str(exc))) from None
     if isinstance(start, Mapping):
         validation.preflight(problem, case, block, window)
-        return Result(run_case(case, problem, progress=False))
+        return Result(run_case(case, problem, progress=False))._logged()
     if not isinstance(start, StartPoint):
         try:
             y = np.asarray(start, dtype=float).reshape(-1)
@@ -262,7 +278,7 @@ def continuation(problem: Problem, start: Any, *, name: str = "python",
             raise CaseError(f"start: a guess needs {problem.dim} values ({problem.variables}), "
                             f"got {y.size}")
         start = StartPoint(y, "from guess")
-    return Result(run_case(case, problem, progress=False, starts=[start]))
+    return Result(run_case(case, problem, progress=False, starts=[start]))._logged()
 
 
 def _orbit_periods(periods: Any, key: str) -> int:
@@ -367,13 +383,42 @@ class BranchData:
 
 
 class Result:
-    """The result of a run: branches, events, the report, and the CLI's outputs on demand."""
+    """The result of a run: branches, events, the report, and the CLI's outputs on demand.
+    Computed (:func:`run`, :func:`continuation`, :meth:`restart`) or read back from a saved
+    run (:func:`load`, :meth:`Result.load`; :attr:`source` is its folder). Displayed as a
+    summary of its branches and special points (text, and HTML or Markdown in a notebook)."""
 
-    def __init__(self, run_result: RunResult) -> None:
+    def __init__(self, run_result: RunResult, source: Path | None = None) -> None:
         self.run_result = run_result
         self.problem = run_result.problem
         self.case = run_result.case
         self.branches = [BranchData(b, self.problem) for b in run_result.branches]
+        #: the folder this result was read from (:func:`load`); None for a computed one
+        self.source = source
+        self._warnings: list[str] | None = None
+
+    @classmethod
+    def load(cls, folder: str | Path) -> Result:
+        """:func:`load`: the run saved in ``folder``."""
+        return load(folder)
+
+    @property
+    def warnings(self) -> list[str]:
+        """The run's warnings, as ``report.json`` lists them: the problem's (e.g. a model
+        outside the paper's assumptions), what ``output.orbits`` cannot draw, multipliers
+        that are not reliable, parts of the outputs a plugin's hook could not give. Logged
+        to the ``nsm_continuation`` logger when the run ends."""
+        if self._warnings is None:
+            self._warnings = list(self.report().get("warnings", []))
+        return list(self._warnings)
+
+    def _logged(self) -> Result:
+        """This result, its :attr:`warnings` logged (each once, as a warning)."""
+        from nsm_continuation import logger
+
+        for w in self.warnings:
+            logger.warning("%s: %s", self.case.name, w)
+        return self
 
     @property
     def events(self) -> list[EventRecord]:
@@ -398,7 +443,9 @@ class Result:
         return [b for b in self.branches if len(b) == 0]
 
     def report(self) -> dict[str, Any]:
-        """The content of ``report.json``."""
+        """The content of ``report.json`` (of a result read back: the file itself)."""
+        if self.run_result.saved_report is not None:
+            return copy.deepcopy(self.run_result.saved_report)
         return build_report(self.run_result)
 
     @_api_words
@@ -472,7 +519,7 @@ class Result:
         record = record_from_result(self.run_result, start["from"])
         case, problem = validation.validate(raw, restart_record=record,
                                        problem_class=type(self.problem))
-        return Result(run_case(case, problem, progress=False))
+        return Result(run_case(case, problem, progress=False))._logged()
 
     @_api_words
     def orbit(self, branch: int = 0, point: int = -1, periods: int = 1) -> OrbitTrace:
@@ -542,12 +589,28 @@ class Result:
 
     def plot(self, ax: Any = None) -> Any:
         """The branch diagram (the run's ``fep.png``) drawn on ``ax`` (a new figure if None);
-        returns the matplotlib Figure."""
+        returns the matplotlib Figure. A new figure is made without ``pyplot``
+        (:func:`nsm_continuation.figures.kit.figure`): the backend and ``pyplot``'s figures
+        are left as they were; Jupyter shows it as a cell's value, ``fig.savefig`` writes it."""
         from nsm_continuation.figures import branches as plots
 
         return plots.diagram(self.run_result, ax)
 
     def __repr__(self) -> str:
-        n = sum(len(b) for b in self.branches)
-        return (f"Result(problem={self.problem.name!r}, branches={len(self.branches)}, "
-                f"points={n}, events={len(self.events)})")
+        """The summary: branches (points, parameter range, ends) and special points."""
+        from nsm_continuation.output.summary import text
+
+        return text(self.run_result, self._source_text())
+
+    def _repr_html_(self) -> str:
+        from nsm_continuation.output.summary import as_html
+
+        return as_html(self.run_result, self._source_text())
+
+    def _repr_markdown_(self) -> str:
+        from nsm_continuation.output.summary import as_markdown
+
+        return as_markdown(self.run_result, self._source_text())
+
+    def _source_text(self) -> str | None:
+        return None if self.source is None else str(self.source)

@@ -1,4 +1,7 @@
-"""Command line: ``nsm-continuation run | validate | list | recover``.
+"""Command line: ``nsm-continuation run | validate | list | cases | recover`` (also
+``python -m nsm_continuation``). A case is a YAML file or the name of a bundled case
+(:mod:`nsm_continuation.cases.bundled`); figures are drawn with matplotlib's Agg backend, which
+the command line chooses for itself (:func:`main`).
 
 Exit status (README, "Exit status"):
 
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import signal
 import sys
 import warnings
@@ -51,14 +55,35 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+#: the examples of ``--help``
+EXAMPLES = """\
+examples:
+  nsm-continuation run                          the bundled default case -> runs/ndof_default/
+  nsm-continuation run ndof_fig3_2_fep          a bundled case by name (Fig. 3.2 of the chain)
+  nsm-continuation run my_case.yaml --out runs/study --set continuation.max=2.0
+  nsm-continuation run restart/chain_two_mass_switch_period2
+                                                a restart case (after: run chain_two_mass_wall)
+  nsm-continuation validate my_case.yaml        check a case without running it
+  nsm-continuation list                         the problems a case may name
+  nsm-continuation cases                        the bundled cases
+  nsm-continuation cases --copy my_cases        copy them to edit them
+  python -c "import nsm_continuation as nsm; print(nsm.load('runs/ndof_default'))"
+                                                a saved run read back in Python
+"""
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="nsm-continuation",
-        description="Continuation of nonsmooth modes of vibration of impacting systems.")
+        description="Continuation of nonsmooth modes of vibration of impacting systems. A case "
+                    "is a YAML file, or the name of a bundled case (nsm-continuation cases).",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a YAML case (no file: the bundled default case)")
-    r.add_argument("case", nargs="?", help="YAML case file")
+    r = sub.add_parser("run", help="run a YAML case (no file: the bundled default case)",
+                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    r.add_argument("case", nargs="?", help="YAML case file, or the name of a bundled case "
+                                           "(an existing path wins)")
     r.add_argument("--out", help="output directory (default: output.dir or runs/<name>)")
     r.add_argument("--set", dest="overrides", action="append", default=[],
                    metavar="KEY=VALUE", help="override a case key, e.g. continuation.max=2.0")
@@ -75,11 +100,14 @@ def _parser() -> argparse.ArgumentParser:
                               "(tcp://HOST:8786)")
     v = sub.add_parser("validate", help="check a YAML case (and where it would write) without "
                                         "running it")
-    v.add_argument("case")
+    v.add_argument("case", help="YAML case file, or the name of a bundled case")
     v.add_argument("--out", help="output directory the run would use")
     v.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     v.add_argument("--overwrite", action="store_true", help="as for run")
-    sub.add_parser("list", help="list registered problems")
+    sub.add_parser("list", help="list the registered problems, with what each one is")
+    c = sub.add_parser("cases", help="list the bundled cases (run one by its name)")
+    c.add_argument("--copy", metavar="DIR", help="copy every bundled case into DIR (a new "
+                                                 "file each; never over an existing one)")
     rec = sub.add_parser("recover", help="settle what a killed run left in a folder: put back "
                                          "a previous run whose replacement was cut, remove "
                                          "the temporary folders and locks of killed runs")
@@ -177,6 +205,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
         keep_elsewhere,
         presentation_warnings,
         termination_text,
+        unchecked_note,
         write_files,
     )
     from nsm_continuation.runs.runner import run_case
@@ -196,7 +225,9 @@ def _run(args: argparse.Namespace, path: str) -> int:
               if draw is not None and problem.figures_from_inputs else None)
     res = None
     try:
-        res = run_case(case, problem, progress=case.output.progress and not args.quiet,
+        # a bar on a terminal only: a log file gets the summary, not the bar's redraws
+        res = run_case(case, problem, progress=case.output.progress and not args.quiet
+                       and sys.stderr.isatty(),
                        poll=_poll)
         assert target.tmp is not None
         failures = write_files(res, target.tmp, draw, drawer)
@@ -225,6 +256,9 @@ def _run(args: argparse.Namespace, path: str) -> int:
         print(_summary(build_report(res, failures=[]), out))
         for w in presentation_warnings(problem, []):
             print(f"warning: {w}")
+    note = unchecked_note(res)
+    if note is not None:  # what the algorithm cannot check: the last line, even with --quiet
+        print(f"warning: {note}")
     if failed:
         print(f"{len(failed)} of {len(res.branches)} starts failed: "
               + "; ".join(f"branch {b.id} ({b.label}): {termination_text(b)}" for b in failed),
@@ -249,18 +283,48 @@ def _recover(folder: str) -> int:
     return 0
 
 
+def _list() -> int:
+    """``list``: each registered problem and what it is (its class docstring's first
+    sentence, :func:`~nsm_continuation.cases.registry.describe`)."""
+    from nsm_continuation.cases import registry
+
+    regs = registry.registrations()
+    width = max((len(name) for name in regs), default=0)
+    for name, entries in regs.items():
+        print(f"{name:<{width}}  {registry.describe(entries[0].target) or entries[0].target}")
+        for other in entries[1:]:  # a second registration of the name: say it is ignored
+            print(f"{name:<{width}}  {other.target} (duplicate from {other.dist}, ignored: "
+                  f"{entries[0].target} is used)")
+    return 0
+
+
+def _cases(copy: str | None) -> int:
+    """``cases [--copy DIR]``: the bundled cases and their descriptions, or copied."""
+    from nsm_continuation.cases import bundled
+
+    if copy is not None:
+        written = bundled.copy_to(copy)
+        print(f"copied {len(written)} cases into {_shown(copy)}/ (run one: "
+              f"nsm-continuation run {_shown(copy)}/ndof_default.yaml)")
+        return 0
+    found = bundled.cases()
+    width = max((len(name) for name in found), default=0)
+    # the terminal's width; piped: descriptions of up to 110 characters
+    room = max(shutil.get_terminal_size((width + 113, 24)).columns - width - 3, 40)
+    for name, path in found.items():
+        print(f"{name:<{width}}  {bundled.description(path, room)}")
+    print(f"\nrun one by name: nsm-continuation run NAME ({len(found)} cases in "
+          f"{_shown(bundled.folder())}; the restart/ cases need the run they start from)")
+    return 0
+
+
 def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "recover":
         return _recover(args.folder)
     if args.command == "list":
-        from nsm_continuation.cases import registry
-
-        for name, entries in registry.registrations().items():
-            print(f"{name}\t{entries[0].target}")
-            for other in entries[1:]:  # a second registration of the name: say it is ignored
-                print(f"{name}\t{other.target}\t(duplicate from {other.dist}, ignored: "
-                      f"{entries[0].target} is used)")
-        return 0
+        return _list()
+    if args.command == "cases":
+        return _cases(args.copy)
     path = args.case or str(_default_case_path())
     if args.command == "validate":
         from nsm_continuation import cases
@@ -282,6 +346,22 @@ def _is_case_error(exc: Exception) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line (module docstring); returns the exit status. It draws into files only:
+    matplotlib is told to use its Agg backend (``MPLBACKEND``, read when matplotlib is first
+    imported here or in a process started here; restored on return), so a problem's figure
+    drawn with ``pyplot`` never opens a window. The library itself never chooses a backend."""
+    previous_backend = os.environ.get("MPLBACKEND")
+    os.environ["MPLBACKEND"] = "Agg"
+    try:
+        return _main(argv)
+    finally:
+        if previous_backend is None:
+            os.environ.pop("MPLBACKEND", None)
+        else:
+            os.environ["MPLBACKEND"] = previous_backend
+
+
+def _main(argv: list[str] | None) -> int:
     global _current
     args = _parser().parse_args(argv)
     _received.clear()
@@ -307,6 +387,11 @@ def main(argv: list[str] | None = None) -> int:
     except Interrupted:
         print("terminated: nothing written (any previous result is intact)", file=sys.stderr)
         return 143
+    except BrokenPipeError:  # stdout closed early (`nsm-continuation cases | head`): done
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes stdout
+        os.close(devnull)
+        return 0
     except Exception as exc:
         if _is_case_error(exc):
             print(f"error: {_shown(str(exc))}", file=sys.stderr)

@@ -52,6 +52,9 @@ class Algorithm(ABC):
     name: ClassVar[str]
     #: whether explicit start points (a guess ``y`` from the Python API) can seed it
     takes_start_points: ClassVar[bool] = True
+    #: what the algorithm does not check that the engine would (said in the run's warnings,
+    #: hence in ``report.md``, and on the command line's last line); None: nothing
+    unchecked: ClassVar[str | None] = None
     #: key of ``report.json``'s ``timings`` for the time to build the seeds and prepare
     setup_key: ClassVar[str] = "setup_s"
     #: whether its branches can be computed as independent Dask tasks, each rebuilding the

@@ -3,7 +3,14 @@ follows the branch with its own predictor, matrix-free corrector and step contro
 points is then analysed by the problem's hooks exactly as the engine's (admissibility,
 multipliers, derived quantities). Events other than the branch ends are not located
 (pycont-lite's fold and branch-point detection works on ``G_u``, not on the hooks), and bounds
-on derived quantities cut the branch at the last point inside them."""
+on derived quantities cut the branch at the last point inside them.
+
+pycont-lite cannot see where an orbit stops being admissible (it follows ``G = 0``, and the
+phantom orbits beyond a grazing solve it too), so a branch of a problem that declares
+admissibility tests is cut at the first inadmissible point after an admissible one: that
+point is kept (the grazing lies between it and the point before, not located), and the
+branch's end says so. What pycont-lite does not check is the run's warning
+(:attr:`PycontLite.unchecked`: ``report.md`` and the command line's last line)."""
 
 from __future__ import annotations
 
@@ -23,6 +30,12 @@ class PycontLite(_CurveAlgorithm):
     """pycont-lite follows the branch; our hooks analyse each of its points (module doc)."""
 
     name: ClassVar[str] = "pycont"
+    unchecked: ClassVar[str | None] = (
+        "algorithm pycont: pycont-lite locates no events: no fold, branch point, period "
+        "doubling, Neimark-Sacker bifurcation, stability change or grazing is detected between "
+        "its points (the only events are the branch ends), and it cannot see where orbits stop "
+        "being admissible: a branch is cut at its first inadmissible point, the grazing before "
+        "it not located. Use algorithm palc for located events")
 
     def __init__(self, problem: Problem, settings: ContinuationSettings) -> None:
         from nsm_continuation.adapters.pycont import import_pycont
@@ -74,6 +87,10 @@ class PycontLite(_CurveAlgorithm):
                     reason = f"bound: {bound} (pycont-lite points beyond it dropped)"
                     break
                 k += step
+                left = self._left_admissible(points[k - step], points[k])
+                if left is not None:
+                    reason = left
+                    break
             termination[side] = reason
             lo, hi = (lo, k) if step > 0 else (k, hi)
         points = points[lo:hi + 1]
@@ -83,6 +100,18 @@ class PycontLite(_CurveAlgorithm):
                   if side in termination]
         self._tick(len(points))
         return Branch(branch_id, seed.label, points, events, termination, info)
+
+    def _left_admissible(self, before: Point, after: Point) -> str | None:
+        """The end of a branch whose path goes from the admissible ``before`` to the
+        inadmissible ``after`` (module docstring), or None."""
+        if not before.admissible or after.admissible:
+            return None
+        name, value = min(after.tests.items(), key=lambda kv: kv[1])
+        ip = self.problem.parameter_index
+        return (f"admissibility: the orbit at {self.problem.parameter} = {after.y[ip]:.9g} is "
+                f"not admissible ({name} = {value:.3g} < 0), the one at "
+                f"{before.y[ip]:.9g} is; pycont-lite does not locate the grazing between them "
+                "(branch cut at its first inadmissible point)")
 
     def _analyse(self, ys: np.ndarray, k0: int) -> list[Point]:
         """Points of pycont's path ``ys``: tangent along the path, arclength (chord length,

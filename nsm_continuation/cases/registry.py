@@ -22,6 +22,7 @@ found on ``sys.path``), with a :class:`DuplicateProblemWarning` naming both targ
 from __future__ import annotations
 
 import importlib
+import re
 import warnings
 from dataclasses import dataclass
 from importlib.metadata import entry_points
@@ -107,6 +108,34 @@ def registrations() -> dict[str, list[Registration]]:
     for entries in found.values():
         entries.sort(key=lambda e: not is_bundled(e.target))  # stable: else the path's order
     return dict(sorted(found.items()))
+
+
+def describe(target: str, width: int = 90) -> str:
+    """What the problem ``target`` (``module:Class``) is, in one line: the first sentence of
+    its class docstring, read from the module's source without importing it (listing the
+    problems loads no CasADi); '' when the source or the docstring cannot be read."""
+    import ast
+    from importlib.util import find_spec
+
+    module, _, attr = target.partition(":")
+    try:
+        spec = find_spec(module)
+        if spec is None or spec.origin is None or not spec.origin.endswith(".py"):
+            return ""
+        with open(spec.origin, encoding="utf-8") as fh:
+            tree = ast.parse(fh.read())
+    except (ImportError, OSError, ValueError, SyntaxError):
+        return ""
+    node: ast.AST = tree
+    for part in attr.split("."):
+        node = next((n for n in getattr(node, "body", []) if isinstance(n, ast.ClassDef)
+                     and n.name == part), ast.Module(body=[], type_ignores=[]))
+    doc = ast.get_docstring(node) if isinstance(node, ast.ClassDef) else None
+    text = " ".join((doc or "").split("\n\n", 1)[0].split())
+    text = re.sub(r":[a-z]+:`~?\.?([^`<]*?)(?: <[^`]*>)?`", r"\1", text).replace("``", "")
+    # the first sentence: up to a full stop before a capital (not "et al. 2017", "sec. 3")
+    first = re.split(r"(?<!\bal)\.\s+(?=[A-Z])", text, maxsplit=1)[0].rstrip(".")
+    return first if len(first) <= width else first[:width - 4].rstrip() + " ..."
 
 
 def available() -> dict[str, str]:

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError
 
 from nsm_continuation.cases.schema import _format
 from nsm_continuation.core.errors import CaseError, short_text
@@ -115,7 +115,10 @@ class BaseSettings(_Strict):
 
     newton_tol: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     step_initial: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
-    derived_bounds: dict[_Text, tuple[_Finite | None, _Finite | None]] = {}
+    #: a bound ``[low, high]``: a JSON list read as the pair (the only place the record
+    #: holds a tuple; its numbers stay strict)
+    derived_bounds: dict[_Text, Annotated[tuple[_Finite | None, _Finite | None],
+                                          Strict(False)]] = {}
 
 
 class CurveRecord(_Strict):

@@ -653,12 +653,14 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str],
 
 
 def load_raw(path: str | Path) -> dict[str, Any]:
-    """The case file as a mapping; every problem with the file is one :class:`CaseError`."""
+    """The case file as a mapping; every problem with the file is one :class:`CaseError`.
+    ``path`` may name a bundled case (:func:`nsm_continuation.cases.bundled.resolve`: an
+    existing path wins)."""
+    from nsm_continuation.cases.bundled import resolve
+
     shown = short_text(str(path))
     try:
-        p = Path(path)
-        if not p.exists():
-            raise CaseError(f"case file: {shown} does not exist")
+        p = resolve(path)  # an existing path, else a bundled case of that name
         if p.is_dir():
             raise CaseError(f"case file: {shown} is a directory, not a YAML file")
         mode = p.stat().st_mode

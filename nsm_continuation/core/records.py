@@ -20,12 +20,19 @@ import numpy as np
 #: (``Problem.event_kinds``, registered by :func:`register_event_kinds` when the class is
 #: defined).
 CORE_EVENT_KINDS: dict[str, str] = {
-    "fold": "a Floquet multiplier pair reaches +1 (or a limit point of the parameter); in a "
-            "conservative family it signals a bifurcating family of orbits",
-    "branch_point": "two solution curves cross (det of the bordered Jacobian changes sign)",
+    "fold": "a limit point: the continuation parameter reaches an extremum along the branch "
+            "(the tangent test), where a multiplier passes +1; in a conservative family a "
+            "multiplier pair colliding at +1, where the family turns in energy",
+    "branch_point": "two solution curves cross: det of the bordered Jacobian changes sign, and "
+                    "a real multiplier passes +1 where the parameter does not turn (a "
+                    "symmetry-breaking pitchfork or a transcritical point)",
     "period_doubling": "a multiplier passes through -1: a family of period-2T orbits bifurcates",
     "neimark_sacker": "a complex pair leaves the unit circle away from +-1 (for a conservative "
                       "system, after a Krein collision): quasi-periodic motion nearby",
+    "unresolved_crossing": "the number of multipliers counted outside the unit circle "
+                           "changes, but the multiplier responsible is not resolved beyond "
+                           "the multipliers' noise on both sides of the circle: no bifurcation "
+                           "is claimed (the bracket is where the count changes)",
     "stability_change": "the number of multipliers outside the unit circle becomes zero or "
                         "non-zero",
     "grazing": "an admissibility test or event function reaches zero: the orbit touches the "

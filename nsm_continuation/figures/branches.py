@@ -11,6 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from nsm_continuation.figures.kit import (
@@ -20,10 +22,10 @@ from nsm_continuation.figures.kit import (
     draws_markers,
     markers_legend,
     new_figure,
-    plt,
     quantity,
     save,
     segments,
+    subplots,
 )
 from nsm_continuation.runs.result import RunResult
 
@@ -35,7 +37,7 @@ def fep(res: RunResult, path: Path) -> None:
     save(fig, path)
 
 
-def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
+def diagram(res: RunResult, ax: Axes | None = None) -> Figure:
     """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
     frequency-energy plot of Fig. 3.2), admissible/stable/phantom styled as in the papers,
     located events marked; drawn on ``ax`` (a new figure if None). Returns the figure."""
@@ -44,7 +46,7 @@ def diagram(res: RunResult, ax: plt.Axes | None = None) -> plt.Figure:
     xk, yk = show.fep_axes
     log = show.diagram_yscale == "log"
     if ax is None:
-        fig, ax = plt.subplots(figsize=DIAGRAM_SIZE)
+        fig, ax = subplots(figsize=DIAGRAM_SIZE)
     else:
         fig = ax.figure
     xs: list[float] = []

@@ -2,8 +2,14 @@
 resolution and sizes, the event markers, the branch-diagram styles (admissible stable black,
 unstable red, phantom thin grey; Legrand et al. 2017, Figs. 3.2, 6.1, 6.2), panels of
 quantities along the branches (:func:`quantity_panels`), and drawing helpers that give the
-picture ``scatter`` and ``axvspan`` give at less cost. It imports matplotlib (Agg) and the
-core records only, so a family's presentation may draw with it.
+picture ``scatter`` and ``axvspan`` give at less cost. It imports matplotlib and the core
+records only, so a family's presentation may draw with it.
+
+Figures are made with matplotlib's object API (:func:`subplots`, :func:`figure`: a
+:class:`~matplotlib.figure.Figure` with its own Agg canvas), never through ``pyplot``: drawing
+a run's figures, from the command line or from a notebook, neither chooses a backend nor
+adds figures to ``pyplot``'s list (the user's ``plt.plot`` keeps working as before). The
+command line chooses the Agg backend for itself (:func:`nsm_continuation.cli.main`).
 
 A figure written to a file is created at its file resolution (:data:`DPI`), so the layout
 pass (``tight_layout``) and ``savefig`` share one renderer and its text and mathtext caches
@@ -12,19 +18,20 @@ instead of laying every label out twice.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import matplotlib as mpl
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PolyCollection
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-
-from nsm_continuation.core.problem import Problem  # noqa: E402
-from nsm_continuation.core.records import Branch, Point  # noqa: E402
+from nsm_continuation.core.problem import Problem
+from nsm_continuation.core.records import Branch, Point
 
 #: resolution of the figures written to files [dots per inch]
 DPI = 130
@@ -52,7 +59,7 @@ def draws_markers(br: Branch) -> bool:
     return br.info.get("draw") == "markers"
 
 
-def branch_line(ax: plt.Axes, x: np.ndarray, y: np.ndarray, markers: bool, **kw: Any) -> None:
+def branch_line(ax: Axes, x: np.ndarray, y: np.ndarray, markers: bool, **kw: Any) -> None:
     """``ax.plot(x, y, **kw)``, or with ``markers`` small dots of ``kw``'s colour at the
     points (no line: :func:`draws_markers`)."""
     if markers:
@@ -90,18 +97,56 @@ def segments(problem: Problem, br: Branch, xk: str, yk: str):
             start = i
 
 
-def new_figure(**kw: Any) -> tuple[plt.Figure, Any]:
-    """``plt.subplots`` for a figure written to a file: created at the file's resolution."""
-    return plt.subplots(dpi=DPI, **kw)
+#: keyword arguments of :func:`subplots` that lay out the axes (the rest make the figure)
+_GRID_KEYS = ("sharex", "sharey", "squeeze", "width_ratios", "height_ratios", "subplot_kw",
+              "gridspec_kw")
 
 
-def save(fig: plt.Figure, path: Path) -> None:
-    """Save ``fig`` to ``path`` at :data:`DPI` and close it."""
+class NotebookFigure(Figure):
+    """A :class:`~matplotlib.figure.Figure` that Jupyter shows as a PNG when it is a cell's
+    value, also where ``pyplot`` (which registers matplotlib's own display) was never
+    imported."""
+
+    def _repr_png_(self) -> bytes:
+        buf = io.BytesIO()
+        self.savefig(buf, format="png", bbox_inches="tight")
+        return buf.getvalue()
+
+
+def figure(**kw: Any) -> Figure:
+    """A new figure (``kw``: its ``figsize``, ``dpi``, ``layout``, ...) with its own Agg
+    canvas, outside ``pyplot``: no backend is chosen and ``pyplot``'s figures are not touched
+    (module docstring). It can be saved (``fig.savefig``), drawn (``fig.canvas.draw()``) and
+    shown by Jupyter as the value of a cell (:class:`NotebookFigure`)."""
+    fig = NotebookFigure(**kw)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def subplots(nrows: int = 1, ncols: int = 1, **kw: Any) -> tuple[Figure, Any]:
+    """``plt.subplots(nrows, ncols, **kw)`` without ``pyplot`` (:func:`figure`): the figure
+    and its axes (an array of them as ``plt.subplots`` gives)."""
+    grid = {k: kw.pop(k) for k in list(kw) if k in _GRID_KEYS}
+    fig = figure(**kw)
+    return fig, fig.subplots(nrows, ncols, **grid)
+
+
+def colormap(name: str) -> Any:
+    """The registered colormap ``name`` (``plt.get_cmap(name)`` without ``pyplot``)."""
+    return mpl.colormaps[name]
+
+
+def new_figure(**kw: Any) -> tuple[Figure, Any]:
+    """:func:`subplots` for a figure written to a file: created at the file's resolution."""
+    return subplots(dpi=DPI, **kw)
+
+
+def save(fig: Figure, path: Path) -> None:
+    """Save ``fig`` to ``path`` at :data:`DPI`."""
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
 
 
-def scatter(ax: plt.Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, s: float, **kw):
+def scatter(ax: Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, s: float, **kw):
     """``ax.scatter(x, y, c=c, s=s, **kw)``, the same picture at less cost:
 
     * of points with identical ``(x, y, c)`` only the last, the one on top, is drawn (a
@@ -123,11 +168,11 @@ def scatter(ax: plt.Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, s: float,
         _, first = np.unique(rows, axis=0, return_index=True)
         keep = np.sort(x.size - 1 - first)  # last occurrences, in drawing order
         x, y, c = x[keep], y[keep], c[keep]
-    edge = plt.rcParams["patch.linewidth"]  # scatter's default edge width [pt]
+    edge = mpl.rcParams["patch.linewidth"]  # scatter's default edge width [pt]
     return ax.scatter(x, y, c=c, s=(np.sqrt(s) + edge) ** 2, linewidths=0, **kw)
 
 
-def vertical_bands(ax: plt.Axes, spans: list[tuple[float, float]], **kw) -> None:
+def vertical_bands(ax: Axes, spans: list[tuple[float, float]], **kw) -> None:
     """``ax.axvspan(lo, hi, lw=0, **kw)`` for every ``(lo, hi)`` of ``spans``: the same pixels
     and the same autoscaling of x, as one artist instead of one patch per interval (Fig. 3.2:
     38 intervals on each of three panels)."""

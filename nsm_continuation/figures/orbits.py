@@ -32,19 +32,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Rectangle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.cm import ScalarMappable  # noqa: E402
-from matplotlib.colors import Normalize  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-
-from nsm_continuation.cases.schema import OrbitsSpec  # noqa: E402
-from nsm_continuation.core.errors import CaseError  # noqa: E402
-from nsm_continuation.core.records import Branch, OrbitTrace, Point  # noqa: E402
-from nsm_continuation.figures.orbit_selection import (  # noqa: E402
+from nsm_continuation.cases.schema import OrbitsSpec
+from nsm_continuation.core.errors import CaseError
+from nsm_continuation.core.records import Branch, OrbitTrace, Point
+from nsm_continuation.figures.kit import colormap, figure, subplots
+from nsm_continuation.figures.orbit_selection import (
     Chosen,
     branches_of,
     choose,
@@ -89,14 +89,14 @@ def _mark_styles(items: list[tuple[Chosen, OrbitTrace]]) -> dict[str, str]:
     return {k: MARK_STYLES[i % len(MARK_STYLES)] for i, k in enumerate(kinds)}
 
 
-def _finish_legend(ax: plt.Axes, styles: dict[str, str], intervals: list[str],
+def _finish_legend(ax: Axes, styles: dict[str, str], intervals: list[str],
                    notes: list[str]) -> None:
     handles, labels = ax.get_legend_handles_labels()
     for kind, m in styles.items():
         handles.append(Line2D([], [], marker=m, color="0.3", ls="", ms=5))
         labels.append(kind)
     for kind in intervals:
-        handles.append(plt.Rectangle((0, 0), 1, 1, color="0.5", alpha=0.2))
+        handles.append(Rectangle((0, 0), 1, 1, color="0.5", alpha=0.2))
         labels.append(f"{kind} (shaded)")
     if handles:
         ax.legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
@@ -106,8 +106,8 @@ def _finish_legend(ax: plt.Axes, styles: dict[str, str], intervals: list[str],
 
 
 def draw_time(res: Any, items: list[tuple[Chosen, OrbitTrace]], log: Sequence[str] = (),
-              axes: Sequence[plt.Axes] | None = None, spec: OrbitsSpec | None = None,
-              notes: Sequence[str] = ()) -> plt.Figure | None:
+              axes: Sequence[Axes] | None = None, spec: OrbitsSpec | None = None,
+              notes: Sequence[str] = ()) -> Figure | None:
     """The ``time`` view: each of its signals against ``t / T`` (one panel each, on ``axes``
     or a new figure), one line per orbit; marks as dots, intervals shaded. None if no orbit
     has the view's signals."""
@@ -117,13 +117,13 @@ def draw_time(res: Any, items: list[tuple[Chosen, OrbitTrace]], log: Sequence[st
     if not signals:
         return None
     if axes is None:
-        fig, ax_arr = plt.subplots(len(signals), 1, figsize=(10, 1.2 + 2.6 * len(signals)),
+        fig, ax_arr = subplots(len(signals), 1, figsize=(10, 1.2 + 2.6 * len(signals)),
                                    sharex=True, squeeze=False, dpi=DPI)
         axes = list(ax_arr[:, 0])
     fig = axes[0].figure
     styles = _mark_styles(items)
     interval_kinds = list(dict.fromkeys(k for _, tr in items for *_, k in tr.intervals))
-    colors = plt.get_cmap("tab10")
+    colors = colormap("tab10")
     for ax, sig in zip(axes, signals, strict=False):
         is_log = sig in log
         for i, (ch, tr) in enumerate(items):
@@ -158,9 +158,9 @@ def tr_label(items: list[tuple[Chosen, OrbitTrace]], sig: str) -> str:
     return next((tr.label(sig) for _, tr in items if sig in tr.signals), sig)
 
 
-def draw_phase(res: Any, items: list[tuple[Chosen, OrbitTrace]], ax: plt.Axes | None = None,
+def draw_phase(res: Any, items: list[tuple[Chosen, OrbitTrace]], ax: Axes | None = None,
                spec: OrbitsSpec | None = None, notes: Sequence[str] = ()
-               ) -> plt.Figure | None:
+               ) -> Figure | None:
     """The ``phase`` view: ``(x, y)`` of each orbit (a projected phase portrait), marks as
     dots. None if no orbit has a phase view with its signals."""
     name = parameter_name(res)
@@ -170,10 +170,10 @@ def draw_phase(res: Any, items: list[tuple[Chosen, OrbitTrace]], ax: plt.Axes | 
     if not drawn:
         return None
     if ax is None:
-        fig, ax = plt.subplots(figsize=(9.5, 5.6), dpi=DPI)
+        fig, ax = subplots(figsize=(9.5, 5.6), dpi=DPI)
     fig = ax.figure
     styles = _mark_styles(drawn)
-    colors = plt.get_cmap("tab10")
+    colors = colormap("tab10")
     for i, (ch, tr) in enumerate(drawn):
         xs, ys = tr.views["phase"]
         col = colors(i % 10)
@@ -263,7 +263,7 @@ def draw_boundaries(res: Any, branch: Branch, periods: int, ax: Any, name: str,
 
 
 def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec | None = None
-                  ) -> plt.Figure | None:
+                  ) -> Figure | None:
     """The ``manifold`` view: the 3-D projection ``(a, b, c)`` of about
     :data:`MANIFOLD_ORBITS` orbits spread along the first branch with points (of
     ``spec.branches`` if given), coloured by the continued parameter (by the energy where the
@@ -281,7 +281,7 @@ def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec |
     if not items:
         return None
     if ax is None:
-        fig = plt.figure(figsize=(8.5, 6.8), dpi=DPI)
+        fig = figure(figsize=(8.5, 6.8), dpi=DPI)
         ax = fig.add_subplot(projection="3d")
     fig = ax.figure
     values = np.array([ch.value for ch, _ in items], dtype=float)
@@ -292,7 +292,7 @@ def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec |
     finite = values[np.isfinite(values)]
     lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     norm = Normalize(lo, hi if hi > lo else lo + 1.0)
-    cmap = plt.get_cmap("viridis")
+    cmap = colormap("viridis")
     for (_, tr), value in zip(items, values, strict=True):
         a, b, c = (tr.signals[s] for s in tr.views["manifold"])
         ax.plot(a, b, c, color=cmap(norm(value)), lw=0.9)
@@ -337,13 +337,12 @@ def make_figures(res: Any, out: Path) -> list[str]:
         fig = draw()
         if fig is not None:
             fig.savefig(out / file, dpi=DPI)
-            plt.close(fig)
             names.append(file)
     return names
 
 
 def plot(res: Any, points: Sequence[str | float], view: str = "time", ax: Any = None,
-         periods: int = 1, log: Sequence[str] = ()) -> plt.Figure:
+         periods: int = 1, log: Sequence[str] = ()) -> Figure:
     """One orbit figure of a run in memory (``Result.plot_orbits``, whose checks before
     computing have passed: a view the problem draws, known point kinds): the ``view`` of the
     orbits at ``points`` (``manifold``: along the first branch, ``points`` unused) on ``ax``

@@ -127,7 +127,6 @@ def _warm_up() -> None:  # pragma: no cover - runs in the child
     ax.plot([1.0, 2.0], [1.0, 10.0])
     fig.tight_layout()
     fig.savefig(io.BytesIO(), format="png")
-    plots.plt.close(fig)
 
 
 class FigureProcess:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
 
@@ -16,6 +15,7 @@ from nsm_continuation.figures.kit import (
     draws_markers,
     markers_legend,
     quantity,
+    subplots,
 )
 from nsm_continuation.runs.result import RunResult
 
@@ -36,7 +36,7 @@ def figure(res: RunResult, path: Path) -> bool:
     if not any(br.points for br in res.branches):
         return False
     xk, yk = axes_of(res)
-    fig, ax = plt.subplots(figsize=(11, 6))
+    fig, ax = subplots(figsize=(11, 6))
     for br in res.branches:
         pr = res.branch_problems.get(br.id, res.problem)
         pts = br.points
@@ -112,5 +112,4 @@ def figure(res: RunResult, path: Path) -> bool:
     ax.grid(alpha=0.25)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
-    plt.close(fig)
     return True

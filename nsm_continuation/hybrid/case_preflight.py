@@ -114,10 +114,11 @@ class CasePreflight:
             raise ValueError(f"{key}: a state component of {big:.3g} is beyond "
                              f"{self.MAX_STATE:g}: the corrector's relative tolerance would "
                              "accept any orbit there; rescale the model")
-        H = float(np.asarray(c.probe(X), dtype=float).ravel()[0])
-        if H < -1e-12 * (1.0 + float(np.linalg.norm(X))):
-            raise ValueError(f"{key}: the state is on the inadmissible side of the impact "
-                             f"surface (H = {H:.3g} < 0)")
+        Hs = c.surface_values(X)
+        for i, H in enumerate(Hs):
+            if H < -1e-12 * (1.0 + float(np.linalg.norm(X))):
+                raise ValueError(f"{key}: the state is on the inadmissible side of "
+                                 f"{c.surface_label(i)} (H = {H:.3g} < 0)")
         try:
             c.mass_check(X)
         except HybridDeclarationError as exc:

@@ -48,6 +48,7 @@ from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import EvaluationError
 from nsm_continuation.hybrid.grazing import margin_gradient
 from nsm_continuation.hybrid.return_map import HybridShooting, Section, ShootingFailure
+from nsm_continuation.hybrid.system import HybridDeclarationError
 
 if TYPE_CHECKING:
     from nsm_continuation.hybrid.case import HybridCaseProblem
@@ -144,6 +145,11 @@ class GrazingCurve(CodimOneCurve):
         into the state after ``free`` and ``parameter``), compiled once."""
         if self._virtual is None:
             hyb = self.base.hybrid
+            if hyb.m > 1:
+                raise HybridDeclarationError(
+                    f"{hyb.name}: a grazing curve moves the grazing surface; for a system "
+                    f"with several surfaces ({', '.join(hyb.surface_names or [])}) it is not "
+                    "available")
             s = ca.SX.sym(SHIFT)
             virtual = dataclasses.replace(hyb, H=hyb.H + s, params={**hyb.params, SHIFT: s},
                                           position=hyb.position)

@@ -48,17 +48,18 @@ def grazing_approach(res: SimResult) -> int | None:
     return min(near)[1] if near else None
 
 
-def grazing_contacts(res: SimResult, factor: float = 1.5) -> int:
+def grazing_contacts(res: SimResult, floor: float = 0.0, factor: float = 1.5) -> int:
     """How many contacts graze together: the signed grazing margins of ``res`` (near
     approaches and decelerating impacts) within ``factor`` times the smallest one in
-    magnitude. One for a generic grazing; two or more where several approaches reach the
-    surface at once (e.g. both walls of a symmetric orbit), where the single-grazing normal
-    form (G1-G2) does not describe the branch beyond."""
+    magnitude, or below ``floor`` (at the grazing point itself, where they are all at the
+    level of the integration error). One for a generic grazing; two or more where several
+    approaches reach the surface at once (e.g. both walls of a symmetric orbit), where the
+    single-grazing normal form (G1-G2) does not describe the branch beyond."""
     m = np.abs(np.asarray(res.grazing_margins, dtype=float))
     m = m[np.isfinite(m)]
     if not m.size:
         return 0
-    return int(np.sum(m <= factor * float(m.min())))
+    return int(np.sum(m <= factor * float(m.min()) + floor))
 
 
 def _non_impacting_point(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray
@@ -107,12 +108,13 @@ def normal_form(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray) -> Norma
         _, Gy = sh.residual_jacobian(yn)
         ev = res.events[grazing_approach(res)]  # type: ignore[index]
         Xg = np.concatenate([ev.x, sh.x0(yn)[c.n:]])
-        grad_h = (np.asarray(c.grads(Xg), dtype=float)[0] @ ev.info["J"])[cols]
+        sf = c.surfaces[ev.surface]
+        grad_h = (np.asarray(sf.grads(Xg), dtype=float)[0] @ ev.info["J"])[cols]
         tail = sh.sim.run(Xg, section=(sec.index, sec.value + sec.shift, sec.direction))
     except (ShootingFailure, SimulationError, np.linalg.LinAlgError):
         return None
-    a = float(np.asarray(c.probe(Xg), dtype=float).ravel()[2])
-    u = (tail.J @ (-np.asarray(c.jump(Xg), dtype=float).ravel()))[fi]
+    a = float(np.asarray(c.probe(Xg), dtype=float).ravel()[4 * ev.surface + 2])
+    u = (tail.J @ (-np.asarray(sf.jump(Xg), dtype=float).ravel()))[fi]
     n = len(fi)
     A = np.zeros((n + 1, n + 2))
     A[:n, : n + 1] = Gy
@@ -155,11 +157,11 @@ def margin_gradient(sh: HybridShooting, y: np.ndarray) -> tuple[float, np.ndarra
         X = np.concatenate([ev.x, sh.x0(y)[c.n:]])
         if "H" in ev.info:  # a turn of v off the surface
             value = float(ev.info["H"])
-            row = np.asarray(c.grads(X), dtype=float)[0]
+            row = np.asarray(c.surfaces[ev.surface].grads(X), dtype=float)[0]
         elif "v" in ev.info and ev.info["a"] > 0:  # a decelerating impact
             v, a = float(ev.info["v"]), float(ev.info["a"])
             value = -v * v / (2 * a)
-            gr = np.asarray(c.grads(X), dtype=float)
+            gr = np.asarray(c.surfaces[ev.surface].grads(X), dtype=float)
             row = (-v / a) * gr[1] + (v * v / (2 * a * a)) * gr[2]
         else:
             continue

@@ -45,6 +45,7 @@ from nsm_continuation.core.records import OrbitTrace
 from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.hybrid.orbit_trace import orbit_trace, views_of
 from nsm_continuation.hybrid.return_map import PERIOD
+from nsm_continuation.hybrid.system import FLOWS
 
 #: the event kind of a branch ended by its period bound (``HybridShootingProblem.monitors``)
 HOMOCLINIC_KIND = "homoclinic_approach"
@@ -170,7 +171,9 @@ class HybridPresentation(Presentation):
 class HybridCasePresentation(HybridPresentation):
     """Presentation of a hybrid case problem
     (:class:`~nsm_continuation.hybrid.case.HybridCaseProblem`): the report also lists the
-    parameters, the integrator, the section and the unknowns."""
+    parameters, the integrator, the section and the unknowns; with ``integrator.method``
+    ``auto`` or ``exact``, the free flight that ran (``flow``: the exact flow, or the
+    Runge-Kutta method and why the exact flow does not apply)."""
 
     def summary(self) -> dict[str, Any]:
         pr = self.problem
@@ -179,6 +182,8 @@ class HybridCasePresentation(HybridPresentation):
                "section": {"coordinate": pr.hybrid.state_names[sec.index],
                            "value": sec.value, "shift_per_period": sec.shift},
                "unknowns": list(pr.variables)}
+        if pr.integrator.method in FLOWS:
+            out["flow"] = pr.shooting.c.flow_description()
         if pr.parameter == PERIOD:
             out["continued_in_period"] = {"free_parameter": pr.free_parameter}
         return out

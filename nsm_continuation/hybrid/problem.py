@@ -30,8 +30,10 @@ from nsm_continuation.core.problem import (
     Rechart,
 )
 from nsm_continuation.hybrid.grazing import (
+    MARGIN_FLOOR,
     grazing_contacts,
     locate_grazing,
+    margin_gradient,
     step_beyond,
     tangent_beyond,
 )
@@ -337,16 +339,18 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         configuration normal to the surface (Euclidean in ``q``), the same for any ``H`` with
         the same zero set (``H`` and ``f(H)``, ``f(0) = 0 < f'``). ``H = gap - q``: ``|qdot|``;
         a relative coordinate ``z = y - x`` (``H = d/2 - z`` or ``d^2/4 - z^2``): ``|zdot| /
-        sqrt 2``. Impacts inside a chattering sequence completed by the chatter map are not
-        recorded (their velocities accumulate at zero by construction). NaN without impacts."""
+        sqrt 2``. With several surfaces, each impact's own ``H_i``. Impacts inside a chattering
+        sequence completed by the chatter map are not recorded (their velocities accumulate at
+        zero by construction). NaN without impacts."""
         c = self.shooting.c
-        grads = c.calls().grads
+        surfaces = c.calls().surfaces
         params = np.asarray(res.X, dtype=float)[c.n:]
         clock = self.hybrid.clock_index
         best = np.inf
         for ev in res.events:
             if ev.kind not in ("impact", "chatter_broken") or "v" not in ev.info:
                 continue
+            grads = surfaces[ev.surface].grads
             g = np.array(grads(np.concatenate([ev.x, params])), dtype=float)[0, : c.n]
             if clock is not None:
                 g[clock] = 0.0
@@ -373,10 +377,12 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         eqs. G1-G2): the impacting orbit born at the grazing, or the free one that follows an
         impact that vanished.
 
-        Where no orbit beyond it is found, the located grazing without one, and why
-        (:meth:`_not_beyond`): e.g. two contacts grazing at once (both walls of a symmetric
-        orbit), where several families meet and the single-grazing normal form does not
-        apply. The engine then ends the branch at the grazing if it cannot step past it."""
+        Where two contacts graze at once (both walls of a symmetric orbit:
+        :func:`.grazing.grazing_contacts`) several families meet and the single-grazing normal
+        form does not apply, and where no orbit beyond it converges: the located grazing
+        without one, and why. The engine then ends the branch at the grazing (from a step
+        that went across it, at once; ahead of a step that failed, if it cannot step past
+        it)."""
         if name != "grazing_margin":
             return None
         y = np.asarray(y, dtype=float)
@@ -384,27 +390,30 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         path: list[np.ndarray] = []
         yg = locate_grazing(self.shooting, y, tol, path_out=path)
         if yg is None:
-            return None
+            # ``y`` may already be the grazing point (a zero located on the margin in a step),
+            # from which the margin-fixed solves have nowhere to go
+            mg = margin_gradient(self.shooting, y)
+            if mg is None or abs(mg[0]) > MARGIN_FLOOR * (1.0 + float(np.linalg.norm(y))):
+                return None
+            yg = y
         # the approach, kept while it still moves (|v| halves per orbit: down to 1e-3 of the
         # first one it resolves the side where the Jacobian grows like 1/|v|)
         keep = [z for k, z in enumerate(path) if k < 10]
+        near = path[-1] if path else y
+        res = self.sim(near)
+        floor = MARGIN_FLOOR * (1.0 + float(np.linalg.norm(near)))
+        n = 0 if res is None else grazing_contacts(res, floor)
+        if n >= 2:  # the single-grazing normal form does not describe the branch beyond
+            return KinkCrossing(keep, yg, None, (
+                f"{n} contacts graze at once (their grazing margins vanish together, e.g. by "
+                "symmetry): several families of orbits meet here, and the normal form of a "
+                "single grazing (eq. G2) does not give the branch beyond"))
         y1 = step_beyond(self.shooting, yg, tangent, from_impacting=value < 0, ds=ds, tol=tol)
         if y1 is None:
-            return KinkCrossing(keep, yg, None, self._not_beyond(path[-1] if path else y))
+            return KinkCrossing(keep, yg, None, (
+                "no orbit beyond it converged from the normal form of the grazing (eq. G2): "
+                "the orbits beyond may not form an isolated family"))
         return KinkCrossing(keep, yg, y1)
-
-    def _not_beyond(self, y: np.ndarray) -> str:
-        """Why no orbit beyond a located grazing was found, from an orbit of the approach
-        ``y`` (next to the grazing): how many contacts graze there together
-        (:func:`.grazing.grazing_contacts`)."""
-        res = self.sim(y)
-        n = 0 if res is None else grazing_contacts(res)
-        if n >= 2:
-            return (f"{n} contacts graze at once (their grazing margins vanish together, e.g. "
-                    "by symmetry): several families of orbits meet here, and the normal form "
-                    "of a single grazing (eq. G2) does not give the branch beyond")
-        return ("no orbit beyond it converged from the normal form of the grazing (eq. G2): "
-                "the orbits beyond may not form an isolated family")
 
     def tangent_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray,
                        value_before: float) -> np.ndarray | None:

@@ -149,7 +149,7 @@ class HybridShooting:
         ``HybridShootingProblem.rechart``) or deep inside (a guess or a predicted point far
         from any orbit)."""
         X = self.x0(y)
-        H = float(np.asarray(self.c.probe(X), dtype=float).ravel()[0])
+        H = float(np.min(self.c.surface_values(X)))
         if abs(H) <= self.ON_SURFACE * (1.0 + float(np.max(np.abs(X[: self.c.n])))):
             return ("; the orbit meets the impact surface at the Poincare section (an impact "
                     "or a grazing at the section's time)")

@@ -11,7 +11,6 @@ the signed grazing margin). The simulation itself is :class:`.simulate.Simulator
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -58,10 +57,14 @@ class SimOptions:
 
 @dataclass
 class SimEvent:
+    """An event met by a simulation: its kind, time, state (without freed parameters), what
+    the transition recorded, and the index of the surface it happened on."""
+
     kind: str
     t: float
     x: np.ndarray
     info: dict[str, Any] = field(default_factory=dict)
+    surface: int = 0
 
 
 @dataclass
@@ -88,6 +91,10 @@ class SimResult:
     #: with ``a > 0`` (``-v^2 / (2a) < 0``: where the free flight continued through the wall
     #: would turn), in time order; each crosses zero where that approach becomes an impact
     grazing_margins: list[float] = field(default_factory=list)
+    #: the surface of each grazing margin (index into the system's surfaces)
+    grazing_surfaces: list[int] = field(default_factory=list)
+    #: the surfaces' names of a system with several (None: one surface)
+    surface_names: list[str] | None = None
 
     def grazing_function(self, separation: float = 4.0) -> float:
         """The signed grazing margin closest to zero, a continuous function of the orbit that
@@ -105,6 +112,15 @@ class SimResult:
         if rivals.size and np.min(np.abs(rivals)) < separation * abs(g):
             return float("nan")
         return g
+
+    def grazing_surface(self) -> str | None:
+        """Name of the surface whose grazing margin is closest to zero (the margin of
+        :meth:`grazing_function`); None for a one-surface system or without margins."""
+        if self.surface_names is None or not self.grazing_margins:
+            return None
+        m = np.abs(np.asarray(self.grazing_margins, dtype=float))
+        m[~np.isfinite(m)] = np.inf
+        return self.surface_names[self.grazing_surfaces[int(np.argmin(m))]]
 
     @property
     def sticking_time(self) -> float:
@@ -124,19 +140,33 @@ class SimResult:
 
         Impacts just before a completed sequence are part of it (``IIC`` is ``C``).
         E.g. ``I``: one impact per period; ``II``: two; ``CS``: complete chattering, sticking
-        and release (Fig. 2); ``-``: no event (a free orbit)."""
-        out: list[str] = []
+        and release (Fig. 2); ``-``: no event (a free orbit). With several surfaces each symbol
+        names its surface, separated by spaces: ``I(upper) I(lower)``."""
+        out: list[tuple[str, int]] = []
         for ev in self.events:
             if ev.kind == "impact":
-                out.append("I")
+                out.append(("I", ev.surface))
             elif ev.kind in ("chatter", "chatter_broken"):
                 # the sequence began with the impact recorded last
-                if out and out[-1] == "I":
+                if out and out[-1] == ("I", ev.surface):
                     out.pop()
-                out.append("C" if ev.kind == "chatter" else "I" * int(ev.info["impacts"]))
+                if ev.kind == "chatter":
+                    out.append(("C", ev.surface))
+                else:
+                    out.extend([("I", ev.surface)] * int(ev.info["impacts"]))
             elif ev.kind == "release":
-                out.append("S")
+                out.append(("S", ev.surface))
         # impacts resolved one by one just before an accumulation belong to it: whether the
         # first of them already starts the geometric sequence (a < 0 at it) or bounces once
         # more (a > 0) is no structural change of the orbit (it happens smoothly, at a = 0)
-        return re.sub(r"I+C", "C", "".join(out)) or "-"
+        merged: list[tuple[str, int]] = []
+        for sym, surf in out:
+            if sym == "C":
+                while merged and merged[-1] == ("I", surf):
+                    merged.pop()
+            merged.append((sym, surf))
+        if not merged:
+            return "-"
+        if self.surface_names is None:
+            return "".join(sym for sym, _ in merged)
+        return " ".join(f"{sym}({self.surface_names[surf]})" for sym, surf in merged)

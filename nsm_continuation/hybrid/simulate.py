@@ -36,6 +36,17 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
 equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
 
+**Exact flows** (:mod:`.linear_flow`, ``integrator: {method: exact | auto}``). A field whose
+steps are an exact flow (the free flight of a system linear between events) has no integration
+error to control: it gives the length of its next step itself (as long as the watched functions,
+and a section on a dynamic coordinate, are certified clear of zero, else one cell over which the
+cubic Hermite interpolants are accurate, :func:`.modal_sums.certified_length`), so its steps are
+not checked at the midpoint; it gives the extremes of the state over a step
+(:func:`.modal_sums.grid_extremes`); and since its steps compose exactly, the sensitivity product
+``J <- J_step J`` of its steps is deferred to the next event, where the Jacobian of the flow over
+their total time is one evaluation (:meth:`Simulator._deferred`). Runge-Kutta fields run as
+before, to the bit.
+
 **Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
 tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
 tests/engine/test_bound_casadi_buffers_equal_plain_call.py`` check each against the
@@ -61,9 +72,21 @@ from typing import Any
 import numpy as np
 
 from nsm_continuation.hybrid.hermite import hermite_first_root, hermite_one_sign, quadratic_roots
-from nsm_continuation.hybrid.modes import EXTENDED, S1, S2, S3, S4, S5, S6, WATCH, initial_state
+from nsm_continuation.hybrid.modes import (
+    EXTENDED,
+    S1,
+    S2,
+    S3,
+    S4,
+    S5,
+    S6,
+    WATCH,
+    initial_state,
+    initial_states,
+    watches,
+)
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
-from nsm_continuation.hybrid.system import CompiledHybrid
+from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
 
 __all__ = ["EXTENDED", "S1", "S2", "S3", "S4", "S5", "S6", "WATCH", "HERMITE_CHECK_BELOW",
@@ -82,11 +105,14 @@ REFINE_ITERATIONS = 30
 
 @dataclass
 class _Walk:
-    """Mutable state of one simulation (:meth:`Simulator.run`): the discrete state ``mode``,
-    the (extended) state ``Y`` with its sensitivities ``J = dY/dX0`` and ``Jt = dt/dX0``, the
-    time, the next step size, the probe and field at ``Y``, and what the result reports."""
+    """Mutable state of one simulation (:meth:`Simulator.run`): the discrete state of each
+    surface ``modes`` (``active``: the surface that sticks or chatters, if any; ``key``: the
+    field integrated, :meth:`Simulator._key`; ``watch``: the watched functions,
+    :func:`.modes.watches`), the (extended) state ``Y`` with its sensitivities ``J = dY/dX0`` and
+    ``Jt = dt/dX0``, the time, the next step size, the probe and field at ``Y``, and what the
+    result reports."""
 
-    mode: str
+    modes: list[str]
     Y: np.ndarray
     J: np.ndarray | None
     Jt: np.ndarray | None
@@ -98,9 +124,15 @@ class _Walk:
     hi: np.ndarray
     traj: list[tuple[float, np.ndarray]] | None
     stick_start: float | None
+    active: int | None = None
+    key: str = "free"
+    watch: list[tuple[int, int, str, int]] = field(default_factory=list)
+    #: offset of each surface's block in the probe (:func:`.system.probe_layout`)
+    offsets: list[int] = field(default_factory=list)
     t: float = 0.0
-    #: the watched function that fired last (exactly zero at the step start)
-    just: str | None = None
+    #: the watched functions that fired last, with their surfaces (exactly zero at the step
+    #: start)
+    just: set[tuple[str, int]] = field(default_factory=set)
     n_steps: int = 0
     n_imp: int = 0
     vmin: float = np.inf
@@ -113,6 +145,19 @@ class _Walk:
     seq: list[Any] = field(default_factory=list)
     #: signed grazing margins of the near approaches and decelerating impacts, in time order
     margins: list[float] = field(default_factory=list)
+    #: the surface of each margin
+    margin_surfaces: list[int] = field(default_factory=list)
+    #: unit normal (position components) of the surface at the impact that began the current
+    #: chattering flight (:meth:`Simulator._same_contact`)
+    seq_normal: np.ndarray | None = None
+    #: the steps of an exact flow taken since the last event: the field, the state they
+    #: started from and their total time (:meth:`Simulator._deferred`)
+    defer: tuple[str, np.ndarray, float] | None = None
+
+    @property
+    def mode(self) -> str:
+        """The state of the active surface (sticking or chattering), else of the first."""
+        return self.modes[0 if self.active is None else self.active]
 
     def record(self) -> None:
         if self.traj is not None:
@@ -129,38 +174,47 @@ class Simulator(Transitions):
         self.o = opts or SimOptions()
         #: chatter error estimates of the current sequence (stall detection)
         self._errs: list[float] = []
+        #: the fields integrated by an exact flow (:mod:`.linear_flow`): steps of their own
+        #: length, extremes of their own, sensitivity products deferred to the next event
+        self._exact = {k: fs[0] for k, fs in self.calls.steps.items()
+                       if getattr(fs[0], "exact", False)}
 
     # ------------------------------------------------------------------ helpers
-    def _step(self, mode: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
-        """One Runge-Kutta step of length ``dt`` from ``Y`` in state ``mode``: ``(Y_new, err,
-        err3, probe, field[, J])`` at the step end (views into one fresh array)."""
-        key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
+    def _key(self, modes: list[str], active: int | None) -> str:
+        """The field (and probe layout) integrated: ``free``, or the sticking field or the
+        extended chattering field of the active surface (:func:`.system._key`)."""
+        if active is None:
+            return "free"
+        sf = self.c.surfaces[active]
+        return sf.ext_key if modes[active] in EXTENDED else sf.stick_key
+
+    def _npr(self, key: str) -> int:
+        """Length of the probe of layout ``key``."""
+        return 4 * self.c.m + (2 if key.startswith("ext") else 0)
+
+    def _step(self, key: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
+        """One Runge-Kutta step of length ``dt`` from ``Y`` of the field ``key``: ``(Y_new,
+        err, err3, probe, field[, J])`` at the step end (views into one fresh array)."""
         flat = self.calls.steps[key][1 if jac else 0].flat(Y, dt)
         m = Y.size
-        npr = 6 if key == "ext" else 4
+        npr = self._npr(key)
         i1, i2, i3, i4, i5 = m, 2 * m, 3 * m, 3 * m + npr, 4 * m + npr
         parts = (flat[:i1], flat[i1:i2], flat[i2:i3], flat[i3:i4], flat[i4:i5])
         if jac:
             return (*parts, flat[i5:].reshape(m, m, order="F"))
         return parts
 
-    def _step_probe(self, mode: str, Y: np.ndarray, dt: float) -> np.ndarray:
-        """The probe (``H, v, a, jerk[, h, h']``) after one step of length ``dt`` from ``Y``:
-        ``self._step(mode, Y, dt, False)[3]``, without splitting the other outputs."""
-        key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
+    def _step_probe(self, key: str, Y: np.ndarray, dt: float) -> np.ndarray:
+        """The probe (``H, v, a, jerk[, h, h']`` and the other surfaces' blocks) after one step
+        of length ``dt`` from ``Y``: ``self._step(key, Y, dt, False)[3]``, without splitting
+        the other outputs."""
         return self.calls.steps[key][2].flat(Y, dt)
 
-    def _field(self, mode: str, Y: np.ndarray) -> np.ndarray:
-        if mode in EXTENDED:
-            return self.calls.fe.flat(Y)
-        if mode == S4:
-            return self.calls.fs.flat(Y)
-        return self.calls.f.flat(Y)
-
-    def _probe(self, mode: str, Y: np.ndarray) -> np.ndarray:
-        if mode in EXTENDED:
-            return self.calls.probe_e.flat(Y)
-        return self.calls.probe.flat(Y)
+    def _probe_field(self, key: str, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The probe and the field of layout ``key`` at ``Y``."""
+        both = self.calls.probe_field[key].flat(Y)
+        npr = self._npr(key)
+        return both[:npr], both[npr:]
 
     def _err_norm(self, Y: np.ndarray, Yn: np.ndarray, err: np.ndarray, err3: np.ndarray,
                   dt: float) -> float:
@@ -193,6 +247,11 @@ class Simulator(Transitions):
         while True:
             self._guard(w, clock0)
             dt = min(w.h, self.o.h_max)
+            if w.key in self._exact:
+                # no integration error to control: the flow says how far it may go
+                dt = min(self.o.h_max, self._exact[w.key].max_step(
+                    w.Y, [wa[0] for wa in w.watch], section,
+                    tuple(i for i, wa in enumerate(w.watch) if (wa[2], wa[3]) in w.just)))
             last = False
             if t_stop is not None and w.t + dt >= t_stop:
                 dt, last = t_stop - w.t, True
@@ -209,11 +268,13 @@ class Simulator(Transitions):
                 continue
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
-        if w.mode == S4 and w.stick_start is not None:
+        if w.active is not None and w.mode == S4 and w.stick_start is not None:
             w.stick_iv.append((w.stick_start, w.t))
+        if w.defer is not None:
+            w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
             # fixed end time: t_end - t_k(X0) is the last flow time
-            w.J = w.J - np.outer(self._field(w.mode, w.Y), w.Jt)
+            w.J = w.J - np.outer(w.F, w.Jt)
         return self._result(w, "time" if t_end is not None else "max_time")
 
     def _begin(self, X0: np.ndarray) -> _Walk:
@@ -225,31 +286,47 @@ class Simulator(Transitions):
             raise ValueError(f"initial state has {X0.size} components, expected {c.N}")
         if not np.all(np.isfinite(X0)):
             raise SimulationError("initial state is not finite")
-        mode = initial_state(c, X0)
+        modes = initial_states(c, X0)
         c.mass_check(X0)
         sens = o.sensitivities
-        w = _Walk(mode=mode, Y=X0.copy(), J=np.eye(c.N) if sens else None,
+        active = next((i for i, mo in enumerate(modes) if mo == S4), None)
+        w = _Walk(modes=modes, active=active, Y=X0.copy(), J=np.eye(c.N) if sens else None,
                   Jt=np.zeros(c.N) if sens else None, h=o.h_init,
-                  pr=self._probe(mode, X0), F=self._field(mode, X0),
+                  pr=np.empty(0), F=np.empty(0),
                   lo=X0[: c.n].copy(), hi=X0[: c.n].copy(),
                   traj=[] if o.record else None,
-                  stick_start=0.0 if mode == S4 else None)
+                  stick_start=0.0 if active is not None else None)
+        self._relayout(w)
         w.record()
-        if mode in (S1, S2) and abs(w.pr[1]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
-            # a start at a turning point of H (v = 0 to round-off, e.g. a maximum on a
-            # stroboscopic section): v is "just fired", so its sign cannot hide the turn
-            # (the floor of the v watch would not see v falling from +1e-14); a decides, the
-            # jerk where a vanishes too (a start at rest where the force balances, e.g. the
-            # forced oscillator's (gap + 1, 0) at phase 0), and otherwise the approach: its
-            # watches (the impact, the turn of v) see a flight moving away too, not conversely
-            tiny = 1e-12 * (1.0 + np.linalg.norm(X0))
-            a, jerk = float(w.pr[2]), float(w.pr[3])
-            w.mode = mode = S1 if (a > tiny or (abs(a) <= tiny and jerk > tiny)) else S2
-            w.just = "v"
-        if mode == S2 and abs(w.pr[0]) <= 1e-12 * (1.0 + np.linalg.norm(X0)):
-            # a start on the surface moving inwards: the impact happens at t = 0
-            self._apply_transition(w, "H", w.pr)
+        tiny = 1e-12 * (1.0 + np.linalg.norm(X0))
+        for i in range(c.m):
+            off = w.offsets[i]
+            if modes[i] in (S1, S2) and abs(w.pr[off + 1]) <= tiny:
+                # a start at a turning point of H (v = 0 to round-off, e.g. a maximum on a
+                # stroboscopic section): v is "just fired", so its sign cannot hide the turn
+                # (the floor of the v watch would not see v falling from +1e-14); a decides,
+                # the jerk where a vanishes too (a start at rest where the force balances,
+                # e.g. the forced oscillator's (gap + 1, 0) at phase 0), and otherwise the
+                # approach: its watches (the impact, the turn of v) see a flight moving away
+                # too, not conversely
+                a, jerk = float(w.pr[off + 2]), float(w.pr[off + 3])
+                modes[i] = S1 if (a > tiny or (abs(a) <= tiny and jerk > tiny)) else S2
+                w.just.add(("v", i))
+        self._relayout(w, probe=False)
+        for i in range(c.m):
+            if w.modes[i] == S2 and abs(w.pr[w.offsets[i]]) <= tiny:
+                # a start on the surface moving inwards: the impact happens at t = 0
+                self._apply_transition(w, "H", w.pr, i)
         return w
+
+    def _relayout(self, w: _Walk, probe: bool = True) -> None:
+        """After a change of the surfaces' states: the field integrated, the watched
+        functions, the probe offsets and (``probe``) the probe and field at ``w.Y``."""
+        w.key = self._key(w.modes, w.active)
+        w.watch = watches(w.modes, w.active)
+        w.offsets = probe_layout(self.c.m, w.active, w.key != "free" and w.mode in EXTENDED)
+        if probe:
+            w.pr, w.F = self._probe_field(w.key, w.Y)
 
     def _guard(self, w: _Walk, clock0: float) -> None:
         """The wall-clock, simulated-time and event-count guards (never a hang)."""
@@ -276,8 +353,9 @@ class Simulator(Transitions):
         ``Y_new``: both are the same CasADi expressions,
         ``tests/hybrid/test_rk_step_functions_equal_stagewise_step.py``).
         """
-        jac = w.J is not None and w.mode not in EXTENDED
-        outs = self._step(w.mode, w.Y, dt, jac)
+        exact = w.key in self._exact
+        jac = w.J is not None and w.mode not in EXTENDED and not exact
+        outs = self._step(w.key, w.Y, dt, jac)
         if not jac:
             outs = (*outs, None)
         Yn = outs[0].ravel()
@@ -292,7 +370,7 @@ class Simulator(Transitions):
             if w.h < 1e-14 * (1 + abs(w.t)):
                 raise SimulationError(f"step size underflow at t = {w.t:.6g}")
             return None
-        if en < HERMITE_CHECK_BELOW and not self._hermite_trustworthy(w, dt, outs):
+        if en < HERMITE_CHECK_BELOW and not exact and not self._hermite_trustworthy(w, dt, outs):
             w.h = dt * 0.25
             return None
         return (*outs, en)
@@ -305,9 +383,9 @@ class Simulator(Transitions):
         forcing clock moves, ``a = cos(phase)``) it is zero, the step grows fivefold per step,
         and a step spanning a whole oscillation of ``a`` would hide the release (the
         stroboscopic oscillator at omega ~ 0.357 then stuck to the wall for ever)."""
-        mid = self._step_probe(w.mode, w.Y, 0.5 * dt)
+        mid = self._step_probe(w.key, w.Y, 0.5 * dt)
         prn = outs[3].ravel()
-        for idx, _direction, _name in WATCH[w.mode]:
+        for idx, _direction, _name, _surface in w.watch:
             g0, d0, g1, d1 = w.pr[idx], w.pr[idx + 1] * dt, prn[idx], prn[idx + 1] * dt
             p_mid = 0.5 * (g0 + g1) + 0.125 * (d0 - d1)
             scale = abs(g0) + abs(g1) + 0.25 * (abs(d0) + abs(d1))
@@ -317,44 +395,48 @@ class Simulator(Transitions):
 
     def _first_crossing(self, w: _Walk, dt: float, outs: tuple[Any, ...],
                         section: tuple[int, float, int] | None, t_min_section: float
-                        ) -> tuple[float, str, int, int] | None:
+                        ) -> tuple[float, str, int, int, int] | None:
         """First watched crossing in the step (cubic Hermite, both roots of a dip):
-        ``(s, name, index, direction)`` with ``s`` the fraction of the step, or None."""
-        mode, Y = w.mode, w.Y
+        ``(s, name, index, direction, surface)`` with ``s`` the fraction of the step, or
+        None."""
+        key, Y = w.key, w.Y
         # Python floats: the same arithmetic as on the arrays' elements, faster
         pr, prn = w.pr.tolist(), outs[3].tolist()
-        best: tuple[float, str, int, int] | None = None
+        best: tuple[float, str, int, int, int] | None = None
         fdt = float(dt)
-        for idx, direction, name in WATCH[mode]:
+        for idx, direction, name, surface in w.watch:
             # the function that just fired is exactly zero at the step start (its round-off
             # sign must not fire it again): its derivative decides
-            g0 = 0.0 if name == w.just else pr[idx]
+            g0 = 0.0 if (name, surface) in w.just else pr[idx]
             if hermite_one_sign(g0, pr[idx + 1] * fdt, prn[idx], prn[idx + 1] * fdt):
                 continue  # no crossing (what hermite_first_root would find first)
             floor = 0.0 if name in ("H", "h") else 1e-13 * (
                 1.0 + abs(pr[idx]) + abs(prn[idx]) + dt * (abs(pr[idx + 1]) + abs(prn[idx + 1])))
 
             def verify(sx: float, d: int, idx: int = idx) -> bool:
-                gv = self._step_probe(mode, Y, sx * dt)[idx]
+                gv = self._step_probe(key, Y, sx * dt)[idx]
                 return gv < 0 if d < 0 else gv > 0
 
             s = hermite_first_root(g0, pr[idx + 1], prn[idx], prn[idx + 1], dt, direction,
                                     floor, verify)
             if s is not None and (best is None or s < best[0]):
-                best = (s, name, idx, direction)
+                best = (s, name, idx, direction, surface)
         if section is not None and w.t + dt > t_min_section:
             k, val, sd = section
             s = hermite_first_root(Y[k] - val, w.F[k], outs[0][k] - val, outs[4][k], dt, sd)
             if s is not None and (best is None or s < best[0]):
-                best = (s, "section", k, sd)
+                best = (s, "section", k, sd, -1)
         return best
 
     def _accept(self, w: _Walk, dt: float, outs: tuple[Any, ...], last: bool) -> None:
         """Take the whole step (no crossing inside it) and choose the next step size."""
         Yn, prn, Fn, en = outs[0].ravel(), outs[3].ravel(), outs[4].ravel(), outs[-1]
-        w.just = None
-        if w.J is not None:
-            Jstep = outs[5] if outs[5] is not None else self._step(w.mode, w.Y, dt, True)[5]
+        w.just = set()
+        if w.J is not None and w.key in self._exact:
+            _key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
+            w.defer = (w.key, Y0, T + dt)
+        elif w.J is not None:
+            Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
             w.J = Jstep @ w.J
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
         w.Y, w.pr, w.F = Yn, prn, Fn
@@ -366,11 +448,18 @@ class Simulator(Transitions):
 
     def _extend_extremes(self, w: _Walk, Y0: np.ndarray, F0: np.ndarray, Y1: np.ndarray,
                          F1: np.ndarray, dt: float) -> None:
-        """Extremes of each state component over the flow step from ``Y0`` to ``Y1`` (mode
-        ``w.mode``): the ends, and where a component's slope changes sign inside the step, its
+        """Extremes of each state component over the flow step from ``Y0`` to ``Y1`` (field
+        ``w.key``): the ends, and where a component's slope changes sign inside the step, its
         value on the true flow at the extremum of the cubic Hermite interpolant (ends and
         slopes ``F``). The location error ``ds`` of the interpolant costs ``O(ds^2)`` in the
         value: the extremes are exact to about the integration tolerance."""
+        exact = self._exact.get(w.key)
+        if exact is not None:
+            # the exact flow's own, on a grid as fine as these interpolants need
+            lo, hi = exact.extremes(Y0, dt)
+            np.minimum(w.lo, lo, out=w.lo)
+            np.maximum(w.hi, hi, out=w.hi)
+            return
         n = self.c.n
         a, b = Y0[:n], Y1[:n]
         np.minimum(w.lo, np.minimum(a, b), out=w.lo)
@@ -393,46 +482,49 @@ class Simulator(Transitions):
             for r in roots:
                 if abs(r.imag) < 1e-14 and 0.0 < r.real < 1.0:
                     sr = r.real
-                    out = self._step(w.mode, Y0, sr * dt, False)
+                    out = self._step(w.key, Y0, sr * dt, False)
                     curv = 2 * c2 + 6 * c3 * sr
                     if curv != 0.0:
                         # one Newton step on the true slope: the value is then exact to
                         # O(ds^4) instead of O(ds^2)
                         s1 = sr - float(out[4][i]) * dt / curv
                         if 0.0 < s1 < 1.0:
-                            out = self._step(w.mode, Y0, s1 * dt, False)
+                            out = self._step(w.key, Y0, s1 * dt, False)
                     v = float(out[0][i])
                     w.lo[i] = min(w.lo[i], v)
                     w.hi[i] = max(w.hi[i], v)
 
-    def _fire(self, w: _Walk, dt: float, hit: tuple[float, str, int, int],
+    def _fire(self, w: _Walk, dt: float, hit: tuple[float, str, int, int, int],
               section: tuple[int, float, int] | None) -> bool:
         """Advance to the crossing ``hit`` located on the true flow, chain its saltation into
         the sensitivities and apply its transition; True when it is the section (the end)."""
-        mode, Y, pr = w.mode, w.Y, w.pr
-        s, name, idx, _direction = hit
-        tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, dt, s * dt, name, idx, section)
-        if name == "v" and mode in (S2, S6):
+        key, Y, pr = w.key, w.Y, w.pr
+        s, name, idx, _direction, surface = hit
+        tau, Ye, pre, Fe, Jstep = self._refine(key, Y, dt, s * dt, name, idx, section)
+        smode = w.modes[surface] if surface >= 0 else None
+        if name == "v" and smode in (S2, S6):
             # the turn of v came after the impact function went negative: an impact inside a
             # dip the interpolant of H (or h) did not resolve. H (h) is monotone before the
             # turn, so [0, tau] brackets exactly one impact.
-            hi_, hn = (0, "H") if mode == S2 else (4, "h")
+            hi_, hn = (w.offsets[surface], "H") if smode == S2 else (4, "h")
             if pre[hi_] < 0 <= pr[hi_]:
                 name, idx = hn, hi_
                 tau, Ye, pre, Fe, Jstep = self._refine(
-                    mode, Y, tau, tau * pr[hi_] / (pr[hi_] - pre[hi_]), name, idx, section)
+                    key, Y, tau, tau * pr[hi_] / (pr[hi_] - pre[hi_]), name, idx, section)
         if section is not None and name != "section":
             # the refined crossing may lie past the section (an event within round-off of
             # it, e.g. a turning point of q on a stroboscopic section): the section comes first
             k, val, sd = section
             a0, a1 = sd * (Y[k] - val), sd * (Ye[k] - val)
             if a0 < 0 <= a1:
-                name, idx = "section", k
-                tau, Ye, pre, Fe, Jstep = self._refine(mode, Y, tau, tau * a0 / (a0 - a1),
+                name, idx, surface = "section", k, -1
+                tau, Ye, pre, Fe, Jstep = self._refine(key, Y, tau, tau * a0 / (a0 - a1),
                                                        name, idx, section)
         if w.J is not None:
+            if key in self._exact:
+                Jstep = self._deferred(w, tau)
             Je = Jstep @ w.J
-            gx = self._gx(mode, name, idx, Ye)
+            gx = self._gx(name, idx, Ye, surface)
             dtau = -(gx @ Je) / (gx @ Fe)
             w.J = Je + np.outer(Fe, dtau)
             w.Jt = w.Jt + dtau
@@ -442,21 +534,34 @@ class Simulator(Transitions):
         if name == "section":
             w.events.append(SimEvent("section", w.t, w.Y[: self.c.n].copy()))
             return True
-        self._apply_transition(w, name, pre)
+        self._apply_transition(w, name, pre, surface)
         return False
 
-    def _apply_transition(self, w: _Walk, name: str, pre: np.ndarray) -> None:
-        """Apply the transition of ``name`` in the current state (:meth:`_transition`) and
-        keep the walk's bookkeeping (impacts, sticking intervals, next step size)."""
-        mode = w.mode
+    def _apply_transition(self, w: _Walk, name: str, pre: np.ndarray, surface: int,
+                          coincident: bool = True) -> None:
+        """Apply the transition of ``name`` on ``surface`` in its current state
+        (:meth:`_transition`) and keep the walk's bookkeeping (impacts, sticking intervals,
+        the surfaces' states, next step size). An impact on another surface than the one that
+        sticks or chatters, or on another part of the same surface than the chattering
+        sequence's (:meth:`_same_contact`), first ends that sequence (:meth:`_break_chatter`)."""
+        pre_s = pre[w.offsets[surface]:]
+        if name == "H" and w.active is not None and surface != w.active:
+            self._break_chatter(w, surface)
+        elif name == "h" and not self._same_contact(w):
+            self._break_chatter(w, surface)
+            name = "H"
+        if name == "H":
+            self._check_single_contact(w, surface)
+        mode = w.modes[surface]
         newmode, w.Y, w.J, w.Jt, w.t, info = self._transition(
-            mode, name, w.Y, w.J, w.Jt, w.t, pre, w.seq, w.events, w.chatter_errors)
+            mode, name, w.Y, w.J, w.Jt, w.t, pre_s, w.seq, w.events, w.chatter_errors, surface)
         if info.get("impact_velocity") is not None:
             w.n_imp += 1
             w.vmin = min(w.vmin, info["impact_velocity"])
         if info.get("near_approach") is not None:
             w.graze = min(w.graze, info["near_approach"])
             w.margins.append(info["near_approach"])
+            w.margin_surfaces.append(surface)
         if info.get("chatter_count") is not None:
             w.chatter_counts.append(info["chatter_count"])
         if mode == S4 and newmode != S4 and w.stick_start is not None:
@@ -464,17 +569,125 @@ class Simulator(Transitions):
             w.stick_start = None
         if newmode == S4 and mode != S4:
             w.stick_start = w.t
+        if newmode == S5 and mode == S2:
+            w.seq_normal = self._contact_normal(w.Y, surface)
         w.record()
-        w.mode = newmode
-        w.just = name
-        key = "ext" if newmode in EXTENDED else ("stick" if newmode == S4 else "free")
-        both = self.calls.probe_field[key].flat(w.Y)
-        npr = 6 if key == "ext" else 4
-        w.pr, w.F = both[:npr], both[npr:]
+        w.modes[surface] = newmode
+        if newmode in (S4, S5, S6):
+            w.active = surface
+        elif w.active == surface:
+            w.active = None
+        w.just = {(name, surface)}
+        self._relayout(w)
+        if name in ("H", "h") and self.c.m > 1:
+            self._reclassify_others(w, surface)
+        if name == "v" and coincident and self.c.m > 1:
+            self._coincident_turns(w, surface)
         if newmode in EXTENDED and name in ("H", "h"):
             # next flight lasts about 2u/|a| (constant acceleration)
             u, a = w.Y[self.c.N + 1], w.pr[2]
             w.h = min(max(2.0 * u / max(abs(a), 1e-300), 1e-300), max(w.h, 1e-300)) * 1.05
+
+    def _reclassify_others(self, w: _Walk, surface: int) -> None:
+        """After an impact on ``surface`` (a jump of the velocities) the other surfaces'
+        free-flight states follow the sign of their ``v``: an approach (``s2``) may have become
+        a departure (``s1``) or conversely, without any crossing of ``v``."""
+        changed = False
+        for j, mode in enumerate(w.modes):
+            if j == surface or j == w.active or mode not in (S1, S2, S3):
+                continue
+            v = float(w.pr[w.offsets[j] + 1])
+            new = S2 if v < 0 else (S1 if v > 0 else mode)
+            if new != mode:
+                w.modes[j], changed = new, True
+        if changed:
+            self._relayout(w, probe=False)
+
+    def _coincident_turns(self, w: _Walk, surface: int) -> None:
+        """Turns of ``v`` of other surfaces at the instant of the turn on ``surface`` (parallel
+        constraints such as a floor and a ceiling turn together: ``v_floor = -v_ceiling``).
+        At the located turn their ``v`` is zero to round-off, and a round-off sign would hide
+        their crossing from the next step (a lost near approach): each is fired here, in the
+        direction its ``a`` gives."""
+        tiny = 1e-12 * (1.0 + float(np.max(np.abs(w.Y[: self.c.n]))))
+        fired = set(w.just)
+        for j, mode in enumerate(w.modes):
+            if j == surface or mode not in (S1, S2, S5, S6) or ("v", j) in fired:
+                continue
+            off = w.offsets[j]
+            v, a = float(w.pr[off + 1]), float(w.pr[off + 2])
+            if abs(v) > tiny:
+                continue
+            if (mode in (S1, S5) and a < 0) or (mode in (S2, S6) and a > 0):
+                self._apply_transition(w, "v", w.pr, j, coincident=False)
+                fired |= w.just
+        w.just = fired
+
+    #: cosine of the angle between the surface's normals beyond which two impacts of one
+    #: constraint are on different parts of it (:meth:`Simulator._same_contact`)
+    SAME_CONTACT_COSINE = 0.5
+
+    def _contact_normal(self, Y: np.ndarray, surface: int) -> np.ndarray:
+        """Unit normal of ``surface`` at ``Y`` in the position components ``H`` depends on."""
+        pos = self.c.system.position or []
+        g = np.asarray(self.calls.surfaces[surface].grads(Y[: self.c.N])[0])[pos]
+        norm = float(np.linalg.norm(g))
+        return g / norm if norm > 0.0 else g
+
+    def _same_contact(self, w: _Walk) -> bool:
+        """Whether an impact of a chattering flight meets the surface where the sequence
+        began. A chattering sequence accumulates at one point of the surface, so its impacts
+        share the normal; one constraint whose zero set has several parts (``H = d^2 - q^2``
+        for two stops at ``+-d``) is met on another part when the normals differ (by more than
+        60 degrees): that impact ends the sequence, as an impact on another surface would."""
+        if w.seq_normal is None or w.active is None:
+            return True
+        nrm = self._contact_normal(w.Y, w.active)
+        return float(nrm @ w.seq_normal) >= self.SAME_CONTACT_COSINE
+
+    def _break_chatter(self, w: _Walk, surface: int) -> None:
+        """An impact on ``surface`` while another surface (or another part of the same one)
+        sticks or chatters. Sticking on one surface while hitting another is a contact with two
+        surfaces at once, which is not modelled (refused, named); a chattering flight is a
+        free flight: its sequence breaks off there (transition X of Table 1, as if it had
+        turned) and the impact follows as one of a free flight."""
+        c, act = self.c, w.active
+        assert act is not None
+        if w.modes[act] == S4:
+            raise SimulationError(
+                f"impact on {c.surface_label(surface)} at t = {w.t:.6g} while sticking on "
+                f"{c.surface_label(act)}: contact with two surfaces at once is not modelled")
+        N = c.N
+        w.events.append(SimEvent("chatter_broken", w.t, w.Y[: c.n].copy(),
+                                 {"impacts": len(w.seq)}, surface=act))
+        w.seq.clear()
+        w.seq_normal = None
+        w.Y = w.Y[:N].copy()
+        w.J = None if w.J is None else w.J[:N].copy()
+        v = float(c.q(w.Y, act)["v"])
+        w.modes[act] = S1 if v > 0 else S2
+        w.active = None
+        if surface == act:
+            w.modes[surface] = S2
+        self._relayout(w)
+
+    def _check_single_contact(self, w: _Walk, surface: int) -> None:
+        """An impact on ``surface`` while another surface is met at the same instant (within
+        round-off, moving inwards): simultaneous impacts have no declared law (refused)."""
+        c = self.c
+        if c.m == 1:
+            return
+        X = w.Y[: c.N]
+        tiny = 1e-10 * (1.0 + float(np.max(np.abs(X))))
+        for j in range(c.m):
+            if j == surface:
+                continue
+            qj = c.q(X, j)
+            if qj["H"] <= tiny and qj["v"] < 0:
+                raise SimulationError(
+                    f"simultaneous impacts on {c.surface_label(surface)} and "
+                    f"{c.surface_label(j)} at t = {w.t:.6g}: no impact law is declared for "
+                    "two surfaces at once")
 
     def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
@@ -485,10 +698,21 @@ class Simulator(Transitions):
             min_impact_velocity=float(w.vmin), grazing_margin=float(w.graze),
             chatter_errors=w.chatter_errors, trajectory=w.traj, n_steps=w.n_steps,
             ended_by=ended_by, extremes=np.column_stack([w.lo, w.hi]),
-            grazing_margins=list(w.margins))
+            grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
+            surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
 
-    def _gx(self, mode: str, name: str, idx: int, Y: np.ndarray) -> np.ndarray:
-        """Gradient of the event function ``name`` with respect to the (extended) state."""
+    def _deferred(self, w: _Walk, tau: float) -> np.ndarray:
+        """The Jacobian of an exact flow from the start of the steps deferred since the last
+        event (or from ``w.Y``) over their time and ``tau`` more: one evaluation instead of a
+        product per step (the flow composes, ``Phi(a) Phi(b) = Phi(a + b)``,
+        :mod:`.linear_flow`). Clears the deferral."""
+        key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
+        w.defer = None
+        return self._step(key, Y0, T + tau, True)[5]
+
+    def _gx(self, name: str, idx: int, Y: np.ndarray, surface: int) -> np.ndarray:
+        """Gradient of the event function ``name`` of ``surface`` with respect to the
+        (extended) state."""
         N = self.c.N
         g = np.zeros(Y.size)
         if name == "section":
@@ -497,23 +721,24 @@ class Simulator(Transitions):
             g[N] = 1.0
         else:
             row = {"H": 0, "v": 1, "a": 2}[name]
-            g[:N] = self.calls.grads(Y[:N])[row]
+            g[:N] = self.calls.surfaces[surface].grads(Y[:N])[row]
         return g
 
-    def _refine(self, mode: str, Y: np.ndarray, dt: float, tau0: float, name: str, idx: int,
+    def _refine(self, key: str, Y: np.ndarray, dt: float, tau0: float, name: str, idx: int,
                 section: tuple[int, float, int] | None) -> tuple[Any, ...]:
         """Event time on the true flow: safeguarded Newton from the Hermite root ``tau0``.
 
-        ``g(tau)`` is the watched function after one RK step of length ``tau`` from ``Y`` (under
-        error control, since ``tau <= dt``); ``g'(tau)`` its exact time derivative there."""
-        sens = self.o.sensitivities
-        key = "ext" if mode in EXTENDED else ("stick" if mode == S4 else "free")
+        ``g(tau)`` is the watched function after one RK step of length ``tau`` from ``Y`` (field
+        ``key``, under error control, since ``tau <= dt``); ``g'(tau)`` its exact time
+        derivative there. The Jacobian of an exact flow's step is left to the caller
+        (:meth:`_deferred`)."""
+        sens = self.o.sensitivities and key not in self._exact
         m = Y.size
         off = 0.0
         if name == "section":
             # the state and the field after the step
             step = self.calls.steps[key][0].flat
-            ig, idg = idx, 3 * m + (6 if key == "ext" else 4) + idx
+            ig, idg = idx, 3 * m + self._npr(key) + idx
             off = section[1]
         else:
             # the probe after the step: the watched function and its time derivative
@@ -545,6 +770,6 @@ class Simulator(Transitions):
                 tau = new
                 break
             tau = new
-        out = self._step(mode, Y, tau, sens)
+        out = self._step(key, Y, tau, sens)
         Ye, pre, Fe = out[0].ravel(), out[3].ravel(), out[4].ravel()
         return tau, Ye, pre, Fe, (out[5] if sens else None)

@@ -18,10 +18,17 @@ from nsm_continuation.hybrid.simulate import SimOptions
 
 class IntegratorSpec(BaseModel):
     """``parameters.integrator``: numerics of the hybrid simulator (defaults are the ones the
-    speed-accuracy chart in ``benchmarks/bench_chatter.py`` recommends)."""
+    speed-accuracy chart in ``benchmarks/bench_chatter.py`` recommends).
+
+    ``method``: ``dop853`` or ``dopri5`` (Runge-Kutta for every field), ``exact`` (the free
+    flight by its closed-form flow, :mod:`.linear_flow`, for a system linear between events;
+    refused with the reason otherwise) or ``auto`` (``exact`` where it applies, else
+    ``dop853``). The default stays ``dop853``: the exact flow changes a run's numbers at the
+    integration tolerance, and the bundled cases keep theirs; ``auto`` or ``exact`` is chosen
+    in the case (``parameters: {integrator: {method: auto}}``)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
-    method: Literal["dop853", "dopri5"] = "dop853"
+    method: Literal["dop853", "dopri5", "exact", "auto"] = "dop853"
     #: at least 1e-14: below, the step error test asks for less than the round-off of a step
     rtol: float = Field(1e-10, ge=1e-14, lt=1e-2)
     atol: float = Field(1e-12, gt=0, lt=1e-2)

@@ -17,6 +17,15 @@ rest is derived here, never by hand:
                        field (sec. 4.3, eq. 44), its error estimate and its exact Jacobian
 =====================  ==========================================================================
 
+**Several surfaces.** ``H`` may be a column of ``m`` constraints ``H_i(x) >= 0`` (a two-sided stop,
+a ball in a cavity, several masses at walls), each with its own jump ``W_i`` (column ``i`` of
+``W``; for a mechanical system its own restitution ``e_i``) and an optional name: every derived
+quantity above exists per surface (:class:`SurfaceFunctions`), and the simulator tracks impacts,
+chattering, sticking and release per surface. Each ``H_i`` must be smooth: an expression built
+with a nonsmooth operation (``fabs``, ``sign``, ``fmin``/``fmax``, ``if_else``, comparisons,
+``floor``...) is refused (its Lie derivatives, the saltation matrices and the event location
+need continuous derivatives); declare the pieces as separate surfaces instead.
+
 Continuation parameters are *lifted into the state* (``free=`` in :meth:`HybridSystem.compile`):
 they become extra components with zero rate, so the Jacobian of the simulated map with respect to
 them comes out of the same chain of step and saltation Jacobians as the state part (the
@@ -33,7 +42,7 @@ import casadi as ca
 import numpy as np
 
 from nsm_continuation.core.casadi_buffers import BufferedFunction
-from nsm_continuation.hybrid import tableaus
+from nsm_continuation.hybrid import linear_flow, tableaus
 
 
 class HybridDeclarationError(ValueError):
@@ -51,6 +60,11 @@ def _dopri5() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, None, int
 
 #: explicit embedded Runge-Kutta tableaus (:mod:`nsm_continuation.hybrid.tableaus`)
 TABLEAUS = {"dop853": _dop853, "dopri5": _dopri5}
+
+#: the choices of free flight besides a tableau: ``exact`` (the closed-form flow of a system
+#: linear between events, :mod:`.linear_flow`; refused with the reason otherwise) and ``auto``
+#: (the exact flow where it applies, else DOP853). Sticking and chattering fields keep DOP853.
+FLOWS = ("auto", "exact")
 
 
 def rk_step(f: ca.Function, X: ca.SX, dt: ca.SX, method: str) -> tuple[ca.SX, ca.SX, ca.SX]:
@@ -113,20 +127,47 @@ class HybridSystem:
     #: the index of the clock (the forcing's phase) in the state of a forced system: a
     #: section on it may be moved along the orbit (``HybridShootingProblem.rechart``)
     clock_index: int | None = None
+    #: one name per surface (``H_i``, column ``i`` of ``W``); default ``H`` for one surface,
+    #: ``H1 .. Hm`` for several
+    surface_names: list[str] | None = None
 
     def __post_init__(self) -> None:
         n = self.x.numel()
         if self.F.numel() != n:
             raise HybridDeclarationError(
                 f"system {self.name!r}: F has {self.F.numel()} components, state has {n}")
-        if self.W.numel() != n:
+        if isinstance(self.H, (list, tuple)):
+            self.H = ca.vertcat(*[ca.SX(h) for h in self.H])
+        if self.H.size2() != 1 or self.H.numel() < 1:
             raise HybridDeclarationError(
-                f"system {self.name!r}: W has {self.W.numel()} components, state has {n}")
-        if self.H.numel() != 1:
-            raise HybridDeclarationError(f"system {self.name!r}: H must be a scalar")
-        if not ca.depends_on(self.H, self.x):
+                f"system {self.name!r}: H must be a scalar or a column (one constraint per "
+                f"surface), not {self.H.size1()}x{self.H.size2()}")
+        m = self.H.numel()
+        if self.W.numel() != n * m or (m > 1 and self.W.size2() != m):
             raise HybridDeclarationError(
-                f"system {self.name!r}: H does not depend on the state (no impact surface)")
+                f"system {self.name!r}: W must have one column of {n} components per surface "
+                f"({m}), not {self.W.size1()}x{self.W.size2()}")
+        if self.W.size2() != m:
+            self.W = ca.reshape(self.W, n, m)
+        if self.surface_names is None:
+            self.surface_names = ["H"] if m == 1 else [f"H{i + 1}" for i in range(m)]
+        self.surface_names = [str(k) for k in self.surface_names]
+        if len(self.surface_names) != m or len(set(self.surface_names)) != m:
+            raise HybridDeclarationError(
+                f"system {self.name!r}: surfaces needs {m} distinct names, got "
+                f"{self.surface_names}")
+        for i in range(m):
+            what = "H" if m == 1 else f"H of surface {self.surface_names[i]!r}"
+            if not ca.depends_on(self.H[i], self.x):
+                raise HybridDeclarationError(
+                    f"system {self.name!r}: {what} does not depend on the state (no impact "
+                    "surface)")
+            ops = _nonsmooth_operations(self.H[i], self.x, list(self.params.values()))
+            if ops:
+                raise HybridDeclarationError(
+                    f"system {self.name!r}: {what} uses {', '.join(ops)}, which is not smooth: "
+                    "the event location and the saltation matrices need a smooth constraint; "
+                    "declare each smooth piece as its own surface (a list of H)")
         if len(self.state_names) != n:
             raise HybridDeclarationError(
                 f"system {self.name!r}: {len(self.state_names)} state names for {n} states")
@@ -137,42 +178,68 @@ class HybridSystem:
     def n(self) -> int:
         return int(self.x.numel())
 
+    @property
+    def m(self) -> int:
+        """Number of impact surfaces (constraints ``H_i >= 0``)."""
+        return int(self.H.numel())
+
     # ------------------------------------------------------------------ constructors
     @classmethod
     def mechanical(cls, name: str, q: ca.SX, qd: ca.SX, params: dict[str, ca.SX], M: ca.SX,
-                   force: ca.SX, H: ca.SX, e: ca.SX | float, *,
+                   force: ca.SX, H: ca.SX | Sequence[ca.SX], e: Any, *,
+                   surfaces: Sequence[str] | None = None,
                    clock: ca.SX | None = None, clock_rate: ca.SX | None = None,
                    state_names: Sequence[str] | None = None,
                    periodic: dict[int, float] | None = None) -> HybridSystem:
-        """A mechanical system ``M(q) qdd = force(q, qd[, clock])`` with a unilateral constraint
-        ``H(q) >= 0`` and Newton's law ``N^T qd+ = -e N^T qd-`` (eqs. 54-59).
+        """A mechanical system ``M(q) qdd = force(q, qd[, clock])`` with unilateral constraints
+        ``H_i(q) >= 0`` and Newton's law ``N_i^T qd+ = -e_i N_i^T qd-`` at each (eqs. 54-59).
 
-        The state is ``x = (q, qd[, clock])``; ``N = H_q^T`` and
-        ``W = (0, -(1 + e) M^{-1} N / (N^T M^{-1} N)[, 0])`` (eq. 58), so ``r = e`` (eq. 8) and
-        ``L_W H = 0`` identically (``W`` is tangent to the surface, as sec. 2.4 requires).
+        ``H`` is one constraint or a list of them (one per surface, named by ``surfaces``), and
+        ``e`` one restitution or a list with one per surface. The state is
+        ``x = (q, qd[, clock])``; ``N_i = (H_i)_q^T`` and
+        ``W_i = (0, -(1 + e_i) M^{-1} N_i / (N_i^T M^{-1} N_i)[, 0])`` (eq. 58), so ``r_i = e_i``
+        (eq. 8) and ``L_{W_i} H_i = 0`` identically (``W_i`` is tangent to its surface, as
+        sec. 2.4 requires); the impulse ``M^{-1} N_i`` conserves the momentum of every
+        direction orthogonal to ``N_i`` (e.g. the total momentum of two colliding masses).
         """
-        if ca.depends_on(H, qd):
+        Hs = list(H) if isinstance(H, (list, tuple)) else [H]
+        es = list(e) if isinstance(e, (list, tuple)) else [e] * len(Hs)
+        if len(es) != len(Hs):
             raise HybridDeclarationError(
-                f"system {name!r}: H must depend on positions only for a mechanical system")
+                f"system {name!r}: {len(es)} restitutions for {len(Hs)} surfaces")
+        for h in Hs:
+            if isinstance(h, ca.SX) and h.numel() != 1:
+                raise HybridDeclarationError(
+                    f"system {name!r}: H must be a scalar or a list of scalars (one per "
+                    f"surface), not {h.size1()}x{h.size2()}")
+            if ca.depends_on(ca.SX(h), qd):
+                raise HybridDeclarationError(
+                    f"system {name!r}: H must depend on positions only for a mechanical system")
         nq = q.numel()
         Minv_force = ca.solve(M, force)
-        N = ca.jacobian(H, q).T
-        MiN = ca.solve(M, N)
-        Wq = -(1 + e) * MiN / ca.dot(N, MiN)
-        parts_x, parts_F, parts_W = [q, qd], [qd, Minv_force], [ca.SX.zeros(nq), Wq]
+        Wqs = []
+        for h, ei in zip(Hs, es, strict=True):
+            N = ca.jacobian(h, q).T
+            MiN = ca.solve(M, N)
+            Wqs.append(-(1 + ei) * MiN / ca.dot(N, MiN))
+        Wq = ca.horzcat(*Wqs)
+        m = len(Hs)
+        parts_x, parts_F, parts_W = [q, qd], [qd, Minv_force], [ca.SX.zeros(nq, m), Wq]
         if clock is not None:
             parts_x.append(clock)
             parts_F.append(clock_rate if clock_rate is not None else ca.SX.ones(clock.numel()))
-            parts_W.append(ca.SX.zeros(clock.numel()))
+            parts_W.append(ca.SX.zeros(clock.numel(), m))
         x = ca.vertcat(*parts_x)
         names = list(state_names) if state_names is not None else [
             *(f"q{i + 1}" for i in range(nq)), *(f"q{i + 1}dot" for i in range(nq)),
             *(["phase"] if clock is not None else [])]
         forcing = None if clock_rate is None else next(
             (k for k, sym in params.items() if ca.is_equal(ca.SX(clock_rate), sym)), None)
-        sys = cls(name, x, params, ca.vertcat(*parts_F), H, ca.vertcat(*parts_W), names,
+        Hcol = Hs[0] if m == 1 else ca.vertcat(*[ca.SX(h) for h in Hs])
+        sys = cls(name, x, params, ca.vertcat(*parts_F), Hcol, ca.vertcat(*parts_W), names,
                   dict(periodic or {}), n_config=nq, forcing_frequency=forcing,
-                  clock_index=2 * nq if clock is not None else None)
+                  clock_index=2 * nq if clock is not None else None,
+                  surface_names=list(surfaces) if surfaces is not None else None)
         sys._mass = ca.Function("M", [q, *params.values()], [M])  # type: ignore[attr-defined]
         sys._nq = nq  # type: ignore[attr-defined]
         return sys
@@ -184,8 +251,16 @@ class HybridSystem:
         state) and build the CasADi Functions: the derived quantities of the module docstring
         (eqs. 2-12, 24, 30-31), the projection onto the sticking set and the Runge-Kutta steps
         (:func:`_step_functions`). Raises :class:`HybridDeclarationError` naming the parameter
-        on a missing, unknown or non-finite value."""
+        on a missing, unknown or non-finite value.
+
+        ``method``: a Runge-Kutta tableau (``dop853``, ``dopri5``) for every field, or one of
+        :data:`FLOWS`: the free flight by its exact flow (:mod:`.linear_flow`; ``exact``
+        refuses a system that is not linear between events with the reason, ``auto`` falls
+        back to DOP853 and keeps the reason in :attr:`CompiledHybrid.flow_note`), the sticking
+        and chattering fields by DOP853. With the exact flow the Runge-Kutta step Functions
+        of the free flight are not built (:attr:`CompiledHybrid.steps` has no ``free``)."""
         self._check_values(values, free, method)
+        tableau = method if method in TABLEAUS else "dop853"
         fixed = [k for k in self.params if k not in free]
         sym_fixed = [self.params[k] for k in fixed]
         num_fixed = [float(values[k]) for k in fixed]
@@ -196,42 +271,68 @@ class HybridSystem:
 
         X = ca.vertcat(self.x, *free_syms) if free_syms else self.x
         nfree = len(free_syms)
+        m = self.m
         F = ca.vertcat(sub(self.F), ca.SX.zeros(nfree))
-        W = ca.vertcat(sub(self.W), ca.SX.zeros(nfree))
-        H = sub(self.H)
-        v = _lie(H, X, F)
-        a = _lie(v, X, F)
-        jerk = _lie(a, X, F)
-        LWH = _lie(H, X, W)
-        LWv = _lie(v, X, W)
-        r = -(1 + LWv)
-        lam = a / LWv                                            # eq. (12): -a / (1 + r)
-        Fs = F - lam * W                                          # eq. (10)
-        R = X + W * v                                             # eq. (5)
-        K = 2 * F * r / a + W                                     # eq. (24)
-        Q1 = X + K * v / (1 - r)                                  # eq. (30), first order
-        q1 = 2 * r * v / (a * (1 - r))                            # eq. (31), first order
-        P = self._sticking_projection(X, H, v, W, r)
-        probe = ca.vertcat(H, v, a, jerk)
-        grads = ca.vertcat(ca.jacobian(H, X), ca.jacobian(v, X), ca.jacobian(a, X))
-        fF, fFs, fFe, probe_e, Xe, steps, probe_field = _step_functions(X, F, Fs, v, probe,
-                                                                         method)
+        Wall = ca.vertcat(sub(self.W), ca.SX.zeros(nfree, m))
+        Hall = sub(self.H)
+        parts = []
+        for i in range(m):
+            H, W = Hall[i], Wall[:, i]
+            v = _lie(H, X, F)
+            a = _lie(v, X, F)
+            jerk = _lie(a, X, F)
+            LWH = _lie(H, X, W)
+            LWv = _lie(v, X, W)
+            r = -(1 + LWv)
+            lam = a / LWv                                        # eq. (12): -a / (1 + r)
+            Fs = F - lam * W                                      # eq. (10)
+            R = X + W * v                                         # eq. (5)
+            K = 2 * F * r / a + W                                 # eq. (24)
+            Q1 = X + K * v / (1 - r)                              # eq. (30), first order
+            q1 = 2 * r * v / (a * (1 - r))                        # eq. (31), first order
+            P = self._sticking_projection(X, H, v, W, r, i)
+            parts.append((H, v, a, jerk, LWH, r, lam, Fs, R, Q1, q1, P, W))
+        blocks = [ca.vertcat(H, v, a, jerk) for H, v, a, jerk, *_ in parts]
+        probe = blocks[0] if m == 1 else ca.vertcat(*blocks)
+        modal = None
+        note = ""
+        if method in FLOWS:
+            found = linear_flow.modal_flow(
+                ca.Function("F", [X], [F]), ca.Function("probe", [X], [probe]), self.n,
+                self.clock_index, [*self.state_names, *free])
+            if isinstance(found, str):
+                if method == "exact":
+                    raise HybridDeclarationError(f"integrator 'exact': {self.name}: {found}")
+                note = found
+            else:
+                modal = found
+        fF, steps, probe_field, ext = _step_functions(
+            X, F, [(pt[7], pt[1]) for pt in parts], blocks, [pt[0] for pt in parts], tableau,
+            free_flight=modal is None)
+        surfaces = []
+        for i, (H, v, a, _jerk, LWH, r, lam, _Fs, R, Q1, q1, P, W) in enumerate(parts):
+            fFs, fFe, probe_e, Xe = ext[i]
+            grads = ca.vertcat(ca.jacobian(H, X), ca.jacobian(v, X), ca.jacobian(a, X))
+            surfaces.append(SurfaceFunctions(
+                name=self.surface_names[i], index=i,  # type: ignore[index]
+                stick_key=_key("stick", i), ext_key=_key("ext", i),
+                fs=fFs, fe=fFe,
+                probe_e=ca.Function("probe_e", [Xe], [probe_e]),
+                grads=ca.Function("grads", [X], [grads]),
+                quantities=ca.Function("quantities", [X], [ca.vertcat(H, v, a, r, lam, LWH)]),
+                impact=ca.Function("impact", [X], [R, ca.jacobian(R, X), v, r]),
+                vgrad=ca.Function("vgrad", [X], [v, ca.jacobian(v, X)]),
+                jump=ca.Function("jump", [X], [W]),
+                chatter=ca.Function("chatter", [X], [Q1, q1, ca.jacobian(Q1, X),
+                                                     ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
+                project=ca.Function("project", [X], [P, ca.jacobian(P, X)])))
         return CompiledHybrid(
-            system=self, n=self.n, N=int(X.numel()), free=list(free), method=method,
-            order=TABLEAUS[method]()[5],
-            f=fF, fs=fFs, fe=fFe,
+            system=self, n=self.n, N=int(X.numel()), free=list(free), method=tableau,
+            order=TABLEAUS[tableau]()[5], f=fF,
             probe=ca.Function("probe", [X], [probe]),
-            probe_e=ca.Function("probe_e", [Xe], [probe_e]),
-            grads=ca.Function("grads", [X], [grads]),
-            quantities=ca.Function("quantities", [X], [ca.vertcat(H, v, a, r, lam, LWH)]),
-            impact=ca.Function("impact", [X], [R, ca.jacobian(R, X), v, r]),
-            vgrad=ca.Function("vgrad", [X], [v, ca.jacobian(v, X)]),
-            jump=ca.Function("jump", [X], [W]),
-            chatter=ca.Function("chatter", [X], [Q1, q1, ca.jacobian(Q1, X),
-                                                 ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
-            project=ca.Function("project", [X], [P, ca.jacobian(P, X)]),
-            steps=steps, probe_field=probe_field,
+            surfaces=surfaces, steps=steps, probe_field=probe_field,
             values={k: float(v) for k, v in values.items()},
+            flow="exact" if modal is not None else tableau, flow_note=note, modal=modal,
         )
 
     def _check_values(self, values: dict[str, float], free: Sequence[str], method: str) -> None:
@@ -249,17 +350,20 @@ class HybridSystem:
                 raise HybridDeclarationError(f"{self.name}: unknown parameter {k!r}")
             if not np.isfinite(float(val)):
                 raise HybridDeclarationError(f"{self.name}: parameter {k!r} is not finite")
-        if method not in TABLEAUS:
-            raise HybridDeclarationError(f"integrator {method!r}: choose one of {list(TABLEAUS)}")
+        if method not in TABLEAUS and method not in FLOWS:
+            raise HybridDeclarationError(
+                f"integrator {method!r}: choose one of {[*FLOWS, *TABLEAUS]}")
 
-    def _sticking_projection(self, X: ca.SX, H: ca.SX, v: ca.SX, W: ca.SX, r: ca.SX) -> ca.SX:
+    def _sticking_projection(self, X: ca.SX, H: ca.SX, v: ca.SX, W: ca.SX, r: ca.SX,
+                             surface: int = 0) -> ca.SX:
         """Projection of a chatter end point onto the sticking set ``{H = 0, v = 0}``: Newton
         steps along ``grad H`` (positions) and along ``W`` (velocities). It moves the point by
         ``O(v^2)``, the order of the first-order map's own error, and makes ``v`` exactly
         invariant under ``F'``."""
         pos = ca.SX.zeros(X.shape)
         for i in self.position or []:
-            pos[i] = 1
+            if self.m == 1 or ca.depends_on(self.H[surface], self.x[i]):
+                pos[i] = 1
         Hx = ca.jacobian(H, X).T * pos
         Hfun = ca.Function("Hf", [X], [H, Hx, v, W, r])
         P = X
@@ -271,25 +375,67 @@ class HybridSystem:
         return P
 
 
-def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, method: str
-                    ) -> tuple[Any, ...]:
-    """The fields ``F``, ``F'`` and the scaled extended field of sec. 4.3, eq. (44)
-    (``(X, h, u)``, ``h' = v/u``, ``u' = 0``), with one Runge-Kutta step of each and its exact
-    Jacobian: ``(fF, fFs, fFe, probe_e, Xe, steps, probe_field)``; ``probe_field[key]`` gives
-    the probe and the field of ``key`` at a state in one call."""
+def _key(kind: str, surface: int) -> str:
+    """Name of the field and probe layout ``kind`` (``stick``, ``ext``) on ``surface``: the
+    first surface's are ``stick`` and ``ext``, the others' ``stick2``, ``ext2``, ..."""
+    return kind if surface == 0 else f"{kind}{surface + 1}"
+
+
+def probe_layout(m: int, active: int | None, extended: bool) -> list[int]:
+    """Offset of each surface's block ``(H, v, a, jerk)`` in the probe of a layout: in free
+    flight (``active`` None) the blocks in order; sticking or chattering on surface ``active``
+    its block first (then ``h, h'`` in a chattering flight), the others after it in order."""
+    if active is None:
+        return [4 * i for i in range(m)]
+    offsets, pos = [0] * m, 6 if extended else 4
+    for i in range(m):
+        if i != active:
+            offsets[i], pos = pos, pos + 4
+    return offsets
+
+
+def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
+                    blocks: list[ca.SX], Hs: list[ca.SX], method: str,
+                    free_flight: bool = True) -> tuple[Any, ...]:
+    """The fields ``F``, ``F'_i`` of each surface ``i`` (``sticking[i] = (F'_i, v_i)``) and the
+    scaled extended field of sec. 4.3, eq. (44) (``(X, h, u)``, ``h' = v_i/u``, ``u' = 0``), with
+    one Runge-Kutta step of each and its exact Jacobian, each with its probe (the blocks
+    ``(H, v, a, jerk)`` of every surface in the order of :func:`probe_layout`):
+    ``(fF, steps, probe_field, ext)``; ``probe_field[key]`` gives the probe and the field of
+    ``key`` at a state in one call; ``ext[i] = (fFs_i, fFe_i, probe_e_i, Xe)``. While sticking
+    on surface ``i`` the other surfaces' blocks are Lie derivatives along ``F'_i`` (the field
+    integrated), so that each watched function's next entry is its time derivative. Without
+    ``free_flight`` the steps of ``F`` are not built (the exact flow replaces them)."""
     hs, us = ca.SX.sym("h"), ca.SX.sym("u")
     Xe = ca.vertcat(X, hs, us)
-    Fe = ca.vertcat(F, v / us, 0)
-    probe_e = ca.vertcat(probe, hs, v / us)
+    m = len(blocks)
+    probe = blocks[0] if m == 1 else ca.vertcat(*blocks)
     fF = ca.Function("F", [X], [F])
-    fFs = ca.Function("Fs", [X], [Fs])
-    fFe = ca.Function("Fe", [Xe], [Fe])
+    layouts: list[tuple[str, ca.Function, ca.SX, ca.SX]] = [("free", fF, X, probe)]
+    ext = []
+    for i, (Fs, v) in enumerate(sticking):
+        others = [blocks[j] for j in range(m) if j != i]
+        Fe = ca.vertcat(F, v / us, 0)
+        probe_e = ca.vertcat(blocks[i], hs, v / us, *others)
+        fFs = ca.Function("Fs", [X], [Fs])
+        fFe = ca.Function("Fe", [Xe], [Fe])
+        along = []
+        for j in range(m):
+            if j != i:
+                h = Hs[j]
+                vj = _lie(h, X, Fs)
+                aj = _lie(vj, X, Fs)
+                along.append(ca.vertcat(h, vj, aj, _lie(aj, X, Fs)))
+        probe_s = blocks[i] if m == 1 else ca.vertcat(blocks[i], *along)
+        layouts += [(_key("stick", i), fFs, X, probe_s), (_key("ext", i), fFe, Xe, probe_e)]
+        ext.append((fFs, fFe, probe_e, Xe))
     dt = ca.SX.sym("dt")
     steps = {}
     probe_field = {}
-    for key, f, Y, pr in (("free", fF, X, probe), ("stick", fFs, X, probe),
-                          ("ext", fFe, Xe, probe_e)):
+    for key, f, Y, pr in layouts:
         probe_field[key] = ca.Function(f"probe_field_{key}", [Y], [ca.vertcat(pr, f(Y))])
+        if key == "free" and not free_flight:
+            continue
         Yn, err, err3 = rk_step(f, Y, dt, method)
         fields = f(Yn)
         prn = ca.substitute([pr], [Y], [Yn])[0]
@@ -306,7 +452,68 @@ def _step_functions(X: ca.SX, F: ca.SX, Fs: ca.SX, v: ca.SX, probe: ca.SX, metho
                         [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
             ca.Function(f"stepP_{key}", [Y, dt], [prn]),
         )
-    return fF, fFs, fFe, probe_e, Xe, steps, probe_field
+    return fF, steps, probe_field, ext
+
+
+def _nonsmooth_operations(expr: ca.SX, x: ca.SX, params: list[ca.SX]) -> list[str]:
+    """Names of the nonsmooth CasADi operations ``expr`` is built with (empty if none)."""
+    names = {"FABS": "fabs", "SIGN": "sign", "FLOOR": "floor", "CEIL": "ceil", "FMIN": "fmin",
+             "FMAX": "fmax", "IF_ELSE_ZERO": "if_else", "LT": "a comparison",
+             "LE": "a comparison", "EQ": "a comparison", "NE": "a comparison",
+             "NOT": "a logical operation", "AND": "a logical operation",
+             "OR": "a logical operation", "FMOD": "fmod", "COPYSIGN": "copysign",
+             "REMAINDER": "remainder"}
+    ops = {getattr(ca, f"OP_{k}"): v for k, v in names.items() if hasattr(ca, f"OP_{k}")}
+    f = ca.Function("H", [x, *params], [expr])
+    found = {ops[f.instruction_id(k)] for k in range(f.n_instructions())
+             if f.instruction_id(k) in ops}
+    return sorted(found)
+
+
+@dataclass(frozen=True)
+class SurfaceFunctions:
+    """The compiled Functions of one impact surface ``H_i`` (its jump ``W_i``): the derived
+    quantities of the module docstring (eqs. 2-12, 24, 30-31) for that surface, the fields
+    ``F'_i`` (sticking on it, eq. 10) and the extended field of a chattering flight on it
+    (eq. 44), and the keys of its steps in :attr:`CompiledHybrid.steps`."""
+
+    name: str
+    index: int
+    stick_key: str
+    ext_key: str
+    fs: ca.Function
+    fe: ca.Function
+    probe_e: ca.Function
+    #: rows: the gradients of ``H_i``, ``v_i``, ``a_i``
+    grads: ca.Function
+    #: ``H, v, a, r, lambda, L_W H`` of this surface
+    quantities: ca.Function
+    impact: ca.Function
+    vgrad: ca.Function
+    #: ``W_i(x)`` of the impact law ``R = x + W_i v_i`` (eq. 5)
+    jump: ca.Function
+    chatter: ca.Function
+    project: ca.Function
+
+
+@dataclass(frozen=True)
+class SurfaceCalls:
+    """The Functions of one :class:`SurfaceFunctions` the simulator evaluates, buffered."""
+
+    fs: BufferedFunction
+    fe: BufferedFunction
+    probe_e: BufferedFunction
+    grads: BufferedFunction
+    quantities: BufferedFunction
+    impact: BufferedFunction
+    vgrad: BufferedFunction
+    chatter: BufferedFunction
+    project: BufferedFunction
+
+
+#: the Functions of a surface the simulator calls through buffers (:class:`SurfaceCalls`)
+_BUFFERED = ("fs", "fe", "probe_e", "grads", "quantities", "impact", "vgrad", "chatter",
+             "project")
 
 
 @dataclass(frozen=True)
@@ -315,17 +522,9 @@ class HybridCalls:
     :class:`~nsm_continuation.core.casadi_buffers.BufferedFunction` (numpy in, numpy out)."""
 
     f: BufferedFunction
-    fs: BufferedFunction
-    fe: BufferedFunction
     probe: BufferedFunction
-    probe_e: BufferedFunction
-    grads: BufferedFunction
-    quantities: BufferedFunction
-    impact: BufferedFunction
-    vgrad: BufferedFunction
-    chatter: BufferedFunction
-    project: BufferedFunction
-    #: per field (free, stick, ext): the step, the step with its Jacobian, the probe after it
+    surfaces: tuple[SurfaceCalls, ...]
+    #: per field (free, stick, ext, ...): the step, the step with its Jacobian, the probe after it
     steps: dict[str, tuple[BufferedFunction, BufferedFunction, BufferedFunction]]
     #: per field: the probe and the field at a state, in one vector
     probe_field: dict[str, BufferedFunction]
@@ -335,7 +534,10 @@ class HybridCalls:
 class CompiledHybrid:
     """Compiled CasADi Functions of a :class:`HybridSystem` at fixed parameter values.
 
-    ``X`` = state followed by the ``free`` parameters (dimension ``N = n + len(free)``).
+    ``X`` = state followed by the ``free`` parameters (dimension ``N = n + len(free)``);
+    ``probe`` = the blocks ``(H_i, v_i, a_i, jerk_i)`` of every surface; ``surfaces[i]`` the
+    Functions of surface ``i`` (:class:`SurfaceFunctions`); ``fs``, ``grads``, ``impact``, ...
+    are the first surface's (the only one of a one-surface system).
     """
 
     system: HybridSystem
@@ -345,65 +547,115 @@ class CompiledHybrid:
     method: str
     order: int
     f: ca.Function
-    fs: ca.Function
-    fe: ca.Function
     probe: ca.Function
-    probe_e: ca.Function
-    grads: ca.Function
-    quantities: ca.Function
-    impact: ca.Function
-    vgrad: ca.Function
-    #: ``W(x)`` of the impact law ``R = x + W v`` (eq. 5): the state jump per unit of the
-    #: (negative) normal velocity ``v``, used for the grazing normal form
-    jump: ca.Function
-    chatter: ca.Function
-    project: ca.Function
+    surfaces: list[SurfaceFunctions]
     steps: dict[str, tuple[ca.Function, ca.Function, ca.Function]]
-    #: per field (free, stick, ext): ``vertcat(probe, field)`` at a state
+    #: per field (free, stick, ext, ...): ``vertcat(probe, field)`` at a state
     probe_field: dict[str, ca.Function] = field(default_factory=dict)
     values: dict[str, float] = field(default_factory=dict)
+    #: the free flight that runs: ``exact`` (:mod:`.linear_flow`) or the Runge-Kutta tableau
+    flow: str = ""
+    #: why the exact flow does not apply (``method: auto`` that fell back to Runge-Kutta)
+    flow_note: str = ""
+    #: the closed-form flow of the free flight (:class:`.linear_flow.ModalFlow`), if it runs
+    modal: linear_flow.ModalFlow | None = None
     _calls: HybridCalls | None = field(default=None, init=False, repr=False, compare=False)
+
+    # the first surface's Functions (the only surface of a one-surface system)
+    @property
+    def fs(self) -> ca.Function:
+        return self.surfaces[0].fs
+
+    @property
+    def fe(self) -> ca.Function:
+        return self.surfaces[0].fe
+
+    @property
+    def probe_e(self) -> ca.Function:
+        return self.surfaces[0].probe_e
+
+    @property
+    def grads(self) -> ca.Function:
+        return self.surfaces[0].grads
+
+    @property
+    def impact(self) -> ca.Function:
+        return self.surfaces[0].impact
+
+    @property
+    def jump(self) -> ca.Function:
+        return self.surfaces[0].jump
+
+    @property
+    def chatter(self) -> ca.Function:
+        return self.surfaces[0].chatter
+
+    @property
+    def m(self) -> int:
+        """Number of impact surfaces."""
+        return len(self.surfaces)
 
     def calls(self) -> HybridCalls:
         """The Functions the simulator evaluates, called through their buffers (built once):
         the same values as calling them, without the ``DM`` conversions."""
         if self._calls is None:
             self._calls = HybridCalls(
-                f=BufferedFunction(self.f), fs=BufferedFunction(self.fs),
-                fe=BufferedFunction(self.fe), probe=BufferedFunction(self.probe),
-                probe_e=BufferedFunction(self.probe_e), grads=BufferedFunction(self.grads),
-                quantities=BufferedFunction(self.quantities),
-                impact=BufferedFunction(self.impact), vgrad=BufferedFunction(self.vgrad),
-                chatter=BufferedFunction(self.chatter), project=BufferedFunction(self.project),
+                f=BufferedFunction(self.f), probe=BufferedFunction(self.probe),
+                surfaces=tuple(SurfaceCalls(**{
+                    k: BufferedFunction(getattr(sf, k)) for k in _BUFFERED})
+                    for sf in self.surfaces),
                 steps={k: tuple(BufferedFunction(f) for f in fs)  # type: ignore[misc]
                        for k, fs in self.steps.items()},
                 probe_field={k: BufferedFunction(f) for k, f in self.probe_field.items()})
+            if self.modal is not None:
+                self._calls.steps["free"] = linear_flow.exact_steps(  # type: ignore[assignment]
+                    self.modal, self._calls.probe_field["free"], self._calls.probe, self.n)
         return self._calls
 
-    def q(self, X: np.ndarray) -> dict[str, float]:
-        """``H, v, a, r, lambda, L_W H`` at ``X`` as floats."""
-        vals = self.calls().quantities.flat(X)
+    def flow_description(self) -> str:
+        """The free flight that runs, in words (reports): the exact flow, or the tableau and,
+        for ``method: auto`` that fell back to it, why the exact flow does not apply."""
+        if self.modal is not None:
+            return (f"exact (closed-form modal flow between events; sticking and chattering: "
+                    f"{self.method})")
+        if self.flow_note:
+            return f"{self.method} (the exact flow does not apply: {self.flow_note})"
+        return self.method
+
+    def surface_values(self, X: np.ndarray) -> np.ndarray:
+        """``H_i(X)`` of every surface."""
+        return np.asarray(self.calls().probe.flat(X), dtype=float)[0::4][: self.m]
+
+    def q(self, X: np.ndarray, surface: int = 0) -> dict[str, float]:
+        """``H, v, a, r, lambda, L_W H`` of ``surface`` at ``X`` as floats."""
+        vals = self.calls().surfaces[surface].quantities.flat(X)
         return dict(zip(("H", "v", "a", "r", "lam", "LWH"), vals.tolist(), strict=True))
 
+    def surface_label(self, surface: int) -> str:
+        """``the impact surface`` for a one-surface system, ``surface NAME`` otherwise."""
+        return "the impact surface" if self.m == 1 else \
+            f"surface {self.surfaces[surface].name!r}"
+
     def validate_at(self, X: np.ndarray, where: str,
-                    qv: dict[str, float] | None = None) -> None:
-        """Check the impact law at a surface point (eqs. 6, 9 and sec. 2.4): ``0 <= r < 1`` and
-        ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already evaluated). Raises
-        :class:`HybridDeclarationError`."""
-        qv = self.q(X) if qv is None else qv
+                    qv: dict[str, float] | None = None, surface: int = 0) -> None:
+        """Check the impact law at a point of ``surface`` (eqs. 6, 9 and sec. 2.4):
+        ``0 <= r < 1`` and ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already
+        evaluated). Raises :class:`HybridDeclarationError`."""
+        qv = self.q(X, surface) if qv is None else qv
+        at = "" if self.m == 1 else f" on {self.surface_label(surface)}"
         if not np.isfinite(list(qv.values())).all():
             raise HybridDeclarationError(f"{self.system.name}: non-finite H, v, a, r or lambda "
-                                         f"{where}: {qv}")
+                                         f"{where}{at}: {qv}")
         if not (-1e-12 <= qv["r"] < 1.0):
             raise HybridDeclarationError(
-                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}; the chatter map "
-                "needs 0 <= r < 1 (eq. 9, sec. 3)")
+                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}{at}; the chatter "
+                "map needs 0 <= r < 1 (eq. 9, sec. 3)")
         # W tangent to {H = 0} where v = 0 (sec. 2.4): L_W H must vanish on the surface
         scale = 1.0 + float(np.linalg.norm(self.calls().f.flat(X)))
         if abs(qv["LWH"]) > 1e-9 * scale:
             raise HybridDeclarationError(
-                f"{self.system.name}: W is not tangent to the impact surface (L_W H = "
-                f"{qv['LWH']:.3g} {where}); the impact law must keep H = 0 (sec. 2.4)")
+                f"{self.system.name}: W is not tangent to {self.surface_label(surface)} "
+                f"(L_W H = {qv['LWH']:.3g} {where}); the impact law must keep H = 0 (sec. 2.4)")
 
     def mass_check(self, X: np.ndarray) -> None:
         """For mechanical systems: ``M(q)`` symmetric positive definite at ``X``."""

@@ -39,17 +39,20 @@ class Transitions:
 
     def _transition(self, mode: str, name: str, Y: np.ndarray, J: np.ndarray | None,
                     Jt: np.ndarray | None, t: float, pr: np.ndarray, seq: list[Any],
-                    events: list[SimEvent], chatter_errors: list[float]) -> tuple[Any, ...]:
-        """The transition of Table 1 fired by ``name`` in state ``mode``: a flight transition
+                    events: list[SimEvent], chatter_errors: list[float], surface: int = 0
+                    ) -> tuple[Any, ...]:
+        """The transition of Table 1 fired by ``name`` of ``surface`` in its state ``mode``
+        (``pr``: the probe from that surface's block on): a flight transition
         (:meth:`_flight_transition`) or an impact (:meth:`_impact_transition`).
         Returns ``(new mode, Y, J, Jt, t, info)``."""
         if name in ("H", "h"):
-            return self._impact_transition(mode, Y, J, Jt, t, seq, events, chatter_errors)
-        return self._flight_transition(mode, name, Y, J, Jt, t, pr, seq, events)
+            return self._impact_transition(mode, Y, J, Jt, t, seq, events, chatter_errors,
+                                           surface)
+        return self._flight_transition(mode, name, Y, J, Jt, t, pr, seq, events, surface)
 
     def _flight_transition(self, mode: str, name: str, Y: np.ndarray, J: np.ndarray | None,
                            Jt: np.ndarray | None, t: float, pr: np.ndarray, seq: list[Any],
-                           events: list[SimEvent]) -> tuple[Any, ...]:
+                           events: list[SimEvent], surface: int = 0) -> tuple[Any, ...]:
         """Transitions I, II, VI, VIII, X, XI, XII of Table 1 (turns of ``v``, sign changes of
         ``a``): no jump of the state; the extended state is dropped where chattering ends."""
         c = self.c
@@ -62,19 +65,21 @@ class Transitions:
             # J at the turn: the grazing normal form (:mod:`.grazing`) needs the
             # gradient of H_min = H(x(t_turn)) (dH/dt = v = 0 there) and the tail sensitivity
             events.append(SimEvent("near_approach", t, Y[: c.n].copy(),
-                                   {"H": float(pr[0]), "J": None if J is None else J.copy()}))
+                                   {"H": float(pr[0]), "J": None if J is None else J[:N].copy()},
+                                   surface=surface))
             return S1, Y, J, Jt, t, info
         if mode == S3 and name == "a":                                  # XII
             return S1, Y, J, Jt, t, info
         if mode == S4 and name == "a":                                  # XI: release
-            events.append(SimEvent("release", t, Y[: c.n].copy()))
+            events.append(SimEvent("release", t, Y[: c.n].copy(), surface=surface))
             return S3, Y, J, Jt, t, info
         if mode == S5 and name == "v":                                  # VI
             return S6, Y, J, Jt, t, info
         if mode == S5 and name == "a":                                  # VIII: chattering broken
             count = len(seq)
             seq.clear()
-            events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(), {"impacts": count}))
+            events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(), {"impacts": count},
+                                   surface=surface))
             return S1, Y[:N].copy(), None if J is None else J[:N].copy(), Jt, t, info
         if mode == S6 and name == "v":                                  # X: turned before impact
             count = len(seq)
@@ -83,25 +88,27 @@ class Transitions:
             # a near approach too (H_min = H at the turn): J for the grazing normal form
             events.append(SimEvent("chatter_broken", t, Y[: c.n].copy(),
                                    {"impacts": count, "H": float(pr[0]),
-                                    "J": None if J is None else J[:N].copy()}))
+                                    "J": None if J is None else J[:N].copy()}, surface=surface))
             return S1, Y[:N].copy(), None if J is None else J[:N].copy(), Jt, t, info
         raise SimulationError(f"no transition for {name!r} in state {mode}")  # pragma: no cover
 
     def _impact_transition(self, mode: str, Y: np.ndarray, J: np.ndarray | None,
                            Jt: np.ndarray | None, t: float, seq: list[Any],
-                           events: list[SimEvent], chatter_errors: list[float]
-                           ) -> tuple[Any, ...]:
-        """Transitions III, IV, V, VII, IX of Table 1: an impact (eq. 5), the chatter map once
-        its error estimate meets the tolerance (:meth:`_chatter_step`), or sticking."""
+                           events: list[SimEvent], chatter_errors: list[float],
+                           surface: int = 0) -> tuple[Any, ...]:
+        """Transitions III, IV, V, VII, IX of Table 1 on ``surface``: an impact (eq. 5), the
+        chatter map once its error estimate meets the tolerance (:meth:`_chatter_step`), or
+        sticking."""
         c, o = self.c, self.o
+        sc = self.calls.surfaces[surface]
         N = c.N
         info: dict[str, Any] = {}
         # ---------------------------------------------------------------- impacts
         X = Y[:N].copy()
         JX = None if J is None else J[:N].copy()
-        q = c.q(X)
+        q = c.q(X, surface)
         if o.validate:
-            c.validate_at(X, f"at the impact at t = {t:.6g}", q)
+            c.validate_at(X, f"at the impact at t = {t:.6g}", q, surface)
         info["impact_velocity"] = abs(q["v"])
         a = q["a"]
         if a > 0:
@@ -113,32 +120,32 @@ class Transitions:
             seq.clear()
         if a < 0 and o.chatter in ("map", "cut"):
             # a chattering sequence: impacts accumulate where a < 0 (sec. 2.5)
-            done = self._chatter_step(X, JX, Jt, t, seq, events, chatter_errors)
+            done = self._chatter_step(X, JX, Jt, t, seq, events, chatter_errors, surface)
             if done is not None:
                 Xs, Js, Jts, ts, count = done
                 info["chatter_count"] = count
                 return S4, Xs, Js, Jts, ts, info
-        R, Rx, _v, _r = self.calls.impact(X)
+        R, Rx, _v, _r = sc.impact(X)
         Xp = R.ravel()
         Jp = None if JX is None else Rx @ JX
-        v_plus, v_grad = self.calls.vgrad(Xp)
+        v_plus, v_grad = sc.vgrad(Xp)
         vplus = v_plus.item()
         if mode == S2:
             events.append(SimEvent("impact", t, X[: c.n].copy(),
                                    {"v": q["v"], "a": a,
-                                    "J": None if JX is None else JX.copy()}))
+                                    "J": None if JX is None else JX.copy()}, surface=surface))
         if mode in EXTENDED and not a < 0:
             # an impact of a chattering sequence after which the flight leaves the wall:
             # the sequence breaks off (this impact is not in ``seq``, which holds a < 0 only)
             events.append(SimEvent("chatter_broken", t, X[: c.n].copy(),
                                    {"impacts": len(seq) + 1, "v": q["v"], "a": a,
-                                    "J": None if JX is None else JX.copy()}))
+                                    "J": None if JX is None else JX.copy()}, surface=surface))
             seq.clear()
         if vplus <= 1e-14 * (1.0 + abs(q["v"])):                          # r = 0 (IV, V)
             seq.clear()
             if a < 0:
-                Xs, Js = self._project(Xp, Jp)
-                events.append(SimEvent("plastic_stick", t, Xs[: c.n].copy()))
+                Xs, Js = self._project(Xp, Jp, surface)
+                events.append(SimEvent("plastic_stick", t, Xs[: c.n].copy(), surface=surface))
                 return S4, Xs, Js, Jt, t, info
             return S3, Xp, Jp, Jt, t, info
         if a < 0:                                                         # III, VII
@@ -151,19 +158,20 @@ class Transitions:
         seq.clear()
         return S1, Xp, Jp, Jt, t, info
 
-    def _project(self, X: np.ndarray, J: np.ndarray | None) -> tuple[np.ndarray, Any]:
-        P, Px = self.calls.project(X)
+    def _project(self, X: np.ndarray, J: np.ndarray | None, surface: int = 0
+                 ) -> tuple[np.ndarray, Any]:
+        P, Px = self.calls.surfaces[surface].project(X)
         return P.ravel(), (None if J is None else Px @ J)
 
     def _chatter_step(self, X: np.ndarray, JX: np.ndarray | None, Jt: np.ndarray | None,
                       t: float, seq: list[Any], events: list[SimEvent],
-                      chatter_errors: list[float]) -> tuple[Any, ...] | None:
+                      chatter_errors: list[float], surface: int = 0) -> tuple[Any, ...] | None:
         """Record the first-order chatter estimate at this impact; apply the map when its
         estimated error meets the tolerance (returns the sticking state), else None."""
         c, o = self.c, self.o
         N = c.N
         sens = JX is not None
-        Q1, q1, Q1x, q1x, r, rx = self.calls.chatter(X)
+        Q1, q1, Q1x, q1x, r, rx = self.calls.surfaces[surface].chatter(X)
         val = np.concatenate([Q1.ravel(), [t + q1.item()]])
         jac = None
         rj = None
@@ -177,10 +185,11 @@ class Transitions:
             if count < o.cut_after:
                 return None
             # naive baseline: a perfectly plastic K-th impact, no map, no time jump
-            Xs, Js = self._project(X, JX)
+            Xs, Js = self._project(X, JX, surface)
             seq.clear()
             events.append(SimEvent("chatter", t, Xs[: c.n].copy(), {"impacts": count,
-                                                                   "cut": True}))
+                                                                   "cut": True},
+                                   surface=surface))
             return Xs, Js, Jt, t, count
         m = o.chatter_order
         if count < m + 1:
@@ -211,7 +220,7 @@ class Transitions:
                     f"tolerance (r = {rr:.6g}; convergence slows as r -> 1)")
             return None
         Xs = value[:N]
-        a_star = c.q(Xs)["a"]
+        a_star = c.q(Xs, surface)["a"]
         if not a_star < 0:
             # sec. 5.2: no sticking after the map; keep impacting (incomplete chattering)
             if count > o.max_chatter_impacts:
@@ -219,7 +228,7 @@ class Transitions:
                                       f"more than {o.max_chatter_impacts} impacts")
             return None
         Jx = None if vjac is None else vjac[:N]
-        Xs, Js = self._project(Xs, Jx)
+        Xs, Js = self._project(Xs, Jx, surface)
         Jts = None if vjac is None else vjac[N].copy()
         ts = float(value[N])
         chatter_errors.append(err)
@@ -227,7 +236,8 @@ class Transitions:
         # the impact at x_k is replaced by the map: count - 1 impacts were resolved
         events.append(SimEvent("chatter", t, Xs[: c.n].copy(),
                                {"impacts": count - 1, "error_estimate": err,
-                                "t_complete": ts, "error_floor": floor_hit}))
+                                "t_complete": ts, "error_floor": floor_hit},
+                               surface=surface))
         return Xs, Js, Jts, ts, count - 1
 
 def extrapolate(entries: list[Any], m: int) -> tuple[np.ndarray, Any, np.ndarray, Any]:

@@ -78,6 +78,30 @@ def event_record(ev: Event) -> dict[str, Any]:
     return rec
 
 
+def location_uncertainty(br: Branch, ev: Event, names: list[str],
+                         variables: list[str]) -> dict[str, float]:
+    """How far each quantity of ``names`` (a derived quantity or an unknown) may lie from its
+    value at the event: the event's bracket (the accuracy of its location in arclength) times
+    the quantity's rate along the branch, the largest secant slope over the intervals of the
+    branch's points around the event (0 for an event located exactly, as a bound)."""
+    w = float(ev.bracket)
+    pts = br.points
+    if not np.isfinite(w) or len(pts) < 2:
+        return {}
+    s = np.array([p.s for p in pts], dtype=float)
+    i = int(np.searchsorted(s, float(ev.point.s)))
+    spans = [(j, j + 1) for j in range(max(i - 2, 0), min(i + 1, len(pts) - 1))]
+    out = {}
+    for name in names:
+        slope = 0.0
+        for j, k in spans:
+            dv = pts[k].value(name, variables) - pts[j].value(name, variables)
+            if s[k] > s[j] and np.isfinite(dv):
+                slope = max(slope, abs(dv) / (s[k] - s[j]))
+        out[name] = slope * w
+    return out
+
+
 def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
 
@@ -214,6 +238,39 @@ def presentation_warnings(problem: Any, failures: list[str]) -> list[str]:
     return call_hook(problem, "warnings", lambda: pres.warnings(), _str_list, [], failures)
 
 
+def _problem_parts(res: RunResult, branches: list[dict[str, Any]], failures: list[str]
+                   ) -> tuple[dict[str, Any], dict[str, Any], list[str]]:
+    """The problem's summary and results (its presentation hooks, guarded) and the run's
+    warnings: the hooks' failures, the problem's warnings, what ``output.orbits`` cannot
+    draw, and the branches whose trivial multiplier drifts."""
+    pr = res.problem
+    pres = pr.presentation
+    warnings = presentation_warnings(pr, failures)
+    summary_part = call_hook(pr, "summary", lambda: pres.summary(), _json_dict, {}, failures)
+    extras = call_hook(pr, "report_extras", lambda: pres.report_extras(res.branches),
+                       _json_dict, {}, failures)
+    warnings = [*failures, *warnings]
+    if res.case.output.orbits is not None:
+        from nsm_continuation.figures.orbit_selection import spec_warnings
+
+        warnings += spec_warnings(res)
+    for b in branches:
+        err = b["max_trivial_multiplier_error"]
+        if err is not None and err > 1e-6:
+            warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
+                            " multipliers near the unit circle are not reliable there")
+    return summary_part, extras, warnings
+
+
+def unchecked_note(res: RunResult) -> str | None:
+    """What the run's algorithm does not check (:attr:`Algorithm.unchecked
+    <nsm_continuation.algorithms.base.Algorithm.unchecked>`), or None."""
+    from nsm_continuation.algorithms.registry import ALGORITHMS
+
+    algorithm = ALGORITHMS.get(res.case.continuation.algorithm or res.problem.algorithms[0])
+    return None if algorithm is None else algorithm.unchecked
+
+
 def build_report(res: RunResult, folder: str | None = None,
                  failures: list[str] | None = None) -> dict[str, Any]:
     """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
@@ -235,6 +292,9 @@ def build_report(res: RunResult, folder: str | None = None,
             for c in columns:  # a column that is an unknown, not a derived quantity
                 if c not in rec and c in bpr.variables:
                     rec[c] = _f(ev.point.y[bpr.variables.index(c)])
+            # what the location's accuracy leaves of each printed value (report.md's digits)
+            rec["location_uncertainty"] = {k: _f(v) for k, v in location_uncertainty(
+                br, ev, list(dict.fromkeys([*columns, bpr.parameter])), bpr.variables).items()}
             if link is not None:
                 rec["parent"] = link  # the event's branch was born there
             events.append(rec)
@@ -258,20 +318,16 @@ def build_report(res: RunResult, folder: str | None = None,
         if runs:  # the families the branch went through (signature runs)
             branches[-1]["families"] = runs
     s = res.settings
-    warnings = presentation_warnings(pr, failures)
-    summary_part = call_hook(pr, "summary", lambda: pres.summary(), _json_dict, {}, failures)
-    extras = call_hook(pr, "report_extras", lambda: pres.report_extras(res.branches),
-                       _json_dict, {}, failures)
-    warnings = [*failures, *warnings]
-    if res.case.output.orbits is not None:
-        from nsm_continuation.figures.orbit_selection import spec_warnings
-
-        warnings += spec_warnings(res)
-    for b in branches:
-        err = b["max_trivial_multiplier_error"]
-        if err is not None and err > 1e-6:
-            warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
-                            " multipliers near the unit circle are not reliable there")
+    saved = res.saved_report
+    if saved is not None:  # read back: what the problem said at the end of the run
+        warnings = list(saved.get("warnings", []))
+        summary_part = saved.get("problem_summary", {})
+        extras = saved.get("problem_results", {})
+    else:
+        summary_part, extras, warnings = _problem_parts(res, branches, failures)
+        note = unchecked_note(res)
+        if note is not None:
+            warnings.append(note)
     rep = {
         "case": {"name": res.case.name, "description": res.case.description,
                  "input": res.case.model_dump(mode="json")},

@@ -28,8 +28,10 @@ def _floats(v: Any) -> list[float]:
 
 
 def restart_block(res: RunResult) -> dict[str, Any]:
-    """The ``restart`` block of ``report.json`` (the module docstring)."""
-
+    """The ``restart`` block of ``report.json`` (the module docstring); a run read back from
+    its folder keeps the one it was saved with."""
+    if res.saved_report is not None and isinstance(res.saved_report.get("restart"), dict):
+        return json.loads(json.dumps(res.saved_report["restart"]))
     pr = res.problem
     parameters = pr.parameters_block()
     if parameters is None:  # parameters that are not a pydantic model: the case's block

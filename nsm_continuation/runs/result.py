@@ -34,3 +34,8 @@ class RunResult:
     #: what ``output.orbits`` asks for that the run cannot draw, one line each, once checked
     #: (:func:`nsm_continuation.figures.orbit_selection.spec_warnings`; None: not yet)
     orbit_warnings: list[str] | None = None
+    #: the ``report.json`` this run was read back from (:mod:`nsm_continuation.output.loading`;
+    #: None for a run computed here): what the problem said at the end of the run (its
+    #: summary, its results, the warnings, the restart record with the parameters as they
+    #: were), which a problem rebuilt from the case cannot say again
+    saved_report: dict[str, Any] | None = None

@@ -132,7 +132,8 @@ START_ADAPTER = one_or_many(StartSpec)
 
 # -- the problem -----------------------------------------------------------------------------------
 class BarContinuumProblem(Problem):
-    """Continuum nonsmooth modes of the bar: straight branches ``t_f = a T + b``
+    """Elastic bar with a unilateral contact, continuum limit (Yoong, Thorin, Legrand 2017).
+    Its nonsmooth modes are straight branches ``t_f = a T + b``
     (:mod:`problems.bar.continuum_orbits`)."""
 
     presentation_class = BarContinuumPresentation

@@ -143,7 +143,8 @@ def response_kind(multiple: int) -> str:
 
 
 class WfemForcedBarProblem(SweepProblem):
-    """Steady forced response of the WFEM bar over a frequency grid (module docstring)."""
+    """Elastic bar with a unilateral contact, WFEM: steady forced response (Yoong et al. 2017).
+    Over a frequency grid (sec. 7; module docstring)."""
 
     presentation_class = ForcedBarPresentation
     #: the figures depend on the results and the parameters only

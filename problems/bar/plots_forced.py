@@ -126,9 +126,9 @@ def frequency_response_figure(curves: Sequence[ResponseCurve], references: Seque
     the backbones and the linear references) and the end amplitude ``(max u - min u) / 2``
     (with the linear references); curves coloured by sweep, references dashed in the colour of
     the sweep with the same index (one reference per damping ratio)."""
-    import matplotlib.pyplot as plt
+    from nsm_continuation.figures.kit import subplots
 
-    fig, (ax_e, ax_a) = plt.subplots(1, 2, figsize=(13, 5.2), constrained_layout=True)
+    fig, (ax_e, ax_a) = subplots(1, 2, figsize=(13, 5.2), constrained_layout=True)
     for i, c in enumerate(curves):
         col = COLORS[i % len(COLORS)]
         draw_response(ax_e, c.x, c.energy, c.steady, col, c.label)

@@ -250,9 +250,6 @@ class ForcedBarPresentation(Presentation):
                                         self.fep_labels[1], self.reference_label(),
                                         title=self.figure_title())
         fig.savefig(Path(out_dir) / "frequency_response.png", dpi=130)
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
         return ["frequency_response.png"]
 
     def figure_title(self) -> str:

@@ -84,10 +84,11 @@ class WfemBarParameters(CanonicalNames):
 
 
 class WfemBarProblem(WfemBarPreflight, WfemBarSeeds, WfemLatticeNodes, LatticeProblem):
-    """Nonsmooth modes of the WFEM bar on the (m, p) lattice (module docstring): the starts and
-    their seeds (:mod:`.wfem_starts`), the preflight (:mod:`.wfem_preflight`), the node store
-    and the scan (:mod:`.wfem_nodes`) and the presentation (:mod:`.presentation`) are mixins;
-    this class holds the model, the window and the predictor / corrector."""
+    """Elastic bar with a unilateral contact, WFEM on the (m, p) lattice (Yoong et al. 2017).
+    Nonsmooth modes (module docstring): the starts and their seeds (:mod:`.wfem_starts`), the
+    preflight (:mod:`.wfem_preflight`), the node store and the scan (:mod:`.wfem_nodes`) and
+    the presentation (:mod:`.presentation`) are mixins; this class holds the model, the window
+    and the predictor / corrector."""
 
     presentation_class = WfemBarPresentation
     #: the figures depend on the results and the parameters only

@@ -89,7 +89,8 @@ from nsm_continuation.core.vocabulary import as_parameters
 
 class NDofImpactProblem(ChainStability, ChainAdmissibility, ChainClosedForm, ChainStarts,
                         ChainSizing, Problem):
-    """T-parametrised fixed points of the first return map R(T) (Legrand et al. 2017)."""
+    """N-dof chain, one mass impacting a rigid wall with e = 1 (Legrand, Junca, Heng 2017).
+    T-parametrised fixed points of the first return map R(T)."""
 
     presentation_class = ChainPresentation
     #: the figures depend on the results and the parameters only

@@ -118,11 +118,11 @@ class ChainPresentation(Presentation):
         g > 0 the flat (linear, contact-free) part of each mode up to its linear grazing energy
         (for g < 0 there is none, Prop. 7.1); for g = 0 the
         discrete spectrum (roots of w_N, Prop. 7.2) found on ``branches``."""
-        import matplotlib.pyplot as plt
+        from nsm_continuation.figures.kit import colormap
 
         lo, hi = x_range
         lo, hi = lo - 0.02 * (hi - lo), hi + 0.02 * (hi - lo)
-        colors = plt.get_cmap("tab10")
+        colors = colormap("tab10")
         kmax = self.SUBHARMONIC_KMAX
         for j, w in enumerate(self.problem.omega):
             for k in range(1, kmax + 1):
@@ -174,7 +174,7 @@ class ChainPresentation(Presentation):
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
         """Fig. 3.1: w_N(T) with its poles k T_j and zeros."""
-        import matplotlib.pyplot as plt
+        from nsm_continuation.figures.kit import colormap, subplots
 
         lo, hi = window
         lo = lo if lo is not None else 0.05 * self.problem.T_lin[-1]
@@ -183,11 +183,11 @@ class ChainPresentation(Presentation):
         wn = self.problem.w_N(T)
         kmax = self.SUBHARMONIC_KMAX
         # created at the file's dpi: tight_layout and savefig lay the text out once
-        fig, ax = plt.subplots(figsize=(9, 4.5), dpi=130)
+        fig, ax = subplots(figsize=(9, 4.5), dpi=130)
         poles = self.problem.poles(lo, hi, kmax)
         wn_plot = np.where(np.abs(wn) > 50 * np.median(np.abs(wn)), np.nan, wn)
         ax.plot(T, wn_plot, color="k", lw=1.0)
-        cmap = plt.get_cmap("tab10")
+        cmap = colormap("tab10")
         for Tp, j, k in poles:
             ax.axvline(Tp, color=cmap(j % 10), lw=1.4 if k == 1 else 0.6, alpha=0.8)
         zeros = self.problem.zeros_of_w_N(lo, hi)
@@ -200,6 +200,5 @@ class ChainPresentation(Presentation):
         ax.grid(alpha=0.25)
         fig.tight_layout()
         fig.savefig(Path(out_dir) / "w_N.png", dpi=130)
-        plt.close(fig)
         return ["w_N.png"]
 

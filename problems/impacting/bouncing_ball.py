@@ -206,10 +206,7 @@ class BallPresentation(Presentation):
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from nsm_continuation.figures.kit import subplots
 
         out = Path(out_dir)
         info = self.problem.results()
@@ -221,7 +218,7 @@ class BallPresentation(Presentation):
         ts, xs = self._dense(res)
         t_c = (info["chatter_map"] or {}).get("completion_time")
         # Fig. 1: position and velocity
-        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+        fig, ax = subplots(2, 1, sharex=True, figsize=(7, 5))
         ax[0].plot(ts, xs[:, 0], lw=1)
         ax[1].plot(ts, xs[:, 1], lw=1)
         ax[0].set_ylabel("position $x_1 = q$")
@@ -235,7 +232,6 @@ class BallPresentation(Presentation):
         ax[0].set_title(f"Bouncing ball, e = {p.restitution}, s = {p.s} (Fig. 1)")
         fig.tight_layout()
         fig.savefig(out / "ball_fig1_position_velocity.png", dpi=120)
-        plt.close(fig)
         files.append("ball_fig1_position_velocity.png")
         # Fig. 3(b)-(c): H and h = H/u in the tail of the sequence
         imp = info["impact_times"]
@@ -251,7 +247,7 @@ class BallPresentation(Presentation):
             t_map = [ev.t for ev in res.events if ev.kind == "chatter"]
             if t_map:
                 sel &= ts <= t_map[0]
-            fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+            fig, ax = subplots(1, 2, figsize=(9, 3.5))
             ax[0].plot(ts[sel], xs[sel, 0], lw=1)
             ax[0].set_title("(b) H(x) in the tail")
             ax[1].plot(ts[sel], xs[sel, 0] / u[sel], lw=1, color="C1")
@@ -260,7 +256,6 @@ class BallPresentation(Presentation):
                 a.set_xlabel("t")
             fig.tight_layout()
             fig.savefig(out / "ball_fig3bc_H_h_tail.png", dpi=120)
-            plt.close(fig)
             files.append("ball_fig3bc_H_h_tail.png")
         # Fig. 4: Jacobian components vs time (one simulation per time)
         grid = np.linspace(1e-3, self.problem.p.t_end, 240)
@@ -269,7 +264,7 @@ class BallPresentation(Presentation):
             extra += [t_c - 1e-9, t_c + 1e-9]
         times = np.unique(np.concatenate([grid, [t for t in extra if 0 < t < p.t_end]]))
         Js = self.problem.jacobian_history(times)
-        fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+        fig, ax = subplots(1, 2, figsize=(9, 3.5))
         ax[0].plot(times, Js[:, 0, 0], lw=1)
         ax[0].set_title(r"$\partial x_1(t) / \partial x_1(0)$")
         ax[1].plot(times, Js[:, 1, 0], lw=1)
@@ -282,13 +277,13 @@ class BallPresentation(Presentation):
         fig.suptitle(f"Fig. 4: g = {p.g}, s = {p.s}; chatter map after N = {n_map}")
         fig.tight_layout()
         fig.savefig(out / "ball_fig4_jacobian.png", dpi=120)
-        plt.close(fig)
         files.append("ball_fig4_jacobian.png")
         return files
 
 
 class BouncingBallProblem(CanonicalParameter, Problem):
-    """The bouncing ball as a simulation case (no continuation; see the module docstring)."""
+    """Bouncing ball: complete chattering, simulated (Nordmark, Piiroinen 2009, sec. 3.5).
+    No continuation; see the module docstring."""
 
     presentation_class = BallPresentation
 

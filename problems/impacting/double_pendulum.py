@@ -102,7 +102,8 @@ class PendulumPresentation(HybridCasePresentation):
 
 
 class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
-    """Periodic orbits of the forced double pendulum with chattering (sec. 6)."""
+    """Forced double pendulum hitting a wall, chattering and sticking (Nordmark, Piiroinen 2009).
+    Its periodic orbits (sec. 6)."""
 
     name: ClassVar[str] = "double_pendulum"
     #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)

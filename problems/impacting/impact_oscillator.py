@@ -47,7 +47,8 @@ class ImpactOscillatorParameters(CanonicalNames):
 
 
 class ImpactOscillatorProblem(CanonicalParameter, HybridCaseProblem):
-    """Periodic orbits (with chattering and sticking) of the forced impact oscillator."""
+    """Forced 1-dof impact oscillator, chattering and sticking (Nordmark, Piiroinen 2009).
+    Its periodic orbits (sec. 2.2)."""
 
     name: ClassVar[str] = "impact_oscillator"
     #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)

@@ -293,12 +293,11 @@ def test_a_duplicate_name_is_listed(plugin: Callable[..., str],
     target = plugin(name="ndof_impact")
     bundled = "nsm_continuation.problems.chain.ndof_impact:NDofImpactProblem"
     assert cli.main(["list"]) == 0
-    lines = [line for line in capsys.readouterr().out.splitlines()
-             if line.startswith("ndof_impact\t")]
+    lines = [line.split(None, 1)[1] for line in capsys.readouterr().out.splitlines()
+             if line.split()[0] == "ndof_impact"]
     dist = target.split(".")[0]
-    assert lines == [f"ndof_impact\t{bundled}",
-                     f"ndof_impact\t{target}\t(duplicate from {dist}, ignored: {bundled} is "
-                     "used)"]
+    assert lines == [registry.describe(bundled),
+                     f"{target} (duplicate from {dist}, ignored: {bundled} is used)"]
     assert registry.available()["ndof_impact"] == bundled
     with pytest.warns(registry.DuplicateProblemWarning,
                       match=f"problem 'ndof_impact' is registered 2 times: {bundled} "

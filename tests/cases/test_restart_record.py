@@ -148,6 +148,27 @@ def test_the_record_a_run_writes_loads_unchanged(saved: Path) -> None:
     assert load_run(str(saved)).restart == record_of(saved)
 
 
+def test_a_curve_records_its_derived_bounds_as_json_pairs(saved: Path) -> None:
+    """A located curve's ``base_settings.derived_bounds`` (written from tuples, read back from
+    JSON as lists) is accepted as the pair it was (the sticking-lost curve of the double
+    pendulum bounds ``sticking_time``); a pair of another length or of text is refused."""
+    from nsm_continuation.cases.saved_runs import RestartRecord, check_record
+
+    block = record_of(saved)
+    curve = {"kind": "sticking_lost", "free": "restitution", "method": "located",
+             "base_settings": {"newton_tol": 1e-9, "step_initial": 1e-3,
+                               "derived_bounds": {"sticking_time": [1e-4, None]}}}
+    good = json.loads(json.dumps({**block, "curve": curve}))
+    check_record(good, "run/report.json")
+    rec = RestartRecord.model_validate(good)
+    assert rec.curve.base_settings.derived_bounds == {"sticking_time": (1e-4, None)}
+    for bad in ([1e-4], [1e-4, None, 1.0], ["1e-4", None]):
+        curve["base_settings"]["derived_bounds"]["sticking_time"] = bad
+        with pytest.raises(CaseError, match="restart.curve.base_settings.derived_bounds."
+                                            "sticking_time"):
+            check_record(json.loads(json.dumps({**block, "curve": curve})), "run/report.json")
+
+
 # --------------------------------------------------------------------------- mutations
 def _paths(node: Any, at: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
     """Every key and list index of ``node``, as paths from the root."""

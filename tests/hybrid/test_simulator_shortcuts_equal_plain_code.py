@@ -39,13 +39,13 @@ def _run(pb: DoublePendulumProblem, opts: SimOptions | None = None) -> sm.SimRes
 
 
 # ------------------------------------------------------------------ oracles (the plain code)
-def plain_refine(sim: Simulator, mode: str, Y: np.ndarray, dt: float, tau0: float, name: str,
+def plain_refine(sim: Simulator, key: str, Y: np.ndarray, dt: float, tau0: float, name: str,
                  idx: int, section: Any) -> tuple[float, np.ndarray, int]:
     """The event time by the safeguarded Newton iteration, every iteration evaluated (no cycle
     shortcut), g from the full step's outputs: ``(tau, state at tau, iterations run)``."""
 
     def gval(tau: float) -> tuple[float, float]:
-        out = sim._step(mode, Y, tau, False)
+        out = sim._step(key, Y, tau, False)
         if name == "section":
             return out[0][idx] - section[1], out[4][idx]
         return out[3][idx], out[3][idx + 1]
@@ -66,7 +66,7 @@ def plain_refine(sim: Simulator, mode: str, Y: np.ndarray, dt: float, tau0: floa
             tau = new
             break
         tau = new
-    return tau, sim._step(mode, Y, tau, False)[0], its
+    return tau, sim._step(key, Y, tau, False)[0], its
 
 
 def plain_extrapolate(entries: list[Any], m: int) -> tuple[Any, ...]:
@@ -205,7 +205,7 @@ def test_cycle_shortcut_on_a_made_up_jitter() -> None:
             real = sim.calls.steps["free"]
             sim.calls.steps["free"] = (real[0], real[1], fake)
             try:
-                tau = sim._refine(sm.S1, Y, 1.0, seq[0], "H", 0, None)[0]
+                tau = sim._refine("free", Y, 1.0, seq[0], "H", 0, None)[0]
             finally:
                 sim.calls.steps["free"] = real
             # the plain iteration: 30 steps along the sequence, then its cycle

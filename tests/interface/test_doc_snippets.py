@@ -15,7 +15,8 @@ but the Python examples:
   (`# start: ...`) are not checked;
 * every `nsm-continuation ...` command of a ```bash block (at the start of a line or after `&&`
   / `;`) is accepted by the CLI's argument parser (`cli._parser()`, nothing run), and the case
-  file it names validates; every `.py` / `.yaml` path a bash command names exists;
+  file (or bundled case) it names validates; every `.py` / `.yaml` path a bash command names
+  exists;
 * every ```toml block parses (`tomllib`); its entry points are in the group the registry reads,
   and those of an importable module name a `Problem` subclass;
 * no fenced block has another language (a new one would go unchecked).
@@ -164,8 +165,9 @@ def test_bash_commands_parse(text, capsys):
         except SystemExit as exc:  # the parser's error: one line on stderr, status 2
             pytest.fail(f"{' '.join(argv)}: refused by the CLI's parser (status {exc.code}): "
                         f"{capsys.readouterr().err.strip()}")
-        if getattr(args, "case", None):
-            cases.load(ROOT / args.case, args.overrides)
+        if getattr(args, "case", None):  # a file of the repository, or a bundled case's name
+            path = ROOT / args.case
+            cases.load(path if path.exists() else args.case, args.overrides)
 
 
 # ------------------------------------------------------------------------------------ TOML

@@ -188,7 +188,6 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
     assert ax.get_yscale() == "linear"
     drawn = np.concatenate([ln.get_xdata() for ln in ax.get_lines() if len(ln.get_xdata()) > 1])
     assert drawn.min() == pytest.approx(-0.95) and drawn.max() == pytest.approx(0.95)
-    kit.plt.close(fig)
 
 
 def test_paper_problems_keep_their_presentation() -> None:
@@ -239,7 +238,8 @@ def test_problem_declared_event_kind_is_reported_with_its_meaning(tmp_path: Path
 def test_family_kinds_are_not_core_kinds() -> None:
     core = set(records.CORE_EVENT_KINDS)
     assert core == {"fold", "branch_point", "period_doubling", "neimark_sacker",
-                    "stability_change", "grazing", "endpoint", "asymptote"}
+                    "unresolved_crossing", "stability_change", "grazing", "endpoint",
+                    "asymptote"}
     from nsm_continuation.core.lattice import LatticeProblem
     from nsm_continuation.hybrid.problem import HybridShootingProblem
 
@@ -333,7 +333,8 @@ def test_default_algorithm_is_the_problems_first() -> None:
 
 def test_pycont_algorithm_follows_the_same_branch() -> None:
     """``continuation.algorithm: pycont``: pycont-lite's points, analysed by the problem's
-    hooks, on the branch the engine follows, cut at the energy bound."""
+    hooks, on the branch the engine follows, cut at the energy bound or at its first phantom
+    orbit (the grazing the engine locates is then between its last two points)."""
     pytest.importorskip("pycont")
     raw = json.loads(json.dumps(SMALL_CHAIN))
     raw["continuation"].update(algorithm="pycont", max_points=200, max_energy=5.0,
@@ -342,7 +343,6 @@ def test_pycont_algorithm_follows_the_same_branch() -> None:
     res = run_case(case, problem, progress=False)
     (br,) = res.branches
     assert br.n_points > 5, br.termination
-    assert br.termination["forward"].startswith("bound: energy = max")
     for p in br.points:
         assert np.linalg.norm(problem.evaluate(p.y), np.inf) < 1e-8
         assert p.derived["energy"] <= 5.0
@@ -351,14 +351,48 @@ def test_pycont_algorithm_follows_the_same_branch() -> None:
         assert (p.multipliers is not None) == (p.admissible and p.s != 0.0)
     assert br.info["algorithm"].startswith("pycont-lite")
     assert res.timings["pycont_residual_evaluations"] > 0
-    # the engine, from the same start, ends at energy = 5 a little beyond pycont's last point
+    # the engine, from the same start, locates the grazing where pycont's branch was cut
     raw["continuation"]["algorithm"] = "palc"
     raw["analysis"] = {"stability": False}
     (ref,) = run_case(*validate(raw), progress=False).branches
-    assert ref.points[-1].derived["energy"] == pytest.approx(5.0, rel=1e-9)
-    om_p, om_e = br.points[-1].derived["omega"], ref.points[-1].derived["omega"]
-    assert om_p <= om_e and om_p == pytest.approx(om_e, rel=1e-4)
     np.testing.assert_allclose(br.points[0].y, ref.points[0].y, rtol=1e-12, atol=1e-12)
+    assert br.termination["forward"].startswith("admissibility: ")
+    ip = problem.parameter_index
+    grazing = [ev.point.y[ip] for ev in ref.events if ev.kind == "grazing"]
+    last, cut = br.points[-2].y[ip], br.points[-1].y[ip]
+    assert any(min(last, cut) < t < max(last, cut) for t in grazing)
+
+
+def test_pycont_cuts_a_branch_at_its_first_inadmissible_point_and_says_so(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The bundled default case (the chain's mode 1 up to the nonlinear grazing orbit B) with
+    ``algorithm: pycont``: pycont-lite would follow the phantom orbits past B; the branch ends
+    at the first inadmissible point, and the engine's located grazing (a second method) lies
+    between it and the point before. The report's warnings, ``report.md`` and the command
+    line's last line say what pycont-lite does not check."""
+    pytest.importorskip("pycont")
+    import nsm_continuation as nsm
+    from nsm_continuation import cli
+    from nsm_continuation.algorithms.pycont_lite import PycontLite
+
+    out = tmp_path / "pycont"
+    assert cli.main(["run", "ndof_default", "--out", str(out), "--set",
+                     "continuation.algorithm=pycont", "--set", "output.plots=false"]) == 0
+    stdout = capsys.readouterr().out.strip().splitlines()
+    assert stdout[-1] == f"warning: {PycontLite.unchecked}"
+    assert "pycont-lite locates no events" in (out / "report.md").read_text()
+    rep = json.loads((out / "report.json").read_text())
+    assert PycontLite.unchecked in rep["warnings"]
+    (branch,) = rep["branches"]
+    assert branch["termination_by_direction"]["forward"].startswith("admissibility: ")
+    with open(out / "branch_0.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["admissible"] for r in rows[-2:]] == ["1", "0"]
+    assert all(r["admissible"] == "1" for r in rows[:-1])
+    engine = nsm.run("ndof_default", {"output.plots": False})
+    (grazing,) = [e for e in engine.events if e.kind == "grazing"]
+    before, after = float(rows[-2]["y_T"]), float(rows[-1]["y_T"])
+    assert min(before, after) < grazing.parameter < max(before, after)
 
 
 # ---------------------------------------------------------------------- (e) stability switch
@@ -379,8 +413,7 @@ def test_stability_false_never_calls_floquet(monkeypatch: pytest.MonkeyPatch) ->
         [p.y.tolist() for p in res_on.branches[0].points]
     # the multiplier plots are labelled by the continued quantity, not "frequency"
     figures: list[Any] = []
-    monkeypatch.setattr(kit.plt, "close", figures.append)
-    monkeypatch.setattr(kit.plt.Figure, "savefig", lambda *a, **k: None)
+    monkeypatch.setattr(kit.Figure, "savefig", lambda fig, *a, **k: figures.append(fig))
     assert multipliers.multipliers_vs_frequency(res_on, Path("unused.png"))
     assert multipliers.multipliers_plane(res_on, Path("unused.png"))
     assert figures[0].axes[2].get_xlabel() == "p"

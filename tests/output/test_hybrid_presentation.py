@@ -133,7 +133,6 @@ def test_short_forced_run_writes_a_frequency_response(fig2_run) -> None:
     assert ax.get_title() == "Frequency-response curve: impact_oscillator_fig2_sticking"
     assert (ax.get_xlabel(), ax.get_ylabel()) == pr.presentation.fep_labels
     assert ax.get_yscale() == "linear"
-    kit.plt.close(fig)
 
 
 def test_amplitude_of_a_non_impacting_orbit_is_the_closed_form() -> None:
@@ -184,7 +183,6 @@ def test_pendulum_is_a_bifurcation_diagram_in_its_parameter(parameter: str,
     assert fig.axes[0].get_title() == "Bifurcation diagram: pendulum"
     assert fig.axes[0].get_xlabel() == parameter
     assert "frequency" not in texts(fig).lower()
-    kit.plt.close(fig)
     assert multipliers.multipliers_vs_frequency(res, tmp_path / "m.png")
     # the multiplier figure's axis is the parameter too (its file keeps its historical name)
     assert multipliers.multipliers_plane(res, tmp_path / "p.png")

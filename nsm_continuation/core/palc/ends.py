@@ -17,6 +17,9 @@ resolution) next to a boundary of its family ends *at* that boundary, named:
   at most ``RESOLVED x newton_tol``), evaluated at ``q = 0`` (:func:`extrapolate_to_zero`).
   The location's uncertainty (the event's bracket, and the digits the reason prints) is the
   largest change of that value with one degree less or without the point nearest the zero.
+  The end point is that extrapolation, with its derived quantities extrapolated too (the
+  vanishing one is 0 there); its residual (``residual_at_end``) says how far the
+  extrapolated unknowns are from a periodic orbit.
   The zero must be simple (``q ~ (s* - s)^k`` with ``k`` near 1, :data:`ORDER`): the quantity
   would change sign beyond it, the family ends. The zero of an impact velocity is a grazing,
   where the *branch* may go on along another family (the free orbit beyond a single grazing,
@@ -295,6 +298,16 @@ class EndLocator(EnginePart):
             end = self.engine.analyse(y_end, t, s_end, floquet=False)
         except NUMERICAL_ERRORS:
             return None
+        # the end point is the branch's extrapolation, not a solution the corrector resolved
+        # (its residual says how far the extrapolated unknowns are from one): its derived
+        # quantities are extrapolated with the unknowns, the vanishing one to zero
+        keys = [k for k, v in fit[0].derived.items() if isinstance(v, float)
+                and all(np.isfinite(float(p.derived.get(k, np.nan))) for p in fit)]
+        if keys:
+            values = extrapolate_to_zero(
+                q, np.array([[float(p.derived[k]) for k in keys] for p in fit]), deg)
+            end.derived.update({k: float(v) for k, v in zip(keys, values, strict=True)})
+        end.derived[name] = 0.0
         par = self.problem.parameter
         p_end = float(y_end[self.ip])
         uncertainty = max(abs(p_end - float(o[1 + self.ip])) for o in others)
@@ -305,5 +318,5 @@ class EndLocator(EnginePart):
         data = {"monitor": name, "parameter_end": p_end, "parameter_uncertainty": uncertainty,
                 "points_fitted": len(fit), "monitor_range": [float(q[-1]), float(q[0])],
                 "zero_order": order, "signature_before": fit[-1].signature,
-                "located_on": "extrapolation"}
+                "located_on": "extrapolation", "residual_at_end": float(end.residual_norm)}
         return end, Event(kind, end, detail, data=data, bracket=bracket)

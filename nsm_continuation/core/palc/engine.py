@@ -358,6 +358,8 @@ class ContinuationEngine:
             crossing = self.kinks.in_step(a, found, step.h)
             if crossing is not None:
                 crossing.record(pts, events)
+                if crossing.end is not None:  # located, and no branch beyond it
+                    return crossing.end
                 continue
             if found.stop is not None:
                 events.extend(found.until_stop())

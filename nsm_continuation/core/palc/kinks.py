@@ -89,7 +89,8 @@ class KinkCrosser(EnginePart):
         any stop) at which the problem says the branch has a kink
         (:meth:`Problem.continue_beyond`): the branch goes on from the problem's point beyond
         it instead of from ``b`` (which the arclength corrector may have reached across the
-        kink on another branch, or on the right one inaccurately). The crossing's events are
+        kink on another branch, or on the right one inaccurately), or, where the problem finds
+        no branch beyond it (an ``end`` crossing), ends at the zero. The crossing's events are
         the step's before the kink, then the kink's."""
         zeros = found.of(EventSource.FUNCTION)
         if not zeros:
@@ -99,8 +100,7 @@ class KinkCrosser(EnginePart):
             return None
         kink = Kink(ev.data["function"], float(ev.data["value_before"]), ev.point)
         crossing = self.cross(a, kink, h_step)
-        if crossing is None or crossing.end is not None:
-            # the corrector's point beyond the zero stands (the problem cannot continue it)
+        if crossing is None:
             return None
         s_zero = crossing.events[0].point.s
         # the step's end lies beyond the kink, where the Jacobian jumps: a sign change of
@@ -113,7 +113,7 @@ class KinkCrosser(EnginePart):
                   and src not in (EventSource.SIGNATURE, EventSource.FUNCTION)
                   and not (e.kind in ("branch_point", "fold")
                            and s_zero - e.point.s <= at_kink)]
-        return KinkCrossing(crossing.points, before + crossing.events)
+        return KinkCrossing(crossing.points, before + crossing.events, crossing.end)
 
     def family_events(self, a: Point, b: Point, found: list[tuple[EventSource, Event]]
                       ) -> list[Event]:
@@ -190,12 +190,14 @@ class KinkCrosser(EnginePart):
                 return None
             path: list[Point] = []
             prev = a
-            # the approach from ``a`` on (from an earlier start it may pass points behind it)
+            # the approach from ``a`` on (from an earlier start it may pass points behind it),
+            # without points that are the zero itself to round-off
             reach = float(np.linalg.norm(a.y - np.asarray(out.zero, dtype=float)))
             for z in out.approach:
                 z = np.asarray(z, dtype=float)
-                if np.linalg.norm(z - prev.y) <= 1e-12 * (1.0 + np.linalg.norm(z)) \
-                        or np.linalg.norm(z - out.zero) >= reach:
+                tiny = 1e-12 * (1.0 + np.linalg.norm(z))
+                if np.linalg.norm(z - prev.y) <= tiny \
+                        or not tiny < np.linalg.norm(z - out.zero) < reach:
                     continue
                 t = self.engine.tangent(z, prev.tangent)
                 prev = self.engine.analyse(z, t, prev.s + float(np.linalg.norm(z - prev.y)))

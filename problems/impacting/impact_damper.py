@@ -1,0 +1,95 @@
+"""Impact damper (Masri & Caughey 1966): a forced primary mass with a free ball in a cavity.
+
+The primary (mass 1, position ``x``) on a spring 1 with viscous damping ``2 zeta`` is forced by
+``cos(omega t)``; a ball of mass ``mu`` (``mass_ratio``, position ``y``) moves freely inside a
+cavity of the primary of clearance ``d`` (``clearance``): the relative position ``z = y - x``
+satisfies ``|z| <= d/2``. Impacts conserve momentum ``x' + mu y'`` and reverse the relative
+velocity with restitution ``e`` (``restitution``): ``z'+ = -e z'-``, which is Newton's law
+``N^T qd+ = -e N^T qd-`` with the mass matrix ``diag(1, mu)`` (Nordmark & Piiroinen 2009, eqs.
+54-59). State ``x = (x, y, xdot, ydot, phase)``, ``phase = omega t``.
+
+The system is equivariant under ``(x, y, xdot, ydot, phase) -> (-x, -y, -xdot, -ydot,
+phase + pi)``; the symmetric motion with one impact on each wall per forcing period, half a
+period apart, is known in closed form (``tests/oracles/two_wall.py``, (T5)-(T13)); its impact
+velocity vanishes where the primary's forced response has amplitude ``d/2`` (T9):
+``omega = sqrt(1 + 2/d)`` undamped, ``sqrt(3)`` for ``d = 1`` whatever ``mu`` and ``e``.
+
+``encoding`` says how the two walls are declared:
+
+* ``surfaces`` (default): ``H_upper = d/2 - (y - x) >= 0`` and ``H_lower = d/2 + (y - x) >= 0``,
+  each with restitution ``e``;
+* ``single``: one smooth constraint ``H = d^2/4 - (y - x)^2 >= 0`` whose zero set is both walls.
+
+The Poincaré section is the stroboscopic one, ``phase = section_phase`` (mod ``2 pi``).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, Literal
+
+import casadi as ca
+import numpy as np
+from pydantic import BaseModel, Field
+
+from nsm_continuation.core.preflight import STRICT
+from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+from nsm_continuation.hybrid.system import HybridSystem
+
+#: the names of the two walls (``y - x = +d/2``, ``y - x = -d/2``) in the ``surfaces`` encoding
+SURFACES = ["upper", "lower"]
+
+
+class ImpactDamperParameters(BaseModel):
+    """``parameters:`` of ``problem: impact_damper``."""
+
+    model_config = STRICT
+    zeta: float = Field(0.0, ge=0, allow_inf_nan=False)
+    omega: float = Field(2.0, gt=0, allow_inf_nan=False)
+    #: the ball's mass over the primary's (``mu``)
+    mass_ratio: float = Field(0.2, gt=0, allow_inf_nan=False)
+    #: the cavity's clearance ``d``: ``|y - x| <= d/2``
+    clearance: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: coefficient of restitution (``e``) of the relative velocity at both walls
+    restitution: float = Field(0.6, ge=0, lt=1, allow_inf_nan=False)
+    #: forcing phase of the stroboscopic section (``phase = section_phase`` mod ``2 pi``)
+    section_phase: float = Field(0.0, ge=0, lt=2 * np.pi, allow_inf_nan=False)
+    integrator: IntegratorSpec = IntegratorSpec()
+    #: two constraints (``surfaces``) or one whose zero set is both walls (``single``)
+    encoding: Literal["surfaces", "single"] = "surfaces"
+
+
+class ImpactDamperProblem(HybridCaseProblem):
+    """Periodic motions of a forced primary mass with a free ball in a cavity."""
+
+    name: ClassVar[str] = "impact_damper"
+    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
+    figures_from_inputs: ClassVar[bool] = True
+    Parameters: ClassVar[type[BaseModel]] = ImpactDamperParameters
+    default_parameter: ClassVar[str] = "omega"
+    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "section_phase", "encoding")
+    curve_preference: ClassVar[tuple[str, ...]] = ("clearance",)
+    orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
+        "time": ("x", "y"), "phase": ("x", "xdot"), "manifold": ("x", "y", "phase")}
+
+    def system(self) -> HybridSystem:
+        q, qd, ph = ca.SX.sym("q", 2), ca.SX.sym("qd", 2), ca.SX.sym("phase")
+        p = {k: ca.SX.sym(k)
+             for k in ("zeta", "omega", "mass_ratio", "clearance", "restitution")}
+        M = ca.diag(ca.vertcat(1, p["mass_ratio"]))
+        force = ca.vertcat(-q[0] - 2 * p["zeta"] * qd[0] + ca.cos(ph), 0)
+        z, w, e = q[1] - q[0], p["clearance"] / 2, p["restitution"]
+        kw = {"clock": ph, "clock_rate": p["omega"],
+              "state_names": ["x", "y", "xdot", "ydot", "phase"]}
+        if self.params.encoding == "single":  # type: ignore[attr-defined]
+            return HybridSystem.mechanical("impact_damper", q, qd, p, M, force, w ** 2 - z ** 2,
+                                           e, **kw)
+        return HybridSystem.mechanical("impact_damper", q, qd, p, M, force, [w - z, w + z],
+                                       [e, e], surfaces=SURFACES, **kw)
+
+    def section(self) -> Section:
+        return Section(4, self.params.section_phase, 2 * np.pi)  # type: ignore[attr-defined]
+
+    def default_initial(self) -> np.ndarray:
+        """The primary at rest, the ball in the middle of the cavity moving at unit speed
+        (at rest there it would never touch a wall of a primary moving less than ``d/2``)."""
+        return np.array([0.0, 0.0, 0.0, 1.0, self.section().value])
