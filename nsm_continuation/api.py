@@ -150,13 +150,7 @@ def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] 
             if not isinstance(key, str) or not all(key.split(".")):
                 raise CaseError(f"overrides: the key {key!r} is not a dotted key such as "
                                 "'continuation.max'")
-            node = raw
-            *path, last = key.split(".")
-            for part in path:
-                node = node.setdefault(part, {})
-                if not isinstance(node, dict):
-                    raise CaseError(f"overrides: {key}: {part} is not a mapping")
-            node[last] = value
+            schema.set_dotted(raw, key, value, "overrides:")
     elif isinstance(overrides, str | bytes) or not isinstance(overrides, Sequence):
         raise CaseError(f"overrides: expected a list of 'dotted.key=value' strings or a "
                         f"mapping {{'dotted.key': value}}, got {_kind(overrides)}")

@@ -45,6 +45,47 @@ CORE_EVENT_KINDS: dict[str, str] = {
                  "bound as the parameter approaches a limit (estimated from the last points)",
 }
 
+#: how the engines locate each core kind (kind -> one line; the event glossary of the docs).
+#: "Located on the curve" is a zero found between two points of the branch by Illinois regula
+#: falsi with Dekker's closing step, to ``analysis.event_tol`` in arclength
+#: (:mod:`nsm_continuation.core.palc.locate`)
+CORE_EVENT_LOCATION: dict[str, str] = {
+    "fold": "a sign change of the tangent's parameter component, located on the curve (a +1 "
+            "crossing of the same step is that fold); in a conservative family a pair "
+            "colliding at +1, located as neimark_sacker "
+            "(:mod:`nsm_continuation.core.palc.branch_points`)",
+    "branch_point": "a sign change of the bordered determinant ``det[G_y; t^T]`` (tangents "
+                    "oriented continuously), located on the curve, or from the cubic through "
+                    "its values at resolved points on both sides where the corrector cannot "
+                    "converge near it; merged with the +1 crossing of the same step",
+    "period_doubling": "the count of multipliers outside ``1 + analysis.unit_circle_tol`` "
+                       "changes over a step: bisection on the count (to "
+                       "``analysis.multiplier_event_tol``), then the zero of ``|lambda| - 1`` "
+                       "of the crossing multiplier, located on the curve "
+                       "(:mod:`nsm_continuation.core.palc.crossings`)",
+    "neimark_sacker": "as period_doubling; in a conservative family a Krein collision is "
+                      "located on the colliding pair's discriminant ``(nu_1 - nu_2)^2``, and a "
+                      "window opened and closed inside one step is found from the Krein signs "
+                      "at its ends (:mod:`nsm_continuation.core.floquet.krein`)",
+    "unresolved_crossing": "not located: recorded at the bracket where the count of "
+                           "multipliers outside the circle changes, the multiplier responsible "
+                           "staying within the multipliers' noise on one side",
+    "stability_change": "with the crossing that makes the number of unstable multipliers zero "
+                        "or non-zero (at a grazing, where the multipliers jump, at the "
+                        "grazing)",
+    "grazing": "the zero of the admissibility test or event function that raises it, located "
+               "on the curve (a parabola through the last three values finds a double zero "
+               "inside one step); a kink there is crossed by the problem "
+               "(``Problem.continue_beyond``). The lattice engine: where the number of grazing "
+               "instants changes between two consecutive points",
+    "endpoint": "where the branch ends: an edge of the ``continuation`` window or a "
+                "``continuation.bounds`` entry, located on the bound; ``max_points``; or a "
+                "numerical termination, at the last point, with its reason",
+    "asymptote": "not located: a monitored quantity fits ``|p - p*|^(-k)`` over the last "
+                 "points and has grown a hundredfold; ``p*`` is extrapolated "
+                 "(:mod:`nsm_continuation.core.palc.asymptote`) and the branch ends",
+}
+
 #: kinds declared by the problem families defined so far (kind -> declaring class)
 _FAMILY_KINDS: dict[str, str] = {}
 

@@ -308,7 +308,7 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
             "period": float(res.t),
             "sticking_time": res.sticking_time,
             "n_impacts_before_chatter": float(res.n_impacts_before_chatter),
-            "n_sticking_phases": float(len(res.sticking_intervals)),
+            "n_sticking_phases": float(res.n_sticking_phases),
             "n_impacts": float(res.n_impacts),
             # the physical impact velocity: |N^T qdot| / |N| of the slowest recorded impact
             "min_impact_normal_velocity": self.min_normal_velocity(res),

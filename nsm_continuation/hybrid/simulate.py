@@ -66,7 +66,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -86,8 +85,10 @@ from nsm_continuation.hybrid.modes import (
     watches,
 )
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
+from nsm_continuation.hybrid.surfaces import SurfaceContacts
 from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
+from nsm_continuation.hybrid.walk import _Walk
 
 __all__ = ["EXTENDED", "S1", "S2", "S3", "S4", "S5", "S6", "WATCH", "HERMITE_CHECK_BELOW",
            "REFINE_ITERATIONS", "SimEvent", "SimOptions", "SimResult", "SimulationError",
@@ -103,68 +104,7 @@ HERMITE_CHECK_BELOW = 1e-3
 REFINE_ITERATIONS = 30
 
 
-@dataclass
-class _Walk:
-    """Mutable state of one simulation (:meth:`Simulator.run`): the discrete state of each
-    surface ``modes`` (``active``: the surface that sticks or chatters, if any; ``key``: the
-    field integrated, :meth:`Simulator._key`; ``watch``: the watched functions,
-    :func:`.modes.watches`), the (extended) state ``Y`` with its sensitivities ``J = dY/dX0`` and
-    ``Jt = dt/dX0``, the time, the next step size, the probe and field at ``Y``, and what the
-    result reports."""
-
-    modes: list[str]
-    Y: np.ndarray
-    J: np.ndarray | None
-    Jt: np.ndarray | None
-    h: float
-    pr: np.ndarray
-    F: np.ndarray
-    #: running extremes of the state components (Simulator._extend_extremes)
-    lo: np.ndarray
-    hi: np.ndarray
-    traj: list[tuple[float, np.ndarray]] | None
-    stick_start: float | None
-    active: int | None = None
-    key: str = "free"
-    watch: list[tuple[int, int, str, int]] = field(default_factory=list)
-    #: offset of each surface's block in the probe (:func:`.system.probe_layout`)
-    offsets: list[int] = field(default_factory=list)
-    t: float = 0.0
-    #: the watched functions that fired last, with their surfaces (exactly zero at the step
-    #: start)
-    just: set[tuple[str, int]] = field(default_factory=set)
-    n_steps: int = 0
-    n_imp: int = 0
-    vmin: float = np.inf
-    graze: float = np.inf
-    events: list[SimEvent] = field(default_factory=list)
-    stick_iv: list[tuple[float, float]] = field(default_factory=list)
-    chatter_counts: list[int] = field(default_factory=list)
-    chatter_errors: list[float] = field(default_factory=list)
-    #: first-order chatter estimates of the current chattering sequence
-    seq: list[Any] = field(default_factory=list)
-    #: signed grazing margins of the near approaches and decelerating impacts, in time order
-    margins: list[float] = field(default_factory=list)
-    #: the surface of each margin
-    margin_surfaces: list[int] = field(default_factory=list)
-    #: unit normal (position components) of the surface at the impact that began the current
-    #: chattering flight (:meth:`Simulator._same_contact`)
-    seq_normal: np.ndarray | None = None
-    #: the steps of an exact flow taken since the last event: the field, the state they
-    #: started from and their total time (:meth:`Simulator._deferred`)
-    defer: tuple[str, np.ndarray, float] | None = None
-
-    @property
-    def mode(self) -> str:
-        """The state of the active surface (sticking or chattering), else of the first."""
-        return self.modes[0 if self.active is None else self.active]
-
-    def record(self) -> None:
-        if self.traj is not None:
-            self.traj.append((self.t, self.Y[: self.lo.size].copy()))
-
-
-class Simulator(Transitions):
+class Simulator(Transitions, SurfaceContacts):
     """Event-driven simulator for one compiled system (see the module docstring)."""
 
     def __init__(self, c: CompiledHybrid, opts: SimOptions | None = None) -> None:
@@ -268,8 +208,6 @@ class Simulator(Transitions):
                 continue
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
-        if w.active is not None and w.mode == S4 and w.stick_start is not None:
-            w.stick_iv.append((w.stick_start, w.t))
         if w.defer is not None:
             w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
@@ -501,16 +439,22 @@ class Simulator(Transitions):
         key, Y, pr = w.key, w.Y, w.pr
         s, name, idx, _direction, surface = hit
         tau, Ye, pre, Fe, Jstep = self._refine(key, Y, dt, s * dt, name, idx, section)
-        smode = w.modes[surface] if surface >= 0 else None
-        if name == "v" and smode in (S2, S6):
-            # the turn of v came after the impact function went negative: an impact inside a
-            # dip the interpolant of H (or h) did not resolve. H (h) is monotone before the
-            # turn, so [0, tau] brackets exactly one impact.
-            hi_, hn = (w.offsets[surface], "H") if smode == S2 else (4, "h")
+        # the turn of v (or the section) came after an impact function went negative: an
+        # impact inside a dip the interpolant of H (or h) did not resolve (or placed after the
+        # section). H (h) is monotone before the turn, so [0, tau] brackets exactly one impact.
+        if name == "v":
+            candidates = [surface] if w.modes[surface] in (S2, S6) else []
+        elif name == "section":
+            candidates = [j for j, mo in enumerate(w.modes) if mo in (S2, S6)]
+        else:
+            candidates = []
+        for j in candidates:
+            hi_, hn = (w.offsets[j], "H") if w.modes[j] == S2 else (4, "h")
             if pre[hi_] < 0 <= pr[hi_]:
-                name, idx = hn, hi_
+                name, idx, surface = hn, hi_, j
                 tau, Ye, pre, Fe, Jstep = self._refine(
                     key, Y, tau, tau * pr[hi_] / (pr[hi_] - pre[hi_]), name, idx, section)
+                break
         if section is not None and name != "section":
             # the refined crossing may lie past the section (an event within round-off of
             # it, e.g. a turning point of q on a stroboscopic section): the section comes first
@@ -588,109 +532,16 @@ class Simulator(Transitions):
             u, a = w.Y[self.c.N + 1], w.pr[2]
             w.h = min(max(2.0 * u / max(abs(a), 1e-300), 1e-300), max(w.h, 1e-300)) * 1.05
 
-    def _reclassify_others(self, w: _Walk, surface: int) -> None:
-        """After an impact on ``surface`` (a jump of the velocities) the other surfaces'
-        free-flight states follow the sign of their ``v``: an approach (``s2``) may have become
-        a departure (``s1``) or conversely, without any crossing of ``v``."""
-        changed = False
-        for j, mode in enumerate(w.modes):
-            if j == surface or j == w.active or mode not in (S1, S2, S3):
-                continue
-            v = float(w.pr[w.offsets[j] + 1])
-            new = S2 if v < 0 else (S1 if v > 0 else mode)
-            if new != mode:
-                w.modes[j], changed = new, True
-        if changed:
-            self._relayout(w, probe=False)
-
-    def _coincident_turns(self, w: _Walk, surface: int) -> None:
-        """Turns of ``v`` of other surfaces at the instant of the turn on ``surface`` (parallel
-        constraints such as a floor and a ceiling turn together: ``v_floor = -v_ceiling``).
-        At the located turn their ``v`` is zero to round-off, and a round-off sign would hide
-        their crossing from the next step (a lost near approach): each is fired here, in the
-        direction its ``a`` gives."""
-        tiny = 1e-12 * (1.0 + float(np.max(np.abs(w.Y[: self.c.n]))))
-        fired = set(w.just)
-        for j, mode in enumerate(w.modes):
-            if j == surface or mode not in (S1, S2, S5, S6) or ("v", j) in fired:
-                continue
-            off = w.offsets[j]
-            v, a = float(w.pr[off + 1]), float(w.pr[off + 2])
-            if abs(v) > tiny:
-                continue
-            if (mode in (S1, S5) and a < 0) or (mode in (S2, S6) and a > 0):
-                self._apply_transition(w, "v", w.pr, j, coincident=False)
-                fired |= w.just
-        w.just = fired
-
-    #: cosine of the angle between the surface's normals beyond which two impacts of one
-    #: constraint are on different parts of it (:meth:`Simulator._same_contact`)
-    SAME_CONTACT_COSINE = 0.5
-
-    def _contact_normal(self, Y: np.ndarray, surface: int) -> np.ndarray:
-        """Unit normal of ``surface`` at ``Y`` in the position components ``H`` depends on."""
-        pos = self.c.system.position or []
-        g = np.asarray(self.calls.surfaces[surface].grads(Y[: self.c.N])[0])[pos]
-        norm = float(np.linalg.norm(g))
-        return g / norm if norm > 0.0 else g
-
-    def _same_contact(self, w: _Walk) -> bool:
-        """Whether an impact of a chattering flight meets the surface where the sequence
-        began. A chattering sequence accumulates at one point of the surface, so its impacts
-        share the normal; one constraint whose zero set has several parts (``H = d^2 - q^2``
-        for two stops at ``+-d``) is met on another part when the normals differ (by more than
-        60 degrees): that impact ends the sequence, as an impact on another surface would."""
-        if w.seq_normal is None or w.active is None:
-            return True
-        nrm = self._contact_normal(w.Y, w.active)
-        return float(nrm @ w.seq_normal) >= self.SAME_CONTACT_COSINE
-
-    def _break_chatter(self, w: _Walk, surface: int) -> None:
-        """An impact on ``surface`` while another surface (or another part of the same one)
-        sticks or chatters. Sticking on one surface while hitting another is a contact with two
-        surfaces at once, which is not modelled (refused, named); a chattering flight is a
-        free flight: its sequence breaks off there (transition X of Table 1, as if it had
-        turned) and the impact follows as one of a free flight."""
-        c, act = self.c, w.active
-        assert act is not None
-        if w.modes[act] == S4:
-            raise SimulationError(
-                f"impact on {c.surface_label(surface)} at t = {w.t:.6g} while sticking on "
-                f"{c.surface_label(act)}: contact with two surfaces at once is not modelled")
-        N = c.N
-        w.events.append(SimEvent("chatter_broken", w.t, w.Y[: c.n].copy(),
-                                 {"impacts": len(w.seq)}, surface=act))
-        w.seq.clear()
-        w.seq_normal = None
-        w.Y = w.Y[:N].copy()
-        w.J = None if w.J is None else w.J[:N].copy()
-        v = float(c.q(w.Y, act)["v"])
-        w.modes[act] = S1 if v > 0 else S2
-        w.active = None
-        if surface == act:
-            w.modes[surface] = S2
-        self._relayout(w)
-
-    def _check_single_contact(self, w: _Walk, surface: int) -> None:
-        """An impact on ``surface`` while another surface is met at the same instant (within
-        round-off, moving inwards): simultaneous impacts have no declared law (refused)."""
-        c = self.c
-        if c.m == 1:
-            return
-        X = w.Y[: c.N]
-        tiny = 1e-10 * (1.0 + float(np.max(np.abs(X))))
-        for j in range(c.m):
-            if j == surface:
-                continue
-            qj = c.q(X, j)
-            if qj["H"] <= tiny and qj["v"] < 0:
-                raise SimulationError(
-                    f"simultaneous impacts on {c.surface_label(surface)} and "
-                    f"{c.surface_label(j)} at t = {w.t:.6g}: no impact law is declared for "
-                    "two surfaces at once")
-
     def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
+        if w.active is not None and w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
+        if w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
         return SimResult(
             X=w.Y[:N].copy(), t=w.t, J=None if w.J is None else w.J[:N].copy(),
             Jt=None if w.Jt is None else w.Jt.copy(), events=w.events, state=w.mode,

@@ -49,6 +49,11 @@ class HybridDeclarationError(ValueError):
     """A declaration that cannot describe an impacting system (named field, clear message)."""
 
 
+#: a restitution ``r >= 1 - ELASTIC_TOL`` is an elastic impact (``r = 1`` up to the round-off of
+#: its derivation, eq. 8): no chatter map (:meth:`CompiledHybrid.validate_at`)
+ELASTIC_TOL = 1e-12
+
+
 def _dop853() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
     return (tableaus.DOP853_A, tableaus.DOP853_B, tableaus.DOP853_C, tableaus.DOP853_E5,
             tableaus.DOP853_E3, 8)
@@ -639,17 +644,20 @@ class CompiledHybrid:
     def validate_at(self, X: np.ndarray, where: str,
                     qv: dict[str, float] | None = None, surface: int = 0) -> None:
         """Check the impact law at a point of ``surface`` (eqs. 6, 9 and sec. 2.4):
-        ``0 <= r < 1`` and ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already
-        evaluated). Raises :class:`HybridDeclarationError`."""
+        ``0 <= r <= 1`` and ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already
+        evaluated). ``r = 1`` (to :data:`ELASTIC_TOL`) is an elastic impact: it needs no
+        chatter map (its impacts do not accumulate), and the simulator refuses a chattering
+        sequence at it. Raises :class:`HybridDeclarationError`."""
         qv = self.q(X, surface) if qv is None else qv
         at = "" if self.m == 1 else f" on {self.surface_label(surface)}"
         if not np.isfinite(list(qv.values())).all():
             raise HybridDeclarationError(f"{self.system.name}: non-finite H, v, a, r or lambda "
                                          f"{where}{at}: {qv}")
-        if not (-1e-12 <= qv["r"] < 1.0):
+        if not (-1e-12 <= qv["r"] <= 1.0 + ELASTIC_TOL):
             raise HybridDeclarationError(
-                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}{at}; the chatter "
-                "map needs 0 <= r < 1 (eq. 9, sec. 3)")
+                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}{at}; the impact "
+                "law needs 0 <= r <= 1 (eq. 9, sec. 3: r < 1 for the chatter map, r = 1 "
+                "elastic)")
         # W tangent to {H = 0} where v = 0 (sec. 2.4): L_W H must vanish on the surface
         scale = 1.0 + float(np.linalg.norm(self.calls().f.flat(X)))
         if abs(qv["LWH"]) > 1e-9 * scale:

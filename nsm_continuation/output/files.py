@@ -182,6 +182,13 @@ def _json_value(x: Any) -> Any:
     return y
 
 
+def is_plugin(problem: Any) -> bool:
+    """Whether ``problem``'s class (and so its presentation's figure hooks) is another
+    package's or a script's, not one of this package's: a failure of its figures is then its
+    own, reported, not a bug of this tool."""
+    return not type(problem).__module__.startswith("nsm_continuation.")
+
+
 def hook_name(problem: Any, hook: str) -> str:
     """The hook of ``problem``'s presentation named for a message: problem name, class, hook."""
     cls = type(problem.presentation)
@@ -196,7 +203,7 @@ def call_hook(problem: Any, hook: str, call: Callable[[], Any], check: Callable[
     its failure must not lose what was computed, nor pass for a bug of this tool."""
     try:
         return check(call())
-    except Exception as exc:  # noqa: BLE001 - any failure of a plugin's hook is reported
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of a hook is reported
         failures.append(f"{hook_name(problem, hook)} failed ({type(exc).__name__}: "
                         f"{short_text(str(exc))}); its part of the outputs is left out")
         return fallback
@@ -406,11 +413,20 @@ def write_files(res: RunResult, directory: Path, draw: Draw | None = None,
             w.writerow(cols)
             w.writerows(rows)
     figures: list[str] = []
-    if drawing:
-        assert drawer is not None
-        figures = drawer.figures()
-    elif draw is not None:
-        figures = draw(res, directory)
+    try:
+        if drawing:
+            assert drawer is not None
+            figures = drawer.figures()
+        elif draw is not None:
+            figures = draw(res, directory)
+    except (Exception, SystemExit) as exc:
+        if not is_plugin(res.problem) or is_no_space(exc):
+            raise
+        line = (f"problem {res.problem.name!r} ({type(res.problem).__module__}): the figures "
+                f"failed in its code ({type(exc).__name__}: {short_text(str(exc))}); they are "
+                "left out, the data and the report are written")
+        failures.append(line)
+        rep["warnings"] = [*rep.get("warnings", []), line]
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))

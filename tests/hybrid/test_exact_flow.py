@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 from nsm_continuation.problems.impacting.impact_oscillator import ImpactOscillatorProblem
 from nsm_continuation.problems.impacting.two_mass_chain import TwoMassChainProblem
+from oracles.linear_flight import free_flight
 
 import nsm_continuation as nsm
 from nsm_continuation.hybrid.case import IntegratorSpec
 from nsm_continuation.hybrid.simulate import SimOptions, SimulationError, Simulator
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
-from tests.oracles.linear_flight import free_flight
 
 
 def oscillator(force_of=None, zeta: float = 0.1) -> HybridSystem:

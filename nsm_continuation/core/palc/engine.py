@@ -57,7 +57,15 @@ from nsm_continuation.core.floquet import count_outside
 from nsm_continuation.core.palc.asymptote import AsymptoteMonitor
 from nsm_continuation.core.palc.crossings import CrossingLocator
 from nsm_continuation.core.palc.ends import EndLocator
-from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS, RetryStep, describe_error
+from nsm_continuation.core.palc.errors import (
+    HOOK_FAULTS,
+    NUMERICAL_ERRORS,
+    MonitorError,
+    RetryStep,
+    check_finite,
+    describe_error,
+    describe_fault,
+)
 from nsm_continuation.core.palc.kinks import KinkCrosser
 from nsm_continuation.core.palc.locate import EventLocator
 from nsm_continuation.core.palc.step_control import StepController
@@ -169,6 +177,7 @@ class ContinuationEngine:
         """
         pr = self.problem
         test_values = pr.admissibility(y) if tests else {}
+        check_finite("admissibility test (Problem.admissibility)", test_values, self._at(y))
         event_values = pr.event_functions(y) if tests else {}
         fl = None
         if floquet and (self.settings.stability_on_phantom or not tests
@@ -203,9 +212,21 @@ class ContinuationEngine:
             fl = self.problem.floquet(y, t)
         except (*NUMERICAL_ERRORS, ValueError):
             return None
-        if fl is None or not np.all(np.isfinite(fl.multipliers)):
+        if fl is None:
             return None
+        if not isinstance(fl, FloquetData):
+            raise MonitorError(f"Problem.floquet at {self._at(y)} returned "
+                               f"{type(fl).__name__}, not FloquetData or None")
+        mult = np.asarray(fl.multipliers)
+        if not np.all(np.isfinite(mult)):
+            raise MonitorError(f"Floquet multipliers (Problem.floquet) at {self._at(y)} are "
+                               f"not finite: {mult.tolist()}")
         return fl
+
+    def _at(self, y: np.ndarray) -> str:
+        """Where a point is, for a message: ``problem 'name', p = value``."""
+        pr = self.problem
+        return f"{pr.parameter} = {float(y[self.ip]):.10g} (problem {pr.name!r})"
 
     def full(self, p: Point) -> Point:
         """``p`` analysed with every hook (after a partial analysis during event location)."""
@@ -242,8 +263,8 @@ class ContinuationEngine:
         moved_before = len(self.rechart_notes)
         try:
             p0, why = self.correct_start(start)
-        except Exception as exc:  # a bug in a hook must not take the whole run down
-            p0, why = None, f"internal error at start point: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # a bug in a hook must not take the whole run down
+            p0, why = None, f"at the start point: {describe_fault(exc, self.problem.name)}"
         if p0 is None:
             if start.info.get("found"):  # what the start's own search found, e.g. a transient
                 why = f"{why}; {start.info['found']}"
@@ -292,8 +313,8 @@ class ContinuationEngine:
         base = self.problem
         try:
             reason = self._walk(pts, events)
-        except Exception as exc:  # noqa: BLE001 - recorded, never raised
-            reason = f"internal error: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded, never raised
+            reason = describe_fault(exc, self.problem.name)
         finally:  # the other half starts from p0, in p0's chart
             self.problem = base
         return pts, events, reason
@@ -321,6 +342,16 @@ class ContinuationEngine:
                 return self.ends.named(pts, events, step)
             if step is None:  # on the window edge
                 return self.locator.stop_on_edge(a, events)
+            if control.approaching_kink(step) and kink_tried != len(pts) \
+                    and not self.ends.expecting(a):
+                # an event function's zero approached geometrically: a kink may lie there
+                kink_tried = len(pts)
+                crossing = self.kinks.ahead(pts, step.h)
+                if crossing is not None and crossing.end is None:
+                    crossing.record(pts, events)
+                    continue
+                if crossing is not None:  # located, nothing beyond: ends there if it fails
+                    self.ends.expect(crossing, a)
             y, t, it, control.why = self._predict_correct(a, step.h, step.edge)
             if y is None:
                 # the step may have failed on a kink of the branch ahead (e.g. a grazing
