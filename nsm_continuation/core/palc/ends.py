@@ -61,6 +61,9 @@ DEGREE = 3
 #: must lie no farther beyond the last point than the span of those points (an extrapolation,
 #: not a prediction)
 FALL = 3.0
+#: after an unresolved point the branch ends at the extrapolated zero only when it is located
+#: this well (relative to ``1 + |p|``); else it goes on, closer, until it fails
+ACCURATE = 1e-7
 #: the kink crosser is asked to locate the zero from points of the last fall where the
 #: quantity was these many times its last value, then from where the fall began, until one
 #: locates it (the margin-fixed solves of a grazing do not start from orbits next to it:
@@ -161,7 +164,8 @@ class EndLocator(EnginePart):
         return f"{crossing.end} ({why})"
 
     def vanishing_end(self, pts: list[Point], events: list[Event], why: str,
-                      reach: float = np.inf, cross: bool = False) -> str | None:
+                      reach: float = np.inf, cross: bool = False, accurate: bool = False
+                      ) -> str | None:
         """The end of the half-branch at the zero of a vanishing quantity ahead, within
         ``reach`` of its last point, and the reason naming it (``why``: what stopped the
         branch short of it); None if there is none. Where a kink was located ahead
@@ -169,12 +173,16 @@ class EndLocator(EnginePart):
         impact velocity is a grazing, and the branch may go on beyond it along another
         family), the kink decides: the branch goes on across it (its points and events
         appended, None returned) or ends at its located zero; otherwise at the extrapolated
-        zero (appended to ``pts`` and ``events``)."""
+        zero (appended to ``pts`` and ``events``). ``accurate``: only a zero located to
+        ``ACCURATE`` (relative to ``1 + |p|``): the branch may still come closer to it."""
         for m in self.problem.monitors.of(Source.VANISHING):
             found = self._vanishing(pts, m.name, m.kind, reach)
             if found is None:
                 continue
             point, event = found
+            p_end = float(event.data["parameter_end"])
+            if accurate and event.data["parameter_uncertainty"] > ACCURATE * (1 + abs(p_end)):
+                continue
             if cross and not self.expecting(pts[-1]):
                 # the kink is located from earlier points of the fall: the last ones may lie
                 # too close to it for its solves to start from
@@ -212,7 +220,7 @@ class EndLocator(EnginePart):
             return None
         why = (f"the orbits approaching it are no longer resolved: residual "
                f"{pts[-1].residual_norm:.2g}")
-        return self.vanishing_end(pts, events, why, cross=True)
+        return self.vanishing_end(pts, events, why, cross=True, accurate=True)
 
     def _fall_starts(self, pts: list[Point], name: str) -> list[Point]:
         """Points of the last monotone fall of ``name`` along the half-branch (resolved) to
