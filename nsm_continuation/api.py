@@ -47,6 +47,7 @@ from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, OrbitTrace, Point
 from nsm_continuation.output.files import (
+    SIGNATURE_COLUMN,
     branch_rows,
     build_report,
     event_record,
@@ -335,6 +336,9 @@ class BranchData:
         self._columns: dict[str, np.ndarray] = {}
         for j, c in enumerate(cols):
             values = [r[j] for r in rows]
+            if c == SIGNATURE_COLUMN:  # text: the family of each point
+                self._columns[c] = np.array([str(v) for v in values], dtype=object)
+                continue
             self._columns[c] = np.array([np.nan if v == "" or v is None else v
                                          for v in values], dtype=float)
         self.parameter = np.array([p.y[problem.parameter_index] for p in branch.points])
@@ -353,7 +357,8 @@ class BranchData:
                            f"{self.column_names})") from None
 
     def columns(self) -> dict[str, np.ndarray]:
-        """Every column as a numpy array (NaN where a value is not defined)."""
+        """Every column as a numpy array (NaN where a value is not defined; the ``signature``
+        column, the family of each point, as text)."""
         return dict(self._columns)
 
     def to_frame(self) -> Any:

@@ -48,6 +48,20 @@ def grazing_approach(res: SimResult) -> int | None:
     return min(near)[1] if near else None
 
 
+def grazing_contacts(res: SimResult, floor: float = 0.0, factor: float = 1.5) -> int:
+    """How many contacts graze together: the signed grazing margins of ``res`` (near
+    approaches and decelerating impacts) within ``factor`` times the smallest one in
+    magnitude, or below ``floor`` (at the grazing point itself, where they are all at the
+    level of the integration error). One for a generic grazing; two or more where several
+    approaches reach the surface at once (e.g. both walls of a symmetric orbit), where the
+    single-grazing normal form (G1-G2) does not describe the branch beyond."""
+    m = np.abs(np.asarray(res.grazing_margins, dtype=float))
+    m = m[np.isfinite(m)]
+    if not m.size:
+        return 0
+    return int(np.sum(m <= factor * float(m.min()) + floor))
+
+
 def _non_impacting_point(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray
                          ) -> tuple[np.ndarray, SimResult] | None:
     """``y``, or a point within ``MAX_NUDGE`` of it along ``+-tangent``, whose orbit misses the

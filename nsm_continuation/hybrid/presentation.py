@@ -9,8 +9,8 @@ system (:class:`~nsm_continuation.hybrid.system.HybridSystem`):
   its forcing frequency: the **frequency-response curve**, the response amplitude
   ``(max - min) / 2`` of the impacting coordinate against the forcing frequency (the period,
   ``2 pi m / omega``, would only repeat the parameter), and a second figure
-  ``impacts_vs_<parameter>.png`` (extremes of the impacting coordinate, impact velocity, impacts
-  per period, sticking time);
+  ``impacts_vs_<parameter>.png`` (extremes of the impacting coordinate, the smallest normal
+  impact velocity ``|N^T qdot| / |N|``, impacts per period, sticking time);
 * a forced system continued in another parameter (the gap, the restitution, ...): a
   **bifurcation diagram** of the same response amplitude against that parameter, with the same
   second figure;
@@ -95,7 +95,7 @@ class HybridPresentation(Presentation):
         head = [self.problem.swept_parameter]
         c = self.problem.response_coordinate
         if self.problem.response_key is not None:
-            head += [f"amplitude_{c}", f"max_{c}", f"min_{c}", "min_impact_velocity"]
+            head += [f"amplitude_{c}", f"max_{c}", f"min_{c}", "min_impact_normal_velocity"]
         return head + ["period", "sticking_time", "n_impacts_before_chatter"]
 
     # ------------------------------------------------------------------ figures
@@ -113,7 +113,7 @@ class HybridPresentation(Presentation):
         quantity_panels(
             self.problem, branches, self.fep_labels[0],
             [([f"max_{c}", f"min_{c}"], f"max and min of {c}"),
-             (["min_impact_velocity"], "smallest impact velocity |v|"),
+             (["min_impact_normal_velocity"], "smallest normal impact velocity"),
              (["n_impacts"], "impacts per period"),
              (["sticking_time"], "sticking time")],
             title=("Impacts along the frequency response" if self.problem.frequency_response

@@ -106,10 +106,15 @@ def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
 
 
+#: the text column of ``branch_<id>.csv`` naming the family of each point (its signature)
+SIGNATURE_COLUMN = "signature"
+
+
 def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
                 ) -> tuple[list[str], list[list[Any]]]:
     """Columns and rows of ``branch_<id>.csv``: ``head`` (the problem's ``csv_head``, derived
-    quantities or unknowns), admissibility and stability, the other derived quantities, the
+    quantities or unknowns), admissibility and stability, the arclength, the signature (the
+    family of each point; problems with a signature only), the other derived quantities, the
     test functions, accuracy, the unknowns and the multipliers."""
     pts: list[Point] = br.points
     derived_keys: list[str] = []
@@ -124,7 +129,10 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
     n_mult = max((0 if p.multipliers is None else p.multipliers.size) for p in pts) if pts else 0
     head = list(head) if head is not None else []
     extra = [k for k in derived_keys if k not in head]
-    cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + extra
+    # the family each point belongs to: the problem's signature (a hybrid orbit's sequence of
+    # events), text
+    family = [SIGNATURE_COLUMN] if any(p.signature is not None for p in pts) else []
+    cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + family + extra
             + [f"test_{k}" for k in test_keys]
             + ["trivial_multiplier_error", "newton_iterations", "residual_inf"]
             + [f"y_{v}" for v in variables]
@@ -137,6 +145,7 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
         mam = p.max_abs_multiplier
         rows.append([p.value(k, variables, "") for k in head] + [int(p.admissible), stable,
                     "" if not np.isfinite(mam) else mam, p.s]
+                    + ([p.signature or ""] if family else [])
                     + [p.derived.get(k, "") for k in extra]
                     + [p.tests.get(k, "") for k in test_keys]
                     + [p.trivial_error if p.multipliers is not None else "",
@@ -312,6 +321,9 @@ def build_report(res: RunResult, folder: str | None = None,
             "info": {k: _f(v) for k, v in br.info.items()},
             "events": events,
         })
+        runs = report_md.family_runs(br.points, bpr.parameter_index)
+        if runs:  # the families the branch went through (signature runs)
+            branches[-1]["families"] = runs
     s = res.settings
     saved = res.saved_report
     if saved is not None:  # read back: what the problem said at the end of the run

@@ -217,6 +217,50 @@ def continue_hints(restart: dict[str, Any], folder: str, doubling: bool = True,
     return out
 
 
+def family_runs(points: list[Any], parameter_index: int) -> list[dict[str, Any]]:
+    """The families along a branch: its runs of consecutive points (in arclength order) with
+    the same signature (``Point.signature``: for a hybrid orbit its sequence of events), each
+    with its signature, first and last row of ``branch_<id>.csv`` and parameter range; empty
+    when the problem has no signature."""
+    runs: list[dict[str, Any]] = []
+    for k, p in enumerate(points):
+        if p.signature is None:
+            return []
+        par = float(p.y[parameter_index])
+        if runs and runs[-1]["signature"] == p.signature:
+            run = runs[-1]
+            run["rows"][1] = k
+            run["parameter_range"] = [min(run["parameter_range"][0], par),
+                                      max(run["parameter_range"][1], par)]
+        else:
+            runs.append({"signature": p.signature, "rows": [k, k],
+                         "parameter_range": [par, par]})
+    return runs
+
+
+def _family_lines(rep: dict[str, Any]) -> list[str]:
+    """The families each branch went through (``report.json``'s ``branches[i].families``),
+    for the branches that went through more than one."""
+    par = rep["continuation"].get("case_parameter") or rep["continuation"]["parameter"]
+    lines = []
+    for b in rep["branches"]:
+        runs = b.get("families") or []
+        if len(runs) < 2:
+            continue
+        parts = [f"`{r['signature']}` (rows {r['rows'][0]}-{r['rows'][1]}, {par} "
+                 f"{_fmt(r['parameter_range'][0])} .. {_fmt(r['parameter_range'][1])})"
+                 for r in runs]
+        lines.append(f"- branch {b['id']}: " + ", then ".join(parts))
+    if not lines:
+        return []
+    return ["## Families", "",
+            "Branches whose points belong to more than one family of orbits (the event "
+            "sequence of each point, column `signature` of the branch CSV, in arclength "
+            "order). A change across a grazing the branch was continued through is a "
+            "`family_change` event; the rows after it belong to the new family.", "",
+            *lines, ""]
+
+
 def _tree_lines(rep: dict[str, Any]) -> list[str]:
     """The bifurcation diagram's tree (``report.json``'s ``diagram``) and its cascade."""
     d = rep.get("diagram")
@@ -353,7 +397,7 @@ def _branch_lines(rep: dict[str, Any]) -> list[str]:
                   "row of the CSV is in the chart its `section_*` column names, and a "
                   "restart reads it there):", ""]
         lines += [f"- branch {i}: {m}" for i, m in moves]
-    return [*lines, "", *_tree_lines(rep)]
+    return [*lines, "", *_family_lines(rep), *_tree_lines(rep)]
 
 
 def _event_lines(rep: dict[str, Any]) -> list[str]:

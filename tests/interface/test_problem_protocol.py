@@ -244,7 +244,8 @@ def test_family_kinds_are_not_core_kinds() -> None:
     from nsm_continuation.hybrid.problem import HybridShootingProblem
 
     assert set(HybridShootingProblem.event_kinds) == {
-        "sticking_lost", "impact_sequence_change", "homoclinic_approach"}
+        "sticking_lost", "impact_sequence_change", "homoclinic_approach", "family_change",
+        "impact_velocity_vanishes"}
     assert set(LatticeProblem.event_kinds) == {"pattern_change"}
 
 
