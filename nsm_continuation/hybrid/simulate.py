@@ -442,12 +442,10 @@ class Simulator(Transitions, SurfaceContacts):
         # the turn of v (or the section) came after an impact function went negative: an
         # impact inside a dip the interpolant of H (or h) did not resolve (or placed after the
         # section). H (h) is monotone before the turn, so [0, tau] brackets exactly one impact.
-        if name == "v":
-            candidates = [surface] if w.modes[surface] in (S2, S6) else []
-        elif name == "section":
-            candidates = [j for j, mo in enumerate(w.modes) if mo in (S2, S6)]
-        else:
-            candidates = []
+        # (any approaching surface: the turn that fired may be a parallel surface's, e.g. the
+        # other wall of a cavity, whose v turns with this one's)
+        candidates = ([j for j, mo in enumerate(w.modes) if mo in (S2, S6)]
+                      if name in ("v", "section") else [])
         for j in candidates:
             hi_, hn = (w.offsets[j], "H") if w.modes[j] == S2 else (4, "h")
             if pre[hi_] < 0 <= pr[hi_]:

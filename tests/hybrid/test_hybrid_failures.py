@@ -394,3 +394,24 @@ def test_start_at_rest_where_the_force_balances_still_sees_the_impact() -> None:
                     events=stop)
     assert first.t == pytest.approx(float(sol.t_events[0][0]), abs=1e-8)
     assert res.extremes is None or res.extremes[0, 0] >= -1e-9
+
+
+@pytest.mark.parametrize("depth", [1e-7, 1e-5])
+def test_grazing_dip_found_when_a_parallel_surface_turns_first(grazing_start, depth):
+    """The same dip with a second, parallel stop far above (``q <= 10``, declared first): at
+    the dip both surfaces' ``v`` turn at one instant and the far stop's turn is the crossing
+    found first; the impact inside the dip is still located (not recorded as a near approach
+    of the lower stop with ``H < 0``), with velocity ``sqrt(2 a depth)``."""
+    q, qd, ph = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase")
+    p = {"omega": ca.SX.sym("omega")}
+    force = -q - 2 * ZETA * qd + ca.cos(ph)
+    sys = HybridSystem.mechanical("two_stops", q, qd, p, ca.SX(1.0), force,
+                                  [10.0 - q, q - (Q_MIN + depth)], 0.6,
+                                  surfaces=["far", "near"], clock=ph, clock_rate=p["omega"])
+    c = sys.compile({"omega": OMEGA})
+    for opts in (SimOptions(), SimOptions(h_init=1.0)):
+        res = Simulator(c, opts).run(grazing_start, t_end=1.5)
+        imp = [ev for ev in res.events if ev.kind == "impact"]
+        assert len(imp) == 1 and imp[0].surface == 1
+        assert abs(imp[0].info["v"]) == pytest.approx(np.sqrt(2 * A_MIN * depth), rel=1e-3)
+        assert all(ev.info["H"] >= 0 for ev in res.events if ev.kind == "near_approach")
