@@ -185,7 +185,7 @@ class ConservativeFamilyProblem(HybridShootingProblem):
         extremes = [f"{m}_{name}" for name in self.hybrid.state_names for m in ("min", "max")]
         return [*dict.fromkeys([self.parameter, "period", "omega", UNFOLDING, "unfolding",
                                 *(["energy"] if self.energy_function is not None else []),
-                                "n_impacts", "min_impact_velocity", "grazing_margin",
+                                "n_impacts", "min_impact_normal_velocity", "grazing_margin",
                                 *extremes])]
 
     # -- the numerics ----------------------------------------------------------------------

@@ -41,7 +41,7 @@ class ConservativePresentation(HybridPresentation):
     @property
     def csv_head(self) -> list[str]:  # type: ignore[override]
         head = ["omega", "period", *(["energy"] if self._has_energy else []), UNFOLDING,
-                "unfolding", "n_impacts", "min_impact_velocity", "grazing_margin"]
+                "unfolding", "n_impacts", "min_impact_normal_velocity", "grazing_margin"]
         return list(dict.fromkeys([self.problem.parameter, *head]))
 
     @property
