@@ -145,6 +145,15 @@ class CodimOneCurve(Problem):
 BASE_SETTINGS = ("newton_tol", "derived_bounds", "step_initial")
 
 
+def _flat(values: dict[str, Any]) -> dict[str, Any]:
+    """A nested mapping of parameters flattened to its leaves, each under its own key
+    (``{"chain": {"stiffness": 4}}`` -> ``{"stiffness": 4}``)."""
+    out: dict[str, Any] = {}
+    for k, v in values.items():
+        out.update(_flat(v) if isinstance(v, dict) else {k: v})
+    return out
+
+
 class LocatedCurvePresentation(Presentation):
     """A located two-parameter curve: the continued parameter against the free one, each point
     with its condition."""
@@ -172,11 +181,14 @@ class LocatedCurvePresentation(Presentation):
         """The point of the curve at the base run's value of the continued parameter (the
         codimension-one point it was started from; the curve's arclength starts at one of its
         ends)."""
-        value = (getattr(self.problem.base, "values", None) or {}).get(self.problem.parameter)
+        value = _flat(self.problem.base.params.model_dump()).get(self.problem.parameter)
         if value is None or not branch.points:
             return super().start_point(branch)
         i = self.problem.variables.index(self.problem.parameter)
         return min(branch.points, key=lambda p: abs(p.y[i] - value))
+
+    def branch_name(self, branch: Any) -> str:
+        return f"{self.problem.curve_kind.replace('_', ' ')} curve (computed)"
 
     def closed_forms(self, x_range: tuple[float, float], branches: list[Any]
                      ) -> list[tuple[np.ndarray, np.ndarray, str]]:

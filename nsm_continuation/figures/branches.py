@@ -90,11 +90,10 @@ def draw_branches(ax: Axes, res: Any, xk: str, yk: str, log: bool = False,
     fill = show.point_fill()
     xs: list[float] = []
     ys: list[float] = []
-    pieces = [(k, br, (problems or {}).get(br.id, pr), state, x, y)
-              for k, br in enumerate(drawn)
+    pieces = [(k, br, state, x, y) for k, br in enumerate(drawn)
               for state, x, y in segments((problems or {}).get(br.id, pr), br, xk, yk)]
-    visible = seen_pieces([(p[4], p[5]) for p in pieces], log)
-    for (k, br, bpr, (adm, stable), x, y), seen in zip(pieces, visible, strict=True):
+    visible = seen_pieces([(p[3], p[4]) for p in pieces], log)
+    for (k, br, (adm, stable), x, y), seen in zip(pieces, visible, strict=True):
         dots = draws_markers(br)
         colour = palette_colour(k) if named else "k"
         ok = np.isfinite(x) & np.isfinite(y) & ((y > 0) if log else True)
@@ -105,9 +104,7 @@ def draw_branches(ax: Axes, res: Any, xk: str, yk: str, log: bool = False,
         if dots:
             kw = {"color": "k", "label": "recorded section returns (brute force)"}
         elif show.two_parameter:
-            kw = {"color": colour, "lw": 2.0, "zorder": 3,
-                  "label": f"{readable(str(bpr.curve_kind))} curve (computed)"
-                  if hasattr(bpr, "curve_kind") else "two-parameter curve (computed)"}
+            kw = {"color": colour, "lw": 2.0, "zorder": 3, "label": show.branch_name(br)}
         elif by_stability or not adm:
             kw = state_style(adm, stable)
         else:

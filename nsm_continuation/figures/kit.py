@@ -320,10 +320,11 @@ def outside_legend(ax: Axes, handles: list[Any] | None = None,
 
 def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
                     panels: list[tuple[list[str], str]], title: str, path: Path,
-                    log: tuple[str, ...] = ()) -> bool:
+                    log: tuple[str, ...] = (), x: str | None = None) -> bool:
     """One panel per ``(keys, ylabel)`` of ``panels``: each quantity of ``keys`` against the
-    continued parameter along every branch, styled as the branch diagram (admissible stable
-    black, unstable red, phantom thin grey; the second and later keys of a panel dashed), the
+    quantity ``x`` (default the continued parameter) along every branch, styled as the branch
+    diagram (admissible stable black, unstable red, phantom thin grey; the second and later
+    keys of a panel dashed), the
     branches' located events marked where the quantity is defined, saved to ``path``. The
     quantities of ``log`` are drawn on a log axis where they span more than a decade
     (:func:`wants_log`). Quantities missing at a point are NaN: a gap, never an error; a panel
@@ -331,7 +332,7 @@ def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
     panel has a value."""
     from nsm_continuation.figures.events import draw_events
 
-    xk = problem.parameter
+    xk = x or problem.parameter
     values = {k: np.array([quantity(problem, p, k) for br in branches for p in br.points],
                           dtype=float) for keys, _ in panels for k in keys}
     panels = [(keys, yl) for keys, yl in panels

@@ -81,11 +81,14 @@ class GrazingCurvePresentation(Presentation):
         """The point of the curve at the base run's value of the continued parameter (the
         codimension-one point it was started from; the curve's arclength starts at one of its
         ends)."""
-        value = (getattr(self.problem.base, "values", None) or {}).get(self.problem.parameter)
+        value = self.problem.base.values.get(self.problem.parameter)
         if value is None or not branch.points:
             return super().start_point(branch)
         i = self.problem.variables.index(self.problem.parameter)
         return min(branch.points, key=lambda p: abs(p.y[i] - value))
+
+    def branch_name(self, branch: Any) -> str:
+        return "grazing curve (computed)"
 
     def closed_forms(self, x_range: tuple[float, float], branches: list[Any]
                      ) -> list[tuple[np.ndarray, np.ndarray, str]]:

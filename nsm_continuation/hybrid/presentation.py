@@ -108,7 +108,7 @@ class HybridPresentation(Presentation):
             out[f"amplitude_{c}"] = rf"response amplitude $(\max {sym} - \min {sym})/2$"
             out[f"max_{c}"] = rf"$\max {sym}$"
             out[f"min_{c}"] = rf"$\min {sym}$"
-        out.update(getattr(pr, "parameter_labels", {}) or {})
+        out.update(pr.parameter_labels)
         return out
 
     @property
@@ -135,7 +135,7 @@ class HybridPresentation(Presentation):
             return []
         from nsm_continuation.figures.kit import quantity_panels
 
-        x = self.problem.parameter
+        x = self.problem.swept_parameter
         if self.problem.response_key is not None:
             c = self.problem.response_coordinate
             name = f"impacts_vs_{x}.png"
@@ -147,7 +147,7 @@ class HybridPresentation(Presentation):
                  (["sticking_time"], self.label("sticking_time"))],
                 title=("Impacts along the frequency response" if self.problem.frequency_response
                        else "Impacts along the branch"),
-                path=Path(out_dir) / name, log=("min_impact_velocity",))
+                path=Path(out_dir) / name, log=("min_impact_velocity",), x=x)
             return [name] if ok else []
         sticking = [p.derived.get("sticking_time", np.nan) for br in branches for p in br.points]
         if not np.nanmax(np.asarray(sticking, dtype=float), initial=0.0) > 0:
@@ -159,7 +159,7 @@ class HybridPresentation(Presentation):
              (["n_impacts_before_chatter"], self.label("n_impacts_before_chatter")),
              (["period"], self.label("period"))],
             title="Sticking along the branch (complete chattering while it lasts)",
-            path=Path(out_dir) / name)
+            path=Path(out_dir) / name, x=x)
         return [name] if ok else []
 
     # ------------------------------------------------------------------ report
