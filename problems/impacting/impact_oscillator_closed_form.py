@@ -27,7 +27,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from nsm_continuation.hybrid.presentation import HybridCasePresentation
 
@@ -60,7 +60,7 @@ def one_impact_orbits(omega: float, gap: float, r: float, samples: int = SAMPLES
     """The admissible period-1 orbits with one impact from above at ``(omega, gap, r)``
     (O1, ``v- < 0``, ``q >= gap`` on ``samples`` instants of the period): phase of the
     impact, ``v-``, the period-doubling function of (O2) and the response amplitude ``(max q -
-    min q) / 2``."""
+    min q) / 2`` (the maximum refined between the samples)."""
     if omega == 1.0:
         return []
     G, T = 1.0 / (1.0 - omega ** 2), 2.0 * np.pi / omega
@@ -77,8 +77,15 @@ def one_impact_orbits(omega: float, gap: float, r: float, samples: int = SAMPLES
         v_minus = -a * t2 - G * omega * np.sin(phi)
         if v_minus >= 0:
             continue
-        q = G * np.cos(phi + omega * s) + a * (np.cos(s) + t2 * np.sin(s))
-        span = float(q.max() - q.min())
+        def q_of(x: np.ndarray | float, phi: float = phi, a: float = a) -> np.ndarray:
+            return G * np.cos(phi + omega * x) + a * (np.cos(x) + t2 * np.sin(x))
+
+        q = q_of(s)
+        i = int(np.argmax(q))
+        top = minimize_scalar(lambda x: -float(q_of(x)), bounds=(
+            s[max(i - 1, 0)], s[min(i + 1, samples - 1)]), method="bounded",
+            options={"xatol": 1e-12 * T})
+        span = float(max(q.max(), -top.fun) - q.min())
         if q.min() < gap - ADMISSIBLE_TOL * max(span, 1.0):
             continue
         k = (1.0 + r) * (np.cos(phi) - gap) / v_minus
