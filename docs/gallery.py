@@ -3,10 +3,12 @@
 
     python docs/gallery.py                      # runs every bundled case (about 20 min)
     python docs/gallery.py --runs DIR           # the figures of runs already in DIR/<case>
+    python docs/gallery.py --runs DIR --redraw  # the same runs drawn again by this code
 
 Each case is run with the command line (``nsm-continuation run yaml_cases/<case>.yaml``; the
 restart cases after the runs they start from, in a scratch folder whose ``runs/`` they read),
-or taken from ``DIR/<case>/``; each figure is copied at a reduced size (at most
+or taken from ``DIR/<case>/`` (with ``--redraw``: read back, ``nsm.load``, and drawn again by
+the current figure code, without computing); each figure is copied at a reduced size (at most
 :data:`WIDTH` pixels wide, 256 colours) and listed under its case with one line on what it
 shows, next to the paper figure the case reproduces (:data:`PAPER`) and what to compare.
 """
@@ -204,6 +206,18 @@ def thumbnail(src: Path, dst: Path) -> None:
     im.quantize(256).save(dst, optimize=True)
 
 
+def redraw(name: str, runs: Path, scratch: Path) -> Path:
+    """The run ``runs/<name>`` read back and its figures drawn again into ``scratch/<name>``
+    (the folder returned; ``runs`` is not written)."""
+    import nsm_continuation as nsm
+    from nsm_continuation.figures.make import make_all
+
+    out = scratch / name
+    out.mkdir(parents=True, exist_ok=True)
+    make_all(nsm.load(runs / name).run_result, out)
+    return scratch
+
+
 def refresh(name: str, runs: Path) -> None:
     """The thumbnails of case ``name`` from ``runs/<name>`` (those of a case without a run
     there are kept)."""
@@ -241,6 +255,8 @@ def page() -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=Path, help="take the runs from DIR/<case> (no run)")
+    ap.add_argument("--redraw", action="store_true",
+                    help="with --runs: draw the runs' figures again with this code")
     ap.add_argument("cases", nargs="*", help="only these cases' figures (default: all)")
     args = ap.parse_args(argv)
     names = args.cases or cases()
@@ -249,8 +265,13 @@ def main(argv: list[str] | None = None) -> int:
     else:
         runs = args.runs
     OUT.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix="nsm_gallery_draw_"))
     for name in names:
-        refresh(name, runs)
+        source = runs
+        if args.redraw and (runs / name / "report.json").is_file():
+            print(f"drawing {name}", flush=True)
+            source = redraw(name, runs, scratch)
+        refresh(name, source)
     PAGE.write_text(page() + "\n")
     print(f"wrote {PAGE.relative_to(ROOT)} and {OUT.relative_to(ROOT)}/")
     return 0

@@ -66,7 +66,7 @@ EVENT_STYLES: dict[str, EventStyle] = {
     "asymptote": EventStyle(">", "tab:brown", "asymptote"),
     "sticking_lost": EventStyle("^", "tab:cyan", r"sticking lost ($\tau \to 0$)"),
     "impact_sequence_change": EventStyle("h", "tab:pink", "impact sequence change"),
-    "homoclinic_approach": EventStyle("*", "gold", r"homoclinic approach ($T \to \infty$)"),
+    "homoclinic_approach": EventStyle("*", "gold", r"homoclinic approach (period $\to \infty$)"),
     "family_change": EventStyle("p", "tab:pink", "family change (through a grazing)"),
     "impact_velocity_vanishes": EventStyle("<", "tab:brown",
                                            r"impact velocity vanishes ($v_n \to 0$)"),

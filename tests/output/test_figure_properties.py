@@ -297,3 +297,39 @@ def test_orbits_that_nearly_coincide_are_told_apart() -> None:
     strips = [c for c in ax.collections if len(c.get_paths()) == 1]
     widths = sorted(float(np.ptp(c.get_paths()[0].vertices[:, 0])) for c in strips)
     assert widths == pytest.approx([orbits.NARROWEST, 0.25])
+
+
+# ---------------------------------------------------------------------- bundled cases
+@pytest.mark.parametrize("case", ["ndof_default", "bar_continuum_subharmonics",
+                                  "ndof_fig7_4_static_grazing_manifolds"])
+def test_bundled_case_draws_without_warnings_and_lists_only_drawn_artists(
+        case: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every figure of a bundled case drawn (in this process) with warnings as errors; in
+    each, every legend entry names a drawn artist, once."""
+    import warnings
+
+    from matplotlib.figure import Figure
+
+    from nsm_continuation.figures import process
+    from nsm_continuation.figures.make import make_all
+
+    res = nsm.run(CASES / f"{case}.yaml", {"output.plots": False}).run_result
+    drawn: list = []
+    real = Figure.savefig
+    monkeypatch.setattr(process, "FORKS", False)
+    monkeypatch.setattr(Figure, "savefig",
+                        lambda fig, path, **kw: (drawn.append(fig), real(fig, path, **kw)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        names = make_all(res, tmp_path)
+    assert names and len(drawn) == len(names)
+    for fig in drawn:
+        labels = {lab for ax in fig.axes for lab in labelled(ax)}
+        for ax in fig.axes:
+            leg = ax.get_legend()
+            if leg is None:
+                continue
+            entries = [t.get_text() for t in leg.get_texts()]
+            assert len(entries) == len(set(entries)), entries
+            assert set(entries) <= labels, set(entries) - labels
+        assert_labels_readable(fig, case)
