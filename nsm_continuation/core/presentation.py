@@ -95,8 +95,8 @@ class Presentation:
         return []
 
     def branch_name(self, branch: Any) -> str:
-        """A branch's name in a legend (default its label)."""
-        return str(branch.label)
+        """A branch's name in a legend (default its label, identifiers in words)."""
+        return str(branch.label).replace("_", " ")
 
     def start_point(self, branch: Any) -> Any:
         """The point ``branch`` was started from: the one at arclength 0 (the nearest), or

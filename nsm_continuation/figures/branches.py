@@ -201,6 +201,39 @@ def _window_limits(res: Any, xk: str, yk: str, window: tuple[float, float],
     return lo - pad, hi + pad
 
 
+#: candidate places of an inset in a zoom panel (axes fractions: x0, y0, width, height)
+INSET_PLACES = ((0.06, 0.52, 0.34, 0.42), (0.60, 0.52, 0.34, 0.42), (0.06, 0.08, 0.34, 0.42),
+                (0.60, 0.08, 0.34, 0.42))
+
+
+def _inset(zoom: Axes, res: Any, xk: str, yk: str, log: bool, events: list[Located]) -> None:
+    """Where markers still overlap in the zoom panel, an inset over their window, placed in
+    the corner of the panel that holds the fewest drawn points, joined to its window."""
+    xlim, ylim = zoom.get_xlim(), zoom.get_ylim()
+    inside = [e for e in events if xlim[0] <= e.x <= xlim[1]]
+    window = cluster_window(inside, xlim, ylim, log)
+    if window is None:
+        return
+    pts = np.array([(quantity(res.problem, p, xk), quantity(res.problem, p, yk))
+                    for br in res.branches for p in br.points], dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = zoom.transAxes.inverted().transform(zoom.transData.transform(pts))
+
+    def crowd(place: tuple[float, ...]) -> int:
+        x0, y0, w, h = place
+        return int(np.sum((frac[:, 0] > x0) & (frac[:, 0] < x0 + w)
+                          & (frac[:, 1] > y0) & (frac[:, 1] < y0 + h)))
+
+    ins = zoom.inset_axes(min(INSET_PLACES, key=crowd))
+    _draw_all(ins, res, xk, yk, log, window, events)
+    ins.set_xlim(window)
+    lim = _window_limits(res, xk, yk, window, events, log)
+    if lim is not None:
+        ins.set_ylim(lim)
+    ins.tick_params(labelsize=6)
+    zoom.indicate_inset_zoom(ins, edgecolor="goldenrod")
+
+
 def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure:
     """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
     frequency-energy plot of Fig. 3.2), styled as the module docstring says, located events
@@ -257,6 +290,7 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
         zoom.set_xlabel(xl)
         zoom.set_ylabel(yl)
         zoom.set_title(f"zoom: {xl} from {window[0]:.6g} to {window[1]:.6g}", fontsize=9)
+        _inset(zoom, res, xk, yk, log, events)
     handles, labels = legend_entries([ax] if zoom is None else [ax, zoom])
     extra_handles = show.legend_handles()  # a plugin's own decorations (declared, not found)
     handles += extra_handles

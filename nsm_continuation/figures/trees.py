@@ -44,10 +44,11 @@ def figure(res: RunResult, path: Path) -> bool:
         if res.tree and br.points:
             k = br.info.get("period_multiple", br.info.get("returns"))
             first = min(br.points, key=lambda p: abs(p.s))
+            # staggered: branches born at one point are labelled there one above the other
             ax.annotate(f"#{br.id}" + (f" (period {k})" if k else ""),
                         (quantity(pr, first, xk), quantity(pr, first, yk)),
-                        textcoords="offset points", xytext=(4, 4), fontsize=7,
-                        color="tab:blue")
+                        textcoords="offset points", xytext=(4, 4 + 9 * (br.id % 3)),
+                        fontsize=7, color="tab:blue")
     by_id = {b.id: b for b in res.branches}
     for node in res.tree:
         # the switched branch's first point lies eps from its birth point: join them
@@ -74,8 +75,8 @@ def figure(res: RunResult, path: Path) -> bool:
              if drawn and all(draws_markers(br) for br in drawn)
              else "Bifurcation diagram" if res.tree else "Branch diagram")
     depth = max((int(b.info.get("depth", 0)) for b in res.branches), default=0)
-    ax.set_title(title + (f" ({len(res.branches)} branches, {depth} generations)"
-                          if res.tree else ""))
+    ax.set_title(title + (f" ({len(res.branches)} branches, {depth} generation"
+                          f"{'s' if depth != 1 else ''})" if res.tree else ""))
     outside_legend(ax)
     ax.grid(alpha=0.25)
     fig.tight_layout()
