@@ -19,6 +19,8 @@ from nsm_continuation.figures.styles import EventStyle, event_style
 
 #: two markers closer than this in both directions (fractions of the axes) overlap
 OVERLAP = (0.012, 0.025)
+#: events closer than this (fractions of the axes) are at one point
+COINCIDE = 1e-4
 #: events closer than this horizontally (fraction of the axis) belong to one crowd
 CROWDED = 0.03
 #: a crowd is zoomed when it spans at most this fraction of the horizontal axis (a wider one
@@ -73,16 +75,24 @@ def drawable(events: Sequence[Located], y_max: float = np.inf, log: bool = False
 
 
 def draw_located(ax: Axes, events: Sequence[Located], size: float = 6.0) -> None:
-    """The events on ``ax``: one artist per kind, labelled with the kind's name (hollow
-    kinds as larger rings around the point)."""
-    kinds = list(dict.fromkeys(e.kind for e in events))
-    for kind in kinds:
-        pts = [e for e in events if e.kind == kind]
+    """The events on ``ax``, labelled with their kind's name once (hollow kinds as larger
+    rings around the point). Events of other kinds at the point of one drawn before are
+    drawn smaller, on top: both markers are seen."""
+    rank = []
+    for i, e in enumerate(events):
+        rank.append(sum(1 for f in events[:i] if f.kind != e.kind and f.style.filled
+                        and np.isclose(f.x, e.x, rtol=1e-9, atol=0.0)
+                        and np.isclose(f.y, e.y, rtol=1e-9, atol=0.0)))
+    named: set[str] = set()
+    for kind, r in dict.fromkeys((e.kind, k) for e, k in zip(events, rank, strict=True)):
+        pts = [e for e, k in zip(events, rank, strict=True) if e.kind == kind and k == r]
         st = pts[0].style
-        face = {"mec": "k", "mew": 0.5, "ms": size, "zorder": 5} if st.filled else {
-            "mfc": "none", "mec": st.colour, "mew": 0.7, "ms": size + 3, "zorder": 6}
+        ms = max(size * (1.0 - 0.3 * r), 2.5)
+        face = {"mec": "k", "mew": 0.5, "ms": ms, "zorder": 5 + r} if st.filled else {
+            "mfc": "none", "mec": st.colour, "mew": 0.7, "ms": size + 3, "zorder": 9}
         ax.plot([e.x for e in pts], [e.y for e in pts], ls="", marker=st.marker,
-                color=st.colour, label=st.name, **face)
+                color=st.colour, label="_nolegend_" if kind in named else st.name, **face)
+        named.add(kind)
 
 
 def draw_events(ax: Axes, problem: Problem, branches: Sequence[Branch], xk: str, yk: str,
@@ -105,7 +115,8 @@ def cluster_window(events: Sequence[Located], x_range: tuple[float, float],
                    y_range: tuple[float, float], ylog: bool = False
                    ) -> tuple[float, float] | None:
     """The horizontal window where event markers overlap: if two filled markers lie within
-    :data:`OVERLAP` of each other (axes fractions), the events joined to them by horizontal
+    :data:`OVERLAP` of each other (axes fractions; two at one point, :data:`COINCIDE`, do
+    not count: no zoom parts them), the events joined to them by horizontal
     gaps under :data:`CROWDED` form a crowd; the crowd with most overlapping markers, if it
     spans at most :data:`CROWD_SPAN` of the axis, padded by a third of its span (at least
     1 % of the axis). None when no markers overlap."""
@@ -115,8 +126,11 @@ def cluster_window(events: Sequence[Located], x_range: tuple[float, float],
     x = np.array([e.x for e in pts])
     fx = _fractions(x, *x_range, False)
     fy = _fractions(np.array([e.y for e in pts]), *y_range, ylog)
-    close = (np.abs(fx[:, None] - fx[None, :]) < OVERLAP[0]) & (
-        np.abs(fy[:, None] - fy[None, :]) < OVERLAP[1])
+    dx, dy = np.abs(fx[:, None] - fx[None, :]), np.abs(fy[:, None] - fy[None, :])
+    # events at one point (branches meeting there, two kinds located at one point) stay
+    # together in any zoom: the markers of the second kind are drawn smaller instead
+    same = (dx < COINCIDE) & (dy < COINCIDE)
+    close = (dx < OVERLAP[0]) & (dy < OVERLAP[1]) & ~same
     np.fill_diagonal(close, False)
     overlapping = close.any(axis=1)
     if not overlapping.any():

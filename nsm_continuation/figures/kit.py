@@ -250,7 +250,7 @@ def set_scale(ax: Axes, axis: str, log: bool) -> None:
 
 #: a piece of branch smaller than this fraction of the drawn extent in both directions is not
 #: seen on the figure (one point, or a step between two points at a branch's end)
-SEEN = 0.004
+SEEN = 0.015
 
 
 def seen_pieces(pieces: list[tuple[Any, Any]], log: bool = False) -> list[bool]:

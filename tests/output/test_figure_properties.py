@@ -160,7 +160,10 @@ def test_crowded_events_are_zoomed_and_spread_ones_are_not() -> None:
     res = pendulum_result(np.linspace(6.17, 6.20, 30), ["grazing", "period_doubling"])
     assert len(branches.diagram(res).axes) == 1          # 2 points apart: readable
     pts = res.branches[0].points
-    res.branches[0].events = [Event("grazing", pts[10]), Event("period_doubling", pts[10]),
+    ip = res.problem.parameter_index
+    near = point(pts[10].y + 2e-4 * np.eye(len(pts[10].y))[ip], 1.01,
+                 {"period": pts[10].derived["period"] + 2e-4})
+    res.branches[0].events = [Event("grazing", pts[10]), Event("period_doubling", near),
                               Event("sticking_lost", pts[25])]
     fig = branches.diagram(res)
     main, zoom = fig.axes[0], fig.axes[1]
@@ -169,6 +172,13 @@ def test_crowded_events_are_zoomed_and_spread_ones_are_not() -> None:
     assert (hi - lo) < 0.25 * np.ptp(main.get_xlim())
     assert_events_drawn(main, res, "d", "period")
     assert_legend_is_what_is_drawn(fig)
+    # two kinds at one point: no zoom parts them; the second is drawn smaller, on top
+    res.branches[0].events = [Event("grazing", pts[10]), Event("period_doubling", pts[10])]
+    fig = branches.diagram(res)
+    assert len(fig.axes) == 1
+    (g,) = event_lines(fig.axes[0], EVENT_STYLES["grazing"].name)
+    (d,) = event_lines(fig.axes[0], EVENT_STYLES["period_doubling"].name)
+    assert d.get_markersize() < g.get_markersize() and d.get_zorder() > g.get_zorder()
 
 
 def test_multipliers_zero_to_rounding_are_not_drawn_on_a_log_axis(
