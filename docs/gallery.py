@@ -203,7 +203,7 @@ def thumbnail(src: Path, dst: Path) -> None:
     im = Image.open(src).convert("RGB")
     if im.width > WIDTH:
         im = im.resize((WIDTH, round(im.height * WIDTH / im.width)), Image.LANCZOS)
-    im.quantize(256).save(dst, optimize=True)
+    im.quantize(256, method=Image.Quantize.FASTOCTREE).save(dst, optimize=True)
 
 
 def redraw(name: str, runs: Path, scratch: Path) -> Path:

@@ -324,8 +324,8 @@ def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
     """One panel per ``(keys, ylabel)`` of ``panels``: each quantity of ``keys`` against the
     quantity ``x`` (default the continued parameter) along every branch, styled as the branch
     diagram (admissible stable black, unstable red, phantom thin grey; the second and later
-    keys of a panel dashed), the
-    branches' located events marked where the quantity is defined, saved to ``path``. The
+    keys of a panel dashed), the branches' located events marked where the quantity is
+    defined, saved to ``path``. The
     quantities of ``log`` are drawn on a log axis where they span more than a decade
     (:func:`wants_log`). Quantities missing at a point are NaN: a gap, never an error; a panel
     whose quantities are missing everywhere is left out. False (nothing written) when no
