@@ -265,7 +265,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         runs = args.runs
     OUT.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix="nsm_gallery_draw_"))
+    scratch = Path(tempfile.mkdtemp(prefix="nsm_gallery_draw_")) if args.redraw else runs
     for name in names:
         source = runs
         if args.redraw and (runs / name / "report.json").is_file():
