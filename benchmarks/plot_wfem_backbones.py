@@ -19,8 +19,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from nsm_continuation.problems.bar.continuum_orbits import main_backbone  # noqa: E402
 
-from nsm_continuation.cases import schema as cases  # noqa: E402
-from nsm_continuation.runs.runner import run_case  # noqa: E402
+import nsm_continuation as nsm  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 #: colours of the gaps (the package's palette: no stability red, no Neimark-Sacker green)
@@ -30,10 +29,9 @@ LABELS = {"positive": r"$g_0 = 10^{-3}$", "zero": r"$g_0 = 0$ (vertical: energy 
 
 
 def branches(path: Path, overrides: list[str] | None = None):
-    case, problem = cases.load(path, overrides or [])
     t0 = time.perf_counter()
-    res = run_case(case, problem, progress=False)
-    return res, time.perf_counter() - t0
+    res = nsm.run(path, [*(overrides or []), "output.plots=false", "output.progress=false"])
+    return res.run_result, time.perf_counter() - t0
 
 
 def main() -> None:
@@ -64,7 +62,7 @@ def main() -> None:
     ax.set_xlabel(r"frequency $\omega/\omega_1$ (eq. 13)")
     ax.set_ylabel(r"energy $E/E_{ref}$ (eq. 14)")
     ax.set_title("Figs. 5-6: main backbones, N = 1000")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper center")
     for g0 in (1e-2, 3e-3, 1e-3, -1e-3, -3e-3, -1e-2):
         res, _ = branches(ROOT / "yaml_cases/wfem_fig5_6_backbones_gap_positive.yaml",
                           [f"parameters.gap={g0}", "parameters.cells=400",
