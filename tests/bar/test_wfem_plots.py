@@ -189,12 +189,13 @@ def test_frequency_response_figure_draws_curves_references_and_backbones(tmp_pat
     steady points filled and the others hollow, the linear reference dashed) and, on the
     branch diagram of the energy, the references and the backbones (a vertical line at the
     asymptote for g0 = 0); the problem's extra_plots file."""
-    from nsm_continuation.figures.kit import subplots
     from nsm_continuation.problems.bar.forced_response import WfemForcedBarProblem
     from nsm_continuation.problems.bar.plots_forced import (
         frequency_response_figure,
         response_curves,
     )
+
+    from nsm_continuation.figures.kit import subplots
 
     pr = WfemForcedBarProblem({"cells": 20, "gap": 0.0, "force_amplitude": 4e-3,
                                "damping_ratio": 0.1})
