@@ -47,6 +47,7 @@ from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, OrbitTrace, Point
 from nsm_continuation.output.files import (
+    SIGNATURE_COLUMN,
     branch_rows,
     build_report,
     event_record,
@@ -149,13 +150,7 @@ def _validated(source: CaseSource, overrides: Sequence[str] | Mapping[str, Any] 
             if not isinstance(key, str) or not all(key.split(".")):
                 raise CaseError(f"overrides: the key {key!r} is not a dotted key such as "
                                 "'continuation.max'")
-            node = raw
-            *path, last = key.split(".")
-            for part in path:
-                node = node.setdefault(part, {})
-                if not isinstance(node, dict):
-                    raise CaseError(f"overrides: {key}: {part} is not a mapping")
-            node[last] = value
+            schema.set_dotted(raw, key, value, "overrides:")
     elif isinstance(overrides, str | bytes) or not isinstance(overrides, Sequence):
         raise CaseError(f"overrides: expected a list of 'dotted.key=value' strings or a "
                         f"mapping {{'dotted.key': value}}, got {_kind(overrides)}")
@@ -341,6 +336,9 @@ class BranchData:
         self._columns: dict[str, np.ndarray] = {}
         for j, c in enumerate(cols):
             values = [r[j] for r in rows]
+            if c == SIGNATURE_COLUMN:  # text: the family of each point
+                self._columns[c] = np.array([str(v) for v in values], dtype=object)
+                continue
             self._columns[c] = np.array([np.nan if v == "" or v is None else v
                                          for v in values], dtype=float)
         self.parameter = np.array([p.y[problem.parameter_index] for p in branch.points])
@@ -359,7 +357,8 @@ class BranchData:
                            f"{self.column_names})") from None
 
     def columns(self) -> dict[str, np.ndarray]:
-        """Every column as a numpy array (NaN where a value is not defined)."""
+        """Every column as a numpy array (NaN where a value is not defined; the ``signature``
+        column, the family of each point, as text)."""
         return dict(self._columns)
 
     def to_frame(self) -> Any:

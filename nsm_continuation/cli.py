@@ -191,6 +191,11 @@ def _positive_int(text: str) -> int:
 def _target(args: argparse.Namespace, case: Case) -> OutputTarget:
     from nsm_continuation.output.folders import OutputTarget
 
+    if args.out is not None and not args.out.strip():
+        from nsm_continuation.core.errors import CaseError
+
+        raise CaseError("--out: the path is empty; give the output folder (or leave --out "
+                        "out: output.dir, else runs/<name>)")
     out = Path(args.out or case.output.dir or Path("runs") / case.name)
     return OutputTarget(out, "overwrite" if args.overwrite else case.output.if_exists)
 

@@ -61,7 +61,12 @@ import numpy as np
 from pydantic import BaseModel
 
 from nsm_continuation.core.monitors import Source
-from nsm_continuation.core.palc import NUMERICAL_ERRORS, ContinuationEngine
+from nsm_continuation.core.palc import (
+    HOOK_FAULTS,
+    NUMERICAL_ERRORS,
+    ContinuationEngine,
+    describe_fault,
+)
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch, Event, Point
@@ -597,8 +602,8 @@ class CurveTracer:
             "step_initial", 1e-3 * (1.0 + abs(float(y0[-2])))))
         try:
             first, why = self.locate("p", y0, getattr(seed, "tangent", None), width0)
-        except Exception as exc:  # noqa: BLE001 - recorded on the branch
-            first, why = None, f"internal error: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded on the branch
+            first, why = None, describe_fault(exc)
         return first, why, width0
 
     def half(self, first: _Located, sign: int, width0: float) -> tuple[list[_Located], str]:
@@ -606,8 +611,8 @@ class CurveTracer:
         its end."""
         try:
             return self._half(first, sign, width0)
-        except Exception as exc:  # noqa: BLE001 - recorded on the branch
-            return [first], f"internal error: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded on the branch
+            return [first], describe_fault(exc)
 
     def branch(self, seed: Any, branch_id: int, failed: str,
                halves: dict[int, tuple[list[_Located], str]],

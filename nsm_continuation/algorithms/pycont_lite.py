@@ -20,7 +20,13 @@ import numpy as np
 
 from nsm_continuation.algorithms.base import outside_bound
 from nsm_continuation.algorithms.palc import _CurveAlgorithm
-from nsm_continuation.core.palc import NUMERICAL_ERRORS, ContinuationEngine, describe_error
+from nsm_continuation.core.palc import (
+    HOOK_FAULTS,
+    NUMERICAL_ERRORS,
+    ContinuationEngine,
+    describe_error,
+    describe_fault,
+)
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
@@ -61,9 +67,9 @@ class PycontLite(_CurveAlgorithm):
             run = run_pycont(self.problem, np.asarray(seed.y, dtype=float), ds_min=st.step_min,
                              ds_max=st.step_max, ds_0=st.step_initial, n_steps=st.max_points,
                              direction=direction, full_output=True, **sp)
-        except Exception as exc:  # noqa: BLE001 - recorded as the start's failure
-            return Branch(branch_id, seed.label, [], [],
-                          {"start": f"pycont-lite: {describe_error(exc)}"}, info)
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded as the start's failure
+            why = describe_error(exc) if isinstance(exc, Exception) else describe_fault(exc)
+            return Branch(branch_id, seed.label, [], [], {"start": f"pycont-lite: {why}"}, info)
         self.n_pycont_evaluations += run.n_evaluations
         ys = np.asarray(run.y, dtype=float)
         ends = _pycont_terminations(run.result)

@@ -15,7 +15,7 @@ import numpy as np
 
 from nsm_continuation.algorithms.base import Algorithm, Window, outside_bound
 from nsm_continuation.core.capabilities import SweepSeed
-from nsm_continuation.core.palc import NUMERICAL_ERRORS, describe_error
+from nsm_continuation.core.palc import HOOK_FAULTS, NUMERICAL_ERRORS, describe_error, describe_fault
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
@@ -133,8 +133,8 @@ class Sweep(Algorithm):
             reason = self._sweep(seed, points, events, listed)
         except NUMERICAL_ERRORS as exc:
             reason = describe_error(exc)
-        except Exception as exc:  # noqa: BLE001 - recorded, never raised
-            reason = f"internal error: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded, never raised
+            reason = describe_fault(exc, self.problem.name)
         if points:
             events.insert(0, Event("endpoint", points[0], "sweep start: first grid value",
                                    data={"reason": "first grid value"}))

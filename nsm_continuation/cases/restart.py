@@ -58,7 +58,9 @@ class EventSpec(BaseModel):
     branch, counted from 0 in arclength order (as in ``report.json``)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
+    #: the event kind
     kind: Annotated[str, Field(min_length=1)]
+    #: which event of that kind, from 0 in arclength order
     index: Annotated[int, Field(ge=0)] = 0
 
 
@@ -66,6 +68,7 @@ class RestartSpec(BaseModel):
     """``start:`` of a restart (module docstring)."""
 
     model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True)
+    #: the saved run: its folder (a relative path is under the working directory)
     source: Annotated[str, Field(alias="from", min_length=1)]
     #: the branch's id (``branch_<id>.csv``); may be left out when the run has one branch
     branch: Annotated[int, Field(ge=0)] | None = None
@@ -81,6 +84,7 @@ class RestartSpec(BaseModel):
     #: along the continued parameter, as ``continuation.direction``; default: both ways
     #: (away from the period doubling for a switch there)
     direction: Literal["both", "increase", "decrease"] | None = None
+    #: the new branch's label in the report (default: where it was born)
     label: str | None = None
     #: continue a curve of codimension-one points in two parameters from the point instead of
     #: its orbit (:mod:`nsm_continuation.hybrid.codim1`): ``grazing`` (eq. C1); any kind name

@@ -71,10 +71,18 @@ def _visible_name(name: str) -> str:
                      "(nsm-continuation list)")
 
 
+#: the smallest ``continuation.newton_tol`` (a few units of double precision's resolution)
+NEWTON_TOL_FLOOR = 1e-15
+
+
 class StepSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: the first pseudo-arclength step (arclength in the scaled unknowns)
     initial: PosFloat = 1e-2
+    #: the smallest step: a branch whose step falls below it ends, with the reason
     min: PosFloat = 1e-9
+    #: the largest step (the step grows with easy Newton solves and shrinks at
+    #: events, turning tangents and moving multipliers)
     max: PosFloat = 0.2
 
     @model_validator(mode="after")
@@ -94,13 +102,25 @@ class ContinuationSpec(BaseModel):
     #: (``Problem.case_parameter``, else ``Problem.parameter``), resolved by :func:`validate`
     #: once the problem is built
     parameter: str | None = None
+    #: lower edge of the window of the continued parameter (a branch ends there with
+    #: an ``endpoint``); default none
     min: Finite | None = None
+    #: upper edge of the window of the continued parameter; default none
     max: Finite | None = None
+    #: the pseudo-arclength step sizes
     step: StepSpec = StepSpec()
+    #: points per direction of each branch, at most
     max_points: Annotated[int, Field(ge=2, le=MAX_POINTS, strict=True)] = 400
+    #: a branch ends when the energy (the problem's ``energy_quantity``) exceeds it
     max_energy: PosFloat | None = None
+    #: which way along ``continuation.parameter`` a branch is followed from its
+    #: start (a problem whose internal parameter runs the other way turns it round:
+    #: ``Problem.parameter_orientation``)
     direction: Literal["both", "increase", "decrease"] = "both"
+    #: tolerance of the corrector's Newton iteration, on the step and the residual
+    #: relative to the unknowns
     newton_tol: PosFloat = 1e-11
+    #: the largest turn of the tangent in one step (radians)
     max_angle: PosFloat = 0.25
     #: bounds on derived quantities ``{name: [min, max]}`` (null for none), e.g.
     #: ``period: [null, 60]``; the branch stops where one is reached (an event of the kind the
@@ -112,6 +132,11 @@ class ContinuationSpec(BaseModel):
 
     @model_validator(mode="after")
     def _bounds(self) -> ContinuationSpec:
+        if self.newton_tol < NEWTON_TOL_FLOOR:
+            raise ValueError(f"newton_tol: {self.newton_tol:g} is below {NEWTON_TOL_FLOOR:g}: "
+                             "a Newton step and a residual relative to the unknowns are "
+                             "resolved to ~1e-16 in double precision, so no iteration could "
+                             "meet it")
         if self.min is not None and self.max is not None and self.min >= self.max:
             raise ValueError(f"need min < max (got min = {self.min}, max = {self.max})")
         for name, (lo, hi) in self.bounds.items():
@@ -139,7 +164,9 @@ class BranchSwitchingSpec(BaseModel):
     deep, into the same run."""
 
     model_config = ConfigDict(extra="forbid")
+    #: generations of switched branches (children of children ...)
     depth: Annotated[int, Field(ge=1, le=MAX_DIAGRAM_DEPTH, strict=True)] = 1
+    #: the event kinds at which the branch born there is followed
     kinds: Annotated[list[Literal["period_doubling", "branch_point"]], Field(min_length=1),
                      AfterValidator(_unique)] = list(DIAGRAM_KINDS)
     #: at most this many branches in the run (root branches included); the events beyond it
@@ -153,13 +180,24 @@ class AnalysisSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     #: follow the branches born at detected points, recursively (a bifurcation diagram)
     branch_switching: BranchSwitchingSpec | None = None
+    #: Floquet multipliers at every admissible point (and the events they locate)
     stability: Bool = True
+    #: locate folds, branch points and multiplier crossings
     bifurcations: Bool = True
+    #: end a branch where it loses admissibility (at the grazing), instead of
+    #: following its phantom (non-physical) part
     stop_on_inadmissible: Bool = False
+    #: also compute the multipliers of phantom (inadmissible) orbits
     stability_on_phantom: Bool = False
+    #: a multiplier with ``|lambda| > 1 + unit_circle_tol`` counts as outside the unit
+    #: circle (raised to ``1e3 eps |DF|`` where the matrix is large)
     unit_circle_tol: PosFloat = 1e-7
+    #: location tolerance of events, in arclength
     event_tol: PosFloat = 1e-12
+    #: bracket of the bisection on the count of multipliers outside the circle that
+    #: detects a crossing (before it is located on the modulus)
     multiplier_event_tol: PosFloat = 1e-9
+    #: the largest move of a multiplier near the unit circle in one step
     max_multiplier_step: PosFloat = 0.02
 
 
@@ -190,23 +228,35 @@ class OrbitsSpec(BaseModel):
     the paper figure it reproduces), put in its title."""
 
     model_config = ConfigDict(extra="forbid")
+    #: the points whose orbits are drawn: ``first``, ``last`` (of each branch),
+    #: ``events`` (every located event but the branch ends), an event kind, or a number (the
+    #: point nearest that value of ``continuation.parameter``)
     points: Annotated[list[Name | Finite], Field(min_length=1, max_length=MAX_ORBIT_POINTS)
                       ] = ["first", "last"]
+    #: the figures: ``time`` (``orbits_time.png``, signals against t / T), ``phase``
+    #: (``orbits_phase.png``), ``manifold`` (``manifold.png``, orbits spread along the first
+    #: branch in 3-D)
     views: Annotated[list[OrbitView], Field(min_length=1), AfterValidator(_unique)] = [
         "time", "phase"]
+    #: periods drawn per orbit
     periods: Annotated[int, Field(ge=1, le=MAX_ORBIT_PERIODS, strict=True)] = 1
+    #: signals of the time view drawn as ``|value|`` on a log scale
     log: list[Name] = []
     #: the branches (ids, as in ``branch_<id>.csv``) the points and the manifold are taken
     #: from; default every branch (the manifold: the first with points)
     branches: Annotated[list[Annotated[int, Field(ge=0, strict=True)]], Field(min_length=1),
                         AfterValidator(_unique)] | None = None
+    #: a caption per view, put in its title (e.g. ``{time: "Fig. 5.2"}``)
     figures: dict[OrbitView, Annotated[str, Field(max_length=200, strict=True)]] = {}
 
 
 class OutputSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: the output folder (default ``runs/<name>``; ``--out`` overrides it)
     dir: Annotated[str, Field(min_length=1, strict=True)] | None = None
+    #: draw the figures (the CSVs and reports are always written)
     plots: Bool = True
+    #: a progress bar on stderr (the command line draws it on a terminal only)
     progress: Bool = True
     #: an existing output folder holding a previous run: refuse (error), replace the files that
     #: run wrote (overwrite, as ``--overwrite``), or write to a numbered sibling (new)
@@ -319,10 +369,16 @@ class ExecutionSpec(BaseModel):
     branches with that reason instead of waiting forever."""
 
     model_config = ConfigDict(extra="forbid")
+    #: compute the branches on a local Dask cluster of this many worker processes
+    #: (at most 4 per usable core and one per 0.5 GB of available memory)
     workers: Annotated[int, Field(ge=1, le=1024, strict=True),
                        AfterValidator(_local_workers)] | None = None
+    #: compute the branches on the existing Dask cluster at this address
+    #: (``tcp://HOST:8786``); excludes ``workers``
     scheduler: Annotated[str, Field(min_length=1, max_length=1000, strict=True),
                          AfterValidator(_scheduler_address)] | None = None
+    #: seconds without any worker after which the tasks still waiting end their
+    #: branches with that reason
     no_workers_timeout: Annotated[float, Field(gt=0, le=86_400, allow_inf_nan=False,
                                                strict=True)] = 30.0
 
@@ -357,16 +413,26 @@ def with_execution(case: Case, workers: int | None, scheduler: str | None,
 
 class Case(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    #: the output folder's name (``runs/<name>``: a plain name, no path) and the
+    #: report's title
     name: Annotated[str, Field(strict=True), AfterValidator(_plain_name)] = "case"
+    #: free text, copied into the report
     description: Annotated[str, Field(max_length=10_000, strict=True)] = ""
     #: required, except in a restart (``start: {from: <run>}``), which inherits it
     problem: Annotated[str, Field(strict=True), AfterValidator(_visible_name)] | None = None
     #: required, except in a restart, which inherits the run's (these override them)
     parameters: dict[str, Any] | None = None
+    #: where branches start: a mapping or a list of mappings of the problem's start
+    #: forms (its page of the reference), or a restart from a saved run (``{from: <run>,
+    #: ...}``)
     start: Any
+    #: the continuation: its parameter, window, steps and algorithm
     continuation: ContinuationSpec = ContinuationSpec()
+    #: what is computed at each point and which events are located
     analysis: AnalysisSpec = AnalysisSpec()
+    #: where and what the run writes
     output: OutputSpec = OutputSpec()
+    #: where the branches are computed (default: serially, in this process)
     execution: ExecutionSpec = ExecutionSpec()
     #: the resolved restart (:class:`nsm_continuation.cases.restart.Restart`) of a ``start: {from:
     #: ...}`` case, set by :func:`validate`
@@ -412,7 +478,16 @@ def _first_error(err: ValidationError) -> dict[str, Any]:
         if e["type"] == "extra_forbidden" and e["loc"] and isinstance(e["loc"][-1], str) \
                 and show_key(e["loc"][-1]) != e["loc"][-1]:
             return dict(e)
-    return dict(errors[0])
+    first = errors[0]
+    if first["type"].endswith("_type") and len(first["loc"]) > 1:
+        # a union (``float | list[float]``) whose first member does not even take the value's
+        # type: the member that took it and failed deeper (``stiffness[1]: greater than 0``)
+        # says what is wrong, not "should be a valid number"
+        n = len(first["loc"]) - 1
+        for e in errors[1:]:
+            if len(e["loc"]) > n + 1 and e["loc"][:n] == first["loc"][:n]:
+                return dict(e)
+    return dict(first)
 
 
 def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
@@ -448,6 +523,10 @@ def _format(err: ValidationError, raw: Any, prefix: str = "") -> str:
         msg = "unknown key"
     elif e["type"] == "missing":
         msg = "required key is missing"
+    elif e["type"] in ("model_type", "dict_type") and not isinstance(node, dict):
+        # pydantic names its model class ("or instance of ContinuationSpec"): the user wrote YAML
+        msg = (f"expected a mapping of keys (key: value), got "
+               f"{short_text(ascii(node) if isinstance(node, str) else repr(node))}")
     elif e["type"] in ("float_type", "int_type", "bool_type", "string_type") \
             and not isinstance(node, dict | list):
         msg = f"{msg} (got {short_text(ascii(node) if isinstance(node, str) else repr(node))})"
@@ -517,13 +596,15 @@ _CaseLoader.add_implicit_resolver(
 
 
 class _Yaml11Number(str):
-    """A plain scalar YAML 1.1 reads as a number and YAML 1.2 does not (or as another one):
-    ``010`` (octal 8 in 1.1, 10 in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2).
-    Kept as its text; :func:`parse_yaml` refuses it, naming its key and quoting it."""
+    """A plain scalar that would be read as another number than the one written: one YAML 1.1
+    reads as a number and YAML 1.2 does not (or as another one), ``010`` (octal 8 in 1.1, 10
+    in 1.2) or ``1:00`` (base 60: 60 in 1.1, a string in 1.2); or a float beyond double
+    precision, ``1e-400`` (0) or ``1e400`` (infinity). Kept as its text; :func:`parse_yaml`
+    refuses it, naming its key and quoting it."""
 
-    #: ``octal`` or ``base-60``
+    #: ``octal``, ``base-60``, ``underflow`` or ``overflow``
     form: str
-    #: the value YAML 1.1 gives it
+    #: the value it would be read as
     value: float | int
 
 
@@ -531,14 +612,28 @@ class _Yaml11Number(str):
 OCTAL = re.compile(r"^[-+]?0[0-7_]+$")
 
 
+#: the mantissa of a float literal with a nonzero digit (``1e-400``, not ``0.0e5``)
+NONZERO_FLOAT = re.compile(r"^[-+]?[0-9_]*\.?[0-9_]*[1-9]")
+#: ``.inf``, ``-.inf``, ``.nan`` (written as such: refused later as not finite)
+SPECIAL_FLOAT = re.compile(r"^[-+]?\.(?:inf|Inf|INF|nan|NaN|NAN)$")
+
+
 def _number(loader: _CaseLoader, node: yaml.ScalarNode, build: Any) -> Any:
     text = loader.construct_scalar(node)
-    if isinstance(text, str) and (":" in text or OCTAL.match(text)):
-        out = _Yaml11Number(text)
-        out.form = "base-60" if ":" in text else "octal"
-        out.value = build(loader, node)
-        return out
-    return build(loader, node)
+    if not isinstance(text, str):
+        return build(loader, node)
+    form = "base-60" if ":" in text else "octal" if OCTAL.match(text) else None
+    value = build(loader, node)
+    if form is None and isinstance(value, float) and not SPECIAL_FLOAT.match(text):
+        if value == 0.0 and NONZERO_FLOAT.match(re.split("[eE]", text)[0]):
+            form = "underflow"
+        elif math.isinf(value):
+            form = "overflow"
+    if form is None:
+        return value
+    out = _Yaml11Number(text)
+    out.form, out.value = form, value
+    return out
 
 
 _CaseLoader.add_constructor(
@@ -579,6 +674,11 @@ def _refuse_yaml11(obj: Any, where: str) -> None:
         return
     key, num, is_key = found
     text = str(num)
+    if num.form in ("underflow", "overflow"):
+        limit = "smallest" if num.form == "underflow" else "largest"
+        why = (f"is beyond the {limit} number double precision holds (it would be read as "
+               f"{num.value}); rescale the problem")
+        raise CaseError(f"{key or where}: {text!r} {why}")
     if num.form == "octal":
         sign = "-" if text.startswith("-") else ""
         decimal = sign + (text.replace("_", "").lstrip("+-").lstrip("0") or "0")
@@ -640,16 +740,29 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str],
         if "=" not in item:
             raise CaseError(f"{source} {short_text(repr(item))}: expected dotted.key=value")
         key, value = item.split("=", 1)
-        parts = key.strip().split(".")
-        if not all(parts):
+        if not all(key.strip().split(".")):
             raise CaseError(f"{source} {short_text(repr(item))}: empty key")
-        node = out
-        for p in parts[:-1]:
-            if not isinstance(node.get(p, {}), dict):
-                raise CaseError(f"{source} {key}: {p} is not a mapping")
-            node = node.setdefault(p, {})
-        node[parts[-1]] = parse_yaml(value, f"{source} {key}")
+        set_dotted(out, key.strip(), parse_yaml(value, f"{source} {key}"), source)
     return out
+
+
+def set_dotted(raw: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """``raw[a][b][c] = value`` for the dotted ``key`` ``a.b.c`` (mappings created on the
+    way); a part that is no mapping, or a list index (``start[0]``), is refused naming
+    ``source``."""
+    parts = key.split(".")
+    at = next((i for i, p in enumerate(parts) if re.search(r"\[-?\d*\]$", p)), None)
+    if at is not None:
+        whole = short_text(".".join([*parts[:at], parts[at].split("[")[0]]))
+        example = f"--set '{whole}=[...]'" if source == "--set" else f"{{'{whole}': [...]}}"
+        raise CaseError(f"{source} {short_text(key)}: {short_text(parts[at])} indexes a list, "
+                        f"which a dotted key cannot; set the whole list instead, e.g. {example}")
+    node = raw
+    for p in parts[:-1]:
+        if not isinstance(node.get(p, {}), dict):
+            raise CaseError(f"{source} {key}: {p} is not a mapping")
+        node = node.setdefault(p, {})
+    node[parts[-1]] = value
 
 
 def load_raw(path: str | Path) -> dict[str, Any]:

@@ -40,7 +40,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from nsm_continuation.core.palc import NUMERICAL_ERRORS, describe_error
+from nsm_continuation.core.palc import HOOK_FAULTS, NUMERICAL_ERRORS, describe_error, describe_fault
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import CORE_EVENT_KINDS, Branch, Event, Point
 from nsm_continuation.core.roots import pole_estimate
@@ -214,8 +214,8 @@ class LatticeContinuation:
             return pts, events, self._walk_in_place(seed, direction, pts, events)
         except NUMERICAL_ERRORS as exc:
             return pts, events, describe_error(exc)
-        except Exception as exc:  # noqa: BLE001 - recorded, never raised
-            return pts, events, f"internal error: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded, never raised
+            return pts, events, describe_fault(exc, self.problem.name)
 
     def _walk_in_place(self, seed: LatticeSeed, direction: int, pts: list[Point],
                        events: list[Event]) -> str:

@@ -4,7 +4,10 @@ A monitor is a quantity whose change is an event: an admissibility test (``> 0``
 orbit is physically realisable; a sign change is located and raises its kind), an event
 function (a zero is located and raises its kind; the branch goes on), a bounded quantity (its
 bound ends the branch with its kind), the discrete signature of the orbit (a change raises its
-kind) or a quantity watched for growth without bound (an ``asymptote``). The values come from
+kind; a change across a kink the branch is continued through, a family change, raises the
+``family`` monitor's), a quantity watched for growth without bound (an ``asymptote``) or a
+positive quantity whose zero ends the family of solutions (``vanishing``: located where the
+branch cannot go on towards it, by extrapolation to zero). The values come from
 the problem's methods (:meth:`~nsm_continuation.core.problem.Problem.admissibility`,
 ``event_functions``, ``derived``, ``signature``); which kind each raises, whether it is located
 and whether it ends the branch are declared once, in the problem's :class:`Monitors`, like
@@ -31,6 +34,12 @@ class Source(StrEnum):
     SIGNATURE = "signature"
     #: a derived quantity watched for growth without bound as the parameter nears a limit
     ASYMPTOTE = "asymptote"
+    #: a positive derived quantity whose zero ends the family (the solutions beyond it are not
+    #: physical): where the branch fails approaching it, its zero is extrapolated
+    VANISHING = "vanishing"
+    #: the signature on the two sides of a kink the branch is continued through: a change is
+    #: a change of family
+    FAMILY = "family"
 
 
 @dataclass(frozen=True)
@@ -73,6 +82,21 @@ def asymptote(name: str) -> Monitor:
     return Monitor(name, "asymptote", Source.ASYMPTOTE, terminal=True)
 
 
+def vanishing(name: str, kind: str) -> Monitor:
+    """The positive derived quantity ``name``, whose zero ends the family of solutions (e.g.
+    the impact velocity of a family of impacting orbits): where the branch fails while the
+    quantity falls towards zero, the zero is extrapolated from the last resolved points
+    (:mod:`~nsm_continuation.core.palc.ends`) and the branch ends there with ``kind``."""
+    return Monitor(name, kind, Source.VANISHING, terminal=True)
+
+
+def family(kind: str) -> Monitor:
+    """The problem's signature compared across a kink the branch is continued through
+    (:meth:`~nsm_continuation.core.problem.Problem.continue_beyond`): a change raises ``kind``
+    (the branch goes on along another family of solutions)."""
+    return Monitor("signature", kind, Source.FAMILY)
+
+
 @dataclass(frozen=True)
 class Monitors:
     """The monitors a problem declares, in order, and the kind of the tests and event
@@ -109,6 +133,12 @@ class Monitors:
     def signature_kind(self) -> str | None:
         """The kind of a change of the signature (None: the problem declares no signature)."""
         found = self.of(Source.SIGNATURE)
+        return found[-1].kind if found else None
+
+    @property
+    def family_kind(self) -> str | None:
+        """The kind of a change of the signature across a kink (None: not declared)."""
+        found = self.of(Source.FAMILY)
         return found[-1].kind if found else None
 
     @property

@@ -18,7 +18,9 @@ see :meth:`nsm_continuation.core.problem.Problem.preflight`), for the bundled pr
   (a 1e-300 gap ends the chain's first branch after 14 points at a spurious branch point instead
   of 500 points at its nonlinear grazing orbit) and above ``1e100`` they overflow.
   :func:`check_gap` therefore accepts ``0`` or ``1e-100 <= |g| <= 1e100``: scale the gap (and
-  read the results scaled) outside that range.
+  read the results scaled) outside that range. Inside it a problem keeps its numerics
+  independent of the scale (the chain's unknowns are in units of ``|g|``; the bar's energies
+  are ratios to its reference energy, whose own range depends on ``E`` and ``L``).
 """
 
 from __future__ import annotations

@@ -117,11 +117,14 @@ class KinkCrossing:
     """A kink of a branch crossed by the problem (:meth:`Problem.continue_beyond`): points of
     the branch between the last accepted point and the zero (``approach``, in order; they
     resolve the side where the residual's Jacobian blows up), the ``zero`` and the first point
-    ``beyond`` it."""
+    ``beyond`` it. ``beyond`` None: the zero is located but the branch cannot be continued
+    beyond it, for the reason ``why`` (the engine ends the branch there, with the zero's event
+    named as the reason, when it cannot step past it either)."""
 
     approach: list[np.ndarray]
     zero: np.ndarray
-    beyond: np.ndarray
+    beyond: np.ndarray | None
+    why: str = ""
 
 
 @dataclass
@@ -141,7 +144,9 @@ class StartPoint:
     """An initial guess ``y`` (corrected by Newton before continuation starts).
 
     ``direction`` > 0 continues first towards increasing parameter, < 0 towards decreasing,
-    0 in both directions (the default). ``label`` names the branch in reports.
+    0 in both directions (the default). ``label`` names the branch in reports. ``info`` is
+    kept with the branch; its ``found`` (what the problem's own search for the start found,
+    e.g. the orbit a transient settled on) is added to the reason if the start fails.
     """
 
     y: np.ndarray
@@ -380,8 +385,12 @@ class Problem(Sweepable, Derivable, ABC):
         ``y`` is a point of the branch next to the zero (the located zero, or the last accepted
         point when the engine could not step across), ``tangent`` the direction of travel
         there and ``value`` the function's value on the side the branch comes from. The engine
-        records the event at ``y_zero`` and goes on from ``y_beyond``. None (the default): the
-        branch is smooth through the zero, or the problem cannot resolve it there."""
+        records the event at ``y_zero`` and goes on from ``y_beyond``. A crossing without
+        ``beyond`` (and its ``why``): the zero is located but no branch beyond it can be
+        followed (several families meet there, or the one beyond is not isolated); if the
+        engine cannot step past the zero either, the branch ends at it with the zero's event
+        and that reason. None (the default): the branch is smooth through the zero, or the
+        problem cannot resolve it there."""
         return None
 
     def rechart(self, y: np.ndarray, tangent: np.ndarray) -> Rechart | None:

@@ -20,12 +20,19 @@ import numpy as np
 #: (``Problem.event_kinds``, registered by :func:`register_event_kinds` when the class is
 #: defined).
 CORE_EVENT_KINDS: dict[str, str] = {
-    "fold": "a Floquet multiplier pair reaches +1 (or a limit point of the parameter); in a "
-            "conservative family it signals a bifurcating family of orbits",
-    "branch_point": "two solution curves cross (det of the bordered Jacobian changes sign)",
+    "fold": "a limit point: the continuation parameter reaches an extremum along the branch "
+            "(the tangent test), where a multiplier passes +1; in a conservative family a "
+            "multiplier pair colliding at +1, where the family turns in energy",
+    "branch_point": "two solution curves cross: det of the bordered Jacobian changes sign, and "
+                    "a real multiplier passes +1 where the parameter does not turn (a "
+                    "symmetry-breaking pitchfork or a transcritical point)",
     "period_doubling": "a multiplier passes through -1: a family of period-2T orbits bifurcates",
     "neimark_sacker": "a complex pair leaves the unit circle away from +-1 (for a conservative "
                       "system, after a Krein collision): quasi-periodic motion nearby",
+    "unresolved_crossing": "the number of multipliers counted outside the unit circle "
+                           "changes, but the multiplier responsible is not resolved beyond "
+                           "the multipliers' noise on both sides of the circle: no bifurcation "
+                           "is claimed (the bracket is where the count changes)",
     "stability_change": "the number of multipliers outside the unit circle becomes zero or "
                         "non-zero",
     "grazing": "an admissibility test or event function reaches zero: the orbit touches the "
@@ -36,6 +43,47 @@ CORE_EVENT_KINDS: dict[str, str] = {
     "endpoint": "end of the computed branch (bound reached or numerical termination)",
     "asymptote": "a monitored quantity (the energy, the size of the unknowns) grows without "
                  "bound as the parameter approaches a limit (estimated from the last points)",
+}
+
+#: how the engines locate each core kind (kind -> one line; the event glossary of the docs).
+#: "Located on the curve" is a zero found between two points of the branch by Illinois regula
+#: falsi with Dekker's closing step, to ``analysis.event_tol`` in arclength
+#: (:mod:`nsm_continuation.core.palc.locate`)
+CORE_EVENT_LOCATION: dict[str, str] = {
+    "fold": "a sign change of the tangent's parameter component, located on the curve (a +1 "
+            "crossing of the same step is that fold); in a conservative family a pair "
+            "colliding at +1, located as neimark_sacker "
+            "(:mod:`nsm_continuation.core.palc.branch_points`)",
+    "branch_point": "a sign change of the bordered determinant ``det[G_y; t^T]`` (tangents "
+                    "oriented continuously), located on the curve, or from the cubic through "
+                    "its values at resolved points on both sides where the corrector cannot "
+                    "converge near it; merged with the +1 crossing of the same step",
+    "period_doubling": "the count of multipliers outside ``1 + analysis.unit_circle_tol`` "
+                       "changes over a step: bisection on the count (to "
+                       "``analysis.multiplier_event_tol``), then the zero of ``|lambda| - 1`` "
+                       "of the crossing multiplier, located on the curve "
+                       "(:mod:`nsm_continuation.core.palc.crossings`)",
+    "neimark_sacker": "as period_doubling; in a conservative family a Krein collision is "
+                      "located on the colliding pair's discriminant ``(nu_1 - nu_2)^2``, and a "
+                      "window opened and closed inside one step is found from the Krein signs "
+                      "at its ends (:mod:`nsm_continuation.core.floquet.krein`)",
+    "unresolved_crossing": "not located: recorded at the bracket where the count of "
+                           "multipliers outside the circle changes, the multiplier responsible "
+                           "staying within the multipliers' noise on one side",
+    "stability_change": "with the crossing that makes the number of unstable multipliers zero "
+                        "or non-zero (at a grazing, where the multipliers jump, at the "
+                        "grazing)",
+    "grazing": "the zero of the admissibility test or event function that raises it, located "
+               "on the curve (a parabola through the last three values finds a double zero "
+               "inside one step); a kink there is crossed by the problem "
+               "(``Problem.continue_beyond``). The lattice engine: where the number of grazing "
+               "instants changes between two consecutive points",
+    "endpoint": "where the branch ends: an edge of the ``continuation`` window or a "
+                "``continuation.bounds`` entry, located on the bound; ``max_points``; or a "
+                "numerical termination, at the last point, with its reason",
+    "asymptote": "not located: a monitored quantity fits ``|p - p*|^(-k)`` over the last "
+                 "points and has grown a hundredfold; ``p*`` is extrapolated "
+                 "(:mod:`nsm_continuation.core.palc.asymptote`) and the branch ends",
 }
 
 #: kinds declared by the problem families defined so far (kind -> declaring class)

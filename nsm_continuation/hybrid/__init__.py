@@ -3,6 +3,9 @@
 * :mod:`.system` — the symbolic declaration (F, H, W or M, N, e) and everything CasADi derives from
   it: v, a, r, lambda, F', the chatter map Q, q, integrator steps with their exact Jacobians.
 * :mod:`.tableaus` — the Runge-Kutta tableaus of the integrator steps.
+* :mod:`.linear_flow` — the exact free flight of a system linear between events (modal flow,
+  particular harmonic solution, closed-form Jacobian), detected from the declaration;
+  :mod:`.modal_sums` its certified step lengths and extremes (exponential-trigonometric sums).
 * :mod:`.simulate` — event-driven simulation with complete chattering (Table 1), with the
   sensitivities of the end state (the saltation-chained monodromy, eqs. (40), (43)), built from
   :mod:`.modes` (the discrete states and their watched functions), :mod:`.hermite` (crossings

@@ -260,7 +260,7 @@ def attractor(stepper: ReturnMap, value: float, X: np.ndarray | None, transient:
         pt.section = pt.states[:, stepper.coordinate].copy()
         pt.return_times = np.array([r.t for _, r in rec])
         pt.sticking_times = np.array([r.sticking_time for _, r in rec])
-        pt.n_sticking = np.array([len(r.sticking_intervals) for _, r in rec], dtype=int)
+        pt.n_sticking = np.array([r.n_sticking_phases for _, r in rec], dtype=int)
         pt.n_impacts = np.array([r.n_impacts for _, r in rec], dtype=int)
         pt.signatures = [r.signature for _, r in rec]
         pt.quantities = [stepper.problem.result_quantities(r, value) for _, r in rec]

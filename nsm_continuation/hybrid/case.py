@@ -126,7 +126,8 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         """The keys of :meth:`derived` at a simulated point."""
         extremes = [f"{m}_{name}" for name in self.hybrid.state_names for m in ("min", "max")]
         names = [self.parameter, "period", "sticking_time", "n_impacts_before_chatter",
-                 "n_sticking_phases", "n_impacts", "min_impact_velocity", "grazing_margin",
+                 "n_sticking_phases", "n_impacts", "min_impact_normal_velocity",
+                 "min_impact_dH_dt", "grazing_margin",
                  *extremes, *(f"amplitude_{c}" for c in self.configuration_names)]
         if self.parameter == PERIOD:
             # the free parameter (any parameter may be named by the start block, which is read
@@ -266,9 +267,28 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
             d = {"both": 0, "increase": 1, "decrease": -1}[s.direction]
             label = s.label or (f"period-{s.returns} orbit" if s.returns > 1 else
                                 "period-1 orbit")
-            out.append(StartPoint(y, label, d, {"start": how, "returns": s.returns,
-                                                "n_state": c.n}))
+            info: dict[str, Any] = {"start": how, "returns": s.returns, "n_state": c.n}
+            found = None if s.guess is not None else self.transient_found(y, s.transient)
+            if found is not None:  # said if the start fails
+                info["found"] = found
+            out.append(StartPoint(y, label, d, info))
         return out
+
+    def transient_found(self, y: np.ndarray, periods: int) -> str | None:
+        """What the transient from ``start.initial`` settled on, where it explains a start
+        that fails: an orbit without impacts (it does not touch the impact surface; where the
+        free motion is not isolated, e.g. a body that may rest anywhere between two walls,
+        its Jacobian is singular). None for an orbit with impacts or sticking."""
+        res = self.sim(y)
+        if res is None or res.n_impacts or res.sticking_intervals:
+            return None
+        near = (f"; its closest approach leaves H = {res.grazing_margin:.3g}"
+                if np.isfinite(res.grazing_margin) else "")
+        return (f"the transient ({periods} periods from the initial state) settled on an orbit "
+                f"without impacts: it does not touch the impact surface{near}. A free orbit "
+                "that is not isolated (e.g. a body that may rest anywhere between two walls) "
+                "has a singular Jacobian: start from a guess on an impacting orbit "
+                "(start.guess) or from another initial state (start.initial)")
 
     # -- restart & branch switching (nsm_continuation.cases.restart) -------------------------------
     def period_multiple(self) -> int:

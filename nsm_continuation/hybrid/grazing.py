@@ -48,6 +48,20 @@ def grazing_approach(res: SimResult) -> int | None:
     return min(near)[1] if near else None
 
 
+def grazing_contacts(res: SimResult, floor: float = 0.0, factor: float = 1.5) -> int:
+    """How many contacts graze together: the signed grazing margins of ``res`` (near
+    approaches and decelerating impacts) within ``factor`` times the smallest one in
+    magnitude, or below ``floor`` (at the grazing point itself, where they are all at the
+    level of the integration error). One for a generic grazing; two or more where several
+    approaches reach the surface at once (e.g. both walls of a symmetric orbit), where the
+    single-grazing normal form (G1-G2) does not describe the branch beyond."""
+    m = np.abs(np.asarray(res.grazing_margins, dtype=float))
+    m = m[np.isfinite(m)]
+    if not m.size:
+        return 0
+    return int(np.sum(m <= factor * float(m.min()) + floor))
+
+
 def _non_impacting_point(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray
                          ) -> tuple[np.ndarray, SimResult] | None:
     """``y``, or a point within ``MAX_NUDGE`` of it along ``+-tangent``, whose orbit misses the
@@ -219,6 +233,27 @@ def _smooth_coordinate(m: float) -> float:
     return m if m >= 0 else -np.sqrt(-m)
 
 
+def _tangent_guess(sh: HybridShooting, y: np.ndarray, target: float) -> np.ndarray | None:
+    """``y + ds t`` with ``t`` the branch's unit tangent at the orbit ``y`` (the null vector of
+    ``G_y``) and ``ds`` the arclength at which the smooth coordinate ``w`` of the margin
+    (:func:`_smooth_coordinate`, linear in the arclength on either side of the grazing)
+    reaches its value at ``target``; None where that cannot be evaluated."""
+    mg = margin_gradient(sh, y)
+    try:
+        _, Gy = sh.residual_jacobian(y)
+    except ShootingFailure:
+        return None
+    if mg is None:
+        return None
+    m, grad_m = mg
+    t = np.linalg.svd(Gy)[2][-1]
+    dm = float(grad_m @ t)
+    dw = dm if m >= 0 else dm / (2.0 * np.sqrt(-m))
+    if dw == 0.0 or not np.isfinite(dw):
+        return None
+    return y + (_smooth_coordinate(target) - _smooth_coordinate(m)) / dw * t
+
+
 #: a margin below this (relative to ``1 + |y|``) is within the integration error of ``H``
 #: over one period (rtol 1e-10, atol 1e-12 by default): fixing it would chase noise
 MARGIN_FLOOR = 1e-10
@@ -234,7 +269,16 @@ def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 
     below 1e-14 in ``y``). Each solve is well conditioned (the ``1/|v|`` term of eq. G1 is
     cancelled by the margin's own gradient); the grazing point itself, where ``|v| = 0``, is
     never an iterate. The orbits solved on the way (the branch approaching the grazing, the
-    margin falling fourfold each) are appended to ``path_out``."""
+    margin falling fourfold each) are appended to ``path_out``.
+
+    A solve that fails from that guess starts again from the last orbit moved along the
+    branch's tangent there by the step that reaches the target in the smooth coordinate
+    (:func:`_tangent_guess`): on the impacting side the orbit a quarter of the margin away
+    lies where ``|v|`` is halved, a move of the order of ``|v|`` itself, and the ``1/|v|``
+    terms of the Jacobian can leave Newton a basin smaller than the guess's error (the
+    undamped oscillator at gaps -0.25 and -0.2: no Newton step from the orbit itself reduced
+    the residual; the secant extrapolation of the next level landed off the branch, 1e-3 in
+    the residual, and damped Newton stalled there)."""
     mg = margin_gradient(sh, y)
     if mg is None:
         return None
@@ -253,6 +297,9 @@ def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 
         else:
             guess = z
         zn = solve_margin(sh, guess, target, tol)
+        if zn is None:
+            retry = _tangent_guess(sh, z, target)
+            zn = None if retry is None else solve_margin(sh, retry, target, tol)
         if zn is None:
             return None
         if path_out is not None:

@@ -9,8 +9,8 @@ system (:class:`~nsm_continuation.hybrid.system.HybridSystem`):
   its forcing frequency: the **frequency-response curve**, the response amplitude
   ``(max - min) / 2`` of the impacting coordinate against the forcing frequency (the period,
   ``2 pi m / omega``, would only repeat the parameter), and a second figure
-  ``impacts_vs_<parameter>.png`` (extremes of the impacting coordinate, impact velocity, impacts
-  per period, sticking time);
+  ``impacts_vs_<parameter>.png`` (extremes of the impacting coordinate, the smallest normal
+  impact velocity ``|N^T qdot| / |N|``, impacts per period, sticking time);
 * a forced system continued in another parameter (the gap, the restitution, ...): a
   **bifurcation diagram** of the same response amplitude against that parameter, with the same
   second figure;
@@ -46,6 +46,7 @@ from nsm_continuation.core.symbols import math_symbol
 from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.hybrid.orbit_trace import orbit_trace, views_of
 from nsm_continuation.hybrid.return_map import PERIOD
+from nsm_continuation.hybrid.system import FLOWS
 
 #: the event kind of a branch ended by its period bound (``HybridShootingProblem.monitors``)
 HOMOCLINIC_KIND = "homoclinic_approach"
@@ -97,6 +98,8 @@ class HybridPresentation(Presentation):
                "restitution": "restitution $e$",
                "sticking_time": r"sticking time $\tau$",
                "min_impact_velocity": "smallest impact velocity $|v|$",
+               "min_impact_normal_velocity": r"smallest normal impact velocity "
+                                             r"$|N^T \dot q| / |N|$",
                "n_impacts": "impacts per period",
                "n_impacts_before_chatter": "impacts before the chatter map",
                "n_sticking_phases": "sticking phases per period",
@@ -119,15 +122,15 @@ class HybridPresentation(Presentation):
         head = [self.problem.swept_parameter]
         c = self.problem.response_coordinate
         if self.problem.response_key is not None:
-            head += [f"amplitude_{c}", f"max_{c}", f"min_{c}", "min_impact_velocity"]
+            head += [f"amplitude_{c}", f"max_{c}", f"min_{c}", "min_impact_normal_velocity"]
         return head + ["period", "sticking_time", "n_impacts_before_chatter"]
 
     # ------------------------------------------------------------------ figures
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
         """Forced systems: ``impacts_vs_<parameter>.png``, the extremes of the impacting
-        coordinate, the smallest impact velocity (log where it spans decades: it vanishes at
-        a grazing), the impacts per period and the sticking time against the continued
+        coordinate, the smallest normal impact velocity (log where it spans decades: it
+        vanishes at a grazing), the impacts per period and the sticking time against the continued
         parameter. Autonomous systems whose orbits stick: ``sticking_vs_<parameter>.png``, the
         sticking time (its vanishing is the loss of sticking, ``sticking_lost``), the impacts
         before the chatter map and the period. Styled as the branch diagram, events marked."""
@@ -142,12 +145,12 @@ class HybridPresentation(Presentation):
             ok = quantity_panels(
                 self.problem, branches, self.fep_labels[0],
                 [([f"max_{c}", f"min_{c}"], f"extremes of ${math_symbol(c) or c}$"),
-                 (["min_impact_velocity"], self.label("min_impact_velocity")),
+                 (["min_impact_normal_velocity"], self.label("min_impact_normal_velocity")),
                  (["n_impacts"], self.label("n_impacts")),
                  (["sticking_time"], self.label("sticking_time"))],
                 title=("Impacts along the frequency response" if self.problem.frequency_response
                        else "Impacts along the branch"),
-                path=Path(out_dir) / name, log=("min_impact_velocity",), x=x)
+                path=Path(out_dir) / name, log=("min_impact_normal_velocity",), x=x)
             return [name] if ok else []
         sticking = [p.derived.get("sticking_time", np.nan) for br in branches for p in br.points]
         if not np.nanmax(np.asarray(sticking, dtype=float), initial=0.0) > 0:
@@ -212,7 +215,9 @@ class HybridPresentation(Presentation):
 class HybridCasePresentation(HybridPresentation):
     """Presentation of a hybrid case problem
     (:class:`~nsm_continuation.hybrid.case.HybridCaseProblem`): the report also lists the
-    parameters, the integrator, the section and the unknowns."""
+    parameters, the integrator, the section and the unknowns; with ``integrator.method``
+    ``auto`` or ``exact``, the free flight that ran (``flow``: the exact flow, or the
+    Runge-Kutta method and why the exact flow does not apply)."""
 
     def summary(self) -> dict[str, Any]:
         pr = self.problem
@@ -221,6 +226,8 @@ class HybridCasePresentation(HybridPresentation):
                "section": {"coordinate": pr.hybrid.state_names[sec.index],
                            "value": sec.value, "shift_per_period": sec.shift},
                "unknowns": list(pr.variables)}
+        if pr.integrator.method in FLOWS:
+            out["flow"] = pr.shooting.c.flow_description()
         if pr.parameter == PERIOD:
             out["continued_in_period"] = {"free_parameter": pr.free_parameter}
         return out

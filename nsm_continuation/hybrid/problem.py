@@ -29,7 +29,14 @@ from nsm_continuation.core.problem import (
     Problem,
     Rechart,
 )
-from nsm_continuation.hybrid.grazing import locate_grazing, step_beyond, tangent_beyond
+from nsm_continuation.hybrid.grazing import (
+    MARGIN_FLOOR,
+    grazing_contacts,
+    locate_grazing,
+    margin_gradient,
+    step_beyond,
+    tangent_beyond,
+)
 from nsm_continuation.hybrid.orbit_trace import OrbitDeclarations
 from nsm_continuation.hybrid.presentation import HybridPresentation
 from nsm_continuation.hybrid.response import ResponseQuantities
@@ -47,10 +54,15 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
     """Base class of shooting problems on a hybrid system (the concrete problem builds
     ``self.shooting`` in ``__init__`` and sets ``variables`` / ``parameter``).
 
-    Hooks: ``derived`` (period, sticking time, impacts before the chatter map, ...), the
-    admissibility tests (the sticking time ``tau`` for orbits with sticking: its zero is the
-    transition to incomplete chattering, reported as ``sticking_lost``), and the event signature
-    (a change is ``impact_sequence_change``).
+    Hooks: ``derived`` (period, sticking time, impacts before the chatter map, the impact
+    velocities, ...), the admissibility tests (the sticking time ``tau`` for orbits with
+    sticking: its zero is the transition to incomplete chattering, reported as
+    ``sticking_lost``), and the event signature (a change is ``impact_sequence_change``; across
+    a grazing the branch is continued through, ``family_change``). The ends of a family are
+    named: a grazing the branch cannot be continued across (several contacts grazing at once,
+    say) ends it there, with the grazing; an impact velocity falling to zero
+    (``min_impact_normal_velocity``, a ``vanishing`` monitor) ends it at the extrapolated
+    zero, ``impact_velocity_vanishes``.
     """
 
     presentation_class = HybridPresentation
@@ -62,10 +74,21 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
                          "located where the sticking time reaches its floor, extrapolated to "
                          "zero)",
         "impact_sequence_change": "the sequence of events over one period changes other than "
-                                  "at a grazing (notation: I an impact, C a completed "
+                                  "across a grazing the branch is continued through (that is "
+                                  "a family_change) (notation: I an impact, C a completed "
                                   "chattering sequence with the impacts just before it, S a "
                                   "release from sticking, - no event; how many impacts the "
                                   "simulator resolves before the chatter map is no change)",
+        "family_change": "the branch is continued through a grazing onto another family of "
+                         "orbits: the event sequence differs on the two sides (signature "
+                         "before -> after); the points after it belong to the new family "
+                         "(column signature of the branch CSV)",
+        "impact_velocity_vanishes": "the normal velocity of an impact (|N^T qdot| / |N|, "
+                                    "N = dH/dq) falls to zero: the family of impacting orbits "
+                                    "ends (beyond it the impact would leave the surface). "
+                                    "Located by extrapolating the last resolved orbits to "
+                                    "zero velocity (the return map's Jacobian grows without "
+                                    "bound there); the branch ends at it",
         "homoclinic_approach": "the period grows without bound: the orbit approaches a "
                                "homoclinic orbit of a saddle (limit parameter from a fit "
                                "T ~ -ln|p - p*|/mu)",
@@ -78,6 +101,10 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         # approach that becomes an impact, or an impact that vanishes
         monitor.event_function("grazing_margin", "grazing"),
         monitor.signature("impact_sequence_change"),
+        # the event sequence on the two sides of a grazing the branch is continued through
+        monitor.family("family_change"),
+        # the smallest normal impact velocity: its zero ends a family of impacting orbits
+        monitor.vanishing("min_impact_normal_velocity", "impact_velocity_vanishes"),
         # a bound on the period ends the branch near a homoclinic orbit, one on the sticking
         # time where sticking is lost; continued in the period, the period's uncertainty
         # where it is no longer resolved in double precision
@@ -281,12 +308,15 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
             "period": float(res.t),
             "sticking_time": res.sticking_time,
             "n_impacts_before_chatter": float(res.n_impacts_before_chatter),
-            "n_sticking_phases": float(len(res.sticking_intervals)),
+            "n_sticking_phases": float(res.n_sticking_phases),
             "n_impacts": float(res.n_impacts),
-            "min_impact_velocity": (float(res.min_impact_velocity)
-                                    if np.isfinite(res.min_impact_velocity) else np.nan),
-            # signed grazing margin: min H of the near approaches (> 0) or -v^2/(2a) of a
-            # decelerating impact (< 0); crosses zero at a grazing bifurcation
+            # the physical impact velocity: |N^T qdot| / |N| of the slowest recorded impact
+            "min_impact_normal_velocity": self.min_normal_velocity(res),
+            # |dH/dt| of the slowest impact (chattering ones included): in units of H per time
+            "min_impact_dH_dt": (float(res.min_impact_velocity)
+                                 if np.isfinite(res.min_impact_velocity) else np.nan),
+            # signed grazing margin, in units of H: min H of the near approaches (> 0) or
+            # -v^2/(2a) of a decelerating impact (< 0); crosses zero at a grazing bifurcation
             "grazing_margin": (float(res.grazing_margin) if np.isfinite(res.grazing_margin)
                                else np.nan),
         }
@@ -300,6 +330,34 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
                 out[f"max_{name}"] = float(res.extremes[k, 1])
             out.update(self.response_quantities(out))
         return out
+
+    def min_normal_velocity(self, res: SimResult) -> float:
+        """The smallest normal velocity ``|v| / |dH/dx|`` of the impacts ``res`` records (an
+        impact from free flight, or the one that breaks off a chattering sequence), ``v = dH/dt``
+        (eq. 2) and ``dH/dx`` the gradient of ``H`` over the state without the clock: for a
+        mechanical system ``|N^T qdot| / |N|`` with ``N = dH/dq``, the velocity of the
+        configuration normal to the surface (Euclidean in ``q``), the same for any ``H`` with
+        the same zero set (``H`` and ``f(H)``, ``f(0) = 0 < f'``). ``H = gap - q``: ``|qdot|``;
+        a relative coordinate ``z = y - x`` (``H = d/2 - z`` or ``d^2/4 - z^2``): ``|zdot| /
+        sqrt 2``. With several surfaces, each impact's own ``H_i``. Impacts inside a chattering
+        sequence completed by the chatter map are not recorded (their velocities accumulate at
+        zero by construction). NaN without impacts."""
+        c = self.shooting.c
+        surfaces = c.calls().surfaces
+        params = np.asarray(res.X, dtype=float)[c.n:]
+        clock = self.hybrid.clock_index
+        best = np.inf
+        for ev in res.events:
+            if ev.kind not in ("impact", "chatter_broken") or "v" not in ev.info:
+                continue
+            grads = surfaces[ev.surface].grads
+            g = np.array(grads(np.concatenate([ev.x, params])), dtype=float)[0, : c.n]
+            if clock is not None:
+                g[clock] = 0.0
+            norm = float(np.linalg.norm(g))
+            if norm > 0:
+                best = min(best, abs(float(ev.info["v"])) / norm)
+        return float(best) if np.isfinite(best) else np.nan
 
     def event_functions(self, y: np.ndarray) -> dict[str, float]:
         """``grazing_margin``: the signed margin (near approach ``H_min > 0``, decelerating
@@ -317,7 +375,14 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         by margin-fixed solves from ``y`` (:func:`.grazing.locate_grazing`), and the first
         orbit beyond it from the discontinuity-map normal form (:func:`.grazing.step_beyond`,
         eqs. G1-G2): the impacting orbit born at the grazing, or the free one that follows an
-        impact that vanished."""
+        impact that vanished.
+
+        Where two contacts graze at once (both walls of a symmetric orbit:
+        :func:`.grazing.grazing_contacts`) several families meet and the single-grazing normal
+        form does not apply, and where no orbit beyond it converges: the located grazing
+        without one, and why. The engine then ends the branch at the grazing (from a step
+        that went across it, at once; ahead of a step that failed, if it cannot step past
+        it)."""
         if name != "grazing_margin":
             return None
         y = np.asarray(y, dtype=float)
@@ -325,13 +390,29 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         path: list[np.ndarray] = []
         yg = locate_grazing(self.shooting, y, tol, path_out=path)
         if yg is None:
-            return None
-        y1 = step_beyond(self.shooting, yg, tangent, from_impacting=value < 0, ds=ds, tol=tol)
-        if y1 is None:
-            return None
+            # ``y`` may already be the grazing point (a zero located on the margin in a step),
+            # from which the margin-fixed solves have nowhere to go
+            mg = margin_gradient(self.shooting, y)
+            if mg is None or abs(mg[0]) > MARGIN_FLOOR * (1.0 + float(np.linalg.norm(y))):
+                return None
+            yg = y
         # the approach, kept while it still moves (|v| halves per orbit: down to 1e-3 of the
         # first one it resolves the side where the Jacobian grows like 1/|v|)
         keep = [z for k, z in enumerate(path) if k < 10]
+        near = path[-1] if path else y
+        res = self.sim(near)
+        floor = MARGIN_FLOOR * (1.0 + float(np.linalg.norm(near)))
+        n = 0 if res is None else grazing_contacts(res, floor)
+        if n >= 2:  # the single-grazing normal form does not describe the branch beyond
+            return KinkCrossing(keep, yg, None, (
+                f"{n} contacts graze at once (their grazing margins vanish together, e.g. by "
+                "symmetry): several families of orbits meet here, and the normal form of a "
+                "single grazing (eq. G2) does not give the branch beyond"))
+        y1 = step_beyond(self.shooting, yg, tangent, from_impacting=value < 0, ds=ds, tol=tol)
+        if y1 is None:
+            return KinkCrossing(keep, yg, None, (
+                "no orbit beyond it converged from the normal form of the grazing (eq. G2): "
+                "the orbits beyond may not form an isolated family"))
         return KinkCrossing(keep, yg, y1)
 
     def tangent_beyond(self, name: str, y: np.ndarray, tangent: np.ndarray,

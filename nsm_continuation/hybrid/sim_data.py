@@ -33,7 +33,7 @@ class SimOptions:
     atol: float = 1e-12
     h_init: float = 1e-3
     h_max: float = np.inf
-    #: tolerance on the chatter map's estimated error (scaled by 1 + |x|, sec. 3.4)
+    #: tolerance on the chatter map's estimated error (scaled by ``1 + |x|``, sec. 3.4)
     chatter_tol: float = 1e-10
     #: 1: eqs. (30)-(31); 2: the improved estimate of eq. (35); 3: one more extrapolation level
     chatter_order: int = 3
@@ -125,6 +125,14 @@ class SimResult:
     @property
     def sticking_time(self) -> float:
         return float(sum(b - a for a, b in self.sticking_intervals))
+
+    @property
+    def n_sticking_phases(self) -> int:
+        """Sticking phases: the intervals, one that began at the start and one that lasts to
+        the end counted once (on a periodic orbit they are one phase, cut by the section)."""
+        iv = self.sticking_intervals
+        wraps = len(iv) > 1 and iv[0][0] == 0.0 and iv[-1][1] == self.t
+        return len(iv) - int(wraps)
 
     @property
     def n_impacts_before_chatter(self) -> int:

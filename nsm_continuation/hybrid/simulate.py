@@ -36,6 +36,17 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
 equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
 
+**Exact flows** (:mod:`.linear_flow`, ``integrator: {method: exact | auto}``). A field whose
+steps are an exact flow (the free flight of a system linear between events) has no integration
+error to control: it gives the length of its next step itself (as long as the watched functions,
+and a section on a dynamic coordinate, are certified clear of zero, else one cell over which the
+cubic Hermite interpolants are accurate, :func:`.modal_sums.certified_length`), so its steps are
+not checked at the midpoint; it gives the extremes of the state over a step
+(:func:`.modal_sums.grid_extremes`); and since its steps compose exactly, the sensitivity product
+``J <- J_step J`` of its steps is deferred to the next event, where the Jacobian of the flow over
+their total time is one evaluation (:meth:`Simulator._deferred`). Runge-Kutta fields run as
+before, to the bit.
+
 **Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
 tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
 tests/engine/test_bound_casadi_buffers_equal_plain_call.py`` check each against the
@@ -55,7 +66,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -75,8 +85,10 @@ from nsm_continuation.hybrid.modes import (
     watches,
 )
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
+from nsm_continuation.hybrid.surfaces import SurfaceContacts
 from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
+from nsm_continuation.hybrid.walk import _Walk
 
 __all__ = ["EXTENDED", "S1", "S2", "S3", "S4", "S5", "S6", "WATCH", "HERMITE_CHECK_BELOW",
            "REFINE_ITERATIONS", "SimEvent", "SimOptions", "SimResult", "SimulationError",
@@ -92,65 +104,7 @@ HERMITE_CHECK_BELOW = 1e-3
 REFINE_ITERATIONS = 30
 
 
-@dataclass
-class _Walk:
-    """Mutable state of one simulation (:meth:`Simulator.run`): the discrete state of each
-    surface ``modes`` (``active``: the surface that sticks or chatters, if any; ``key``: the
-    field integrated, :meth:`Simulator._key`; ``watch``: the watched functions,
-    :func:`.modes.watches`), the (extended) state ``Y`` with its sensitivities ``J = dY/dX0`` and
-    ``Jt = dt/dX0``, the time, the next step size, the probe and field at ``Y``, and what the
-    result reports."""
-
-    modes: list[str]
-    Y: np.ndarray
-    J: np.ndarray | None
-    Jt: np.ndarray | None
-    h: float
-    pr: np.ndarray
-    F: np.ndarray
-    #: running extremes of the state components (Simulator._extend_extremes)
-    lo: np.ndarray
-    hi: np.ndarray
-    traj: list[tuple[float, np.ndarray]] | None
-    stick_start: float | None
-    active: int | None = None
-    key: str = "free"
-    watch: list[tuple[int, int, str, int]] = field(default_factory=list)
-    #: offset of each surface's block in the probe (:func:`.system.probe_layout`)
-    offsets: list[int] = field(default_factory=list)
-    t: float = 0.0
-    #: the watched functions that fired last, with their surfaces (exactly zero at the step
-    #: start)
-    just: set[tuple[str, int]] = field(default_factory=set)
-    n_steps: int = 0
-    n_imp: int = 0
-    vmin: float = np.inf
-    graze: float = np.inf
-    events: list[SimEvent] = field(default_factory=list)
-    stick_iv: list[tuple[float, float]] = field(default_factory=list)
-    chatter_counts: list[int] = field(default_factory=list)
-    chatter_errors: list[float] = field(default_factory=list)
-    #: first-order chatter estimates of the current chattering sequence
-    seq: list[Any] = field(default_factory=list)
-    #: signed grazing margins of the near approaches and decelerating impacts, in time order
-    margins: list[float] = field(default_factory=list)
-    #: the surface of each margin
-    margin_surfaces: list[int] = field(default_factory=list)
-    #: unit normal (position components) of the surface at the impact that began the current
-    #: chattering flight (:meth:`Simulator._same_contact`)
-    seq_normal: np.ndarray | None = None
-
-    @property
-    def mode(self) -> str:
-        """The state of the active surface (sticking or chattering), else of the first."""
-        return self.modes[0 if self.active is None else self.active]
-
-    def record(self) -> None:
-        if self.traj is not None:
-            self.traj.append((self.t, self.Y[: self.lo.size].copy()))
-
-
-class Simulator(Transitions):
+class Simulator(Transitions, SurfaceContacts):
     """Event-driven simulator for one compiled system (see the module docstring)."""
 
     def __init__(self, c: CompiledHybrid, opts: SimOptions | None = None) -> None:
@@ -160,6 +114,10 @@ class Simulator(Transitions):
         self.o = opts or SimOptions()
         #: chatter error estimates of the current sequence (stall detection)
         self._errs: list[float] = []
+        #: the fields integrated by an exact flow (:mod:`.linear_flow`): steps of their own
+        #: length, extremes of their own, sensitivity products deferred to the next event
+        self._exact = {k: fs[0] for k, fs in self.calls.steps.items()
+                       if getattr(fs[0], "exact", False)}
 
     # ------------------------------------------------------------------ helpers
     def _key(self, modes: list[str], active: int | None) -> str:
@@ -229,6 +187,11 @@ class Simulator(Transitions):
         while True:
             self._guard(w, clock0)
             dt = min(w.h, self.o.h_max)
+            if w.key in self._exact:
+                # no integration error to control: the flow says how far it may go
+                dt = min(self.o.h_max, self._exact[w.key].max_step(
+                    w.Y, [wa[0] for wa in w.watch], section,
+                    tuple(i for i, wa in enumerate(w.watch) if (wa[2], wa[3]) in w.just)))
             last = False
             if t_stop is not None and w.t + dt >= t_stop:
                 dt, last = t_stop - w.t, True
@@ -245,8 +208,8 @@ class Simulator(Transitions):
                 continue
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
-        if w.active is not None and w.mode == S4 and w.stick_start is not None:
-            w.stick_iv.append((w.stick_start, w.t))
+        if w.defer is not None:
+            w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
             # fixed end time: t_end - t_k(X0) is the last flow time
             w.J = w.J - np.outer(w.F, w.Jt)
@@ -328,7 +291,8 @@ class Simulator(Transitions):
         ``Y_new``: both are the same CasADi expressions,
         ``tests/hybrid/test_rk_step_functions_equal_stagewise_step.py``).
         """
-        jac = w.J is not None and w.mode not in EXTENDED
+        exact = w.key in self._exact
+        jac = w.J is not None and w.mode not in EXTENDED and not exact
         outs = self._step(w.key, w.Y, dt, jac)
         if not jac:
             outs = (*outs, None)
@@ -344,7 +308,7 @@ class Simulator(Transitions):
             if w.h < 1e-14 * (1 + abs(w.t)):
                 raise SimulationError(f"step size underflow at t = {w.t:.6g}")
             return None
-        if en < HERMITE_CHECK_BELOW and not self._hermite_trustworthy(w, dt, outs):
+        if en < HERMITE_CHECK_BELOW and not exact and not self._hermite_trustworthy(w, dt, outs):
             w.h = dt * 0.25
             return None
         return (*outs, en)
@@ -406,7 +370,10 @@ class Simulator(Transitions):
         """Take the whole step (no crossing inside it) and choose the next step size."""
         Yn, prn, Fn, en = outs[0].ravel(), outs[3].ravel(), outs[4].ravel(), outs[-1]
         w.just = set()
-        if w.J is not None:
+        if w.J is not None and w.key in self._exact:
+            _key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
+            w.defer = (w.key, Y0, T + dt)
+        elif w.J is not None:
             Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
             w.J = Jstep @ w.J
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
@@ -424,6 +391,13 @@ class Simulator(Transitions):
         value on the true flow at the extremum of the cubic Hermite interpolant (ends and
         slopes ``F``). The location error ``ds`` of the interpolant costs ``O(ds^2)`` in the
         value: the extremes are exact to about the integration tolerance."""
+        exact = self._exact.get(w.key)
+        if exact is not None:
+            # the exact flow's own, on a grid as fine as these interpolants need
+            lo, hi = exact.extremes(Y0, dt)
+            np.minimum(w.lo, lo, out=w.lo)
+            np.maximum(w.hi, hi, out=w.hi)
+            return
         n = self.c.n
         a, b = Y0[:n], Y1[:n]
         np.minimum(w.lo, np.minimum(a, b), out=w.lo)
@@ -465,16 +439,20 @@ class Simulator(Transitions):
         key, Y, pr = w.key, w.Y, w.pr
         s, name, idx, _direction, surface = hit
         tau, Ye, pre, Fe, Jstep = self._refine(key, Y, dt, s * dt, name, idx, section)
-        smode = w.modes[surface] if surface >= 0 else None
-        if name == "v" and smode in (S2, S6):
-            # the turn of v came after the impact function went negative: an impact inside a
-            # dip the interpolant of H (or h) did not resolve. H (h) is monotone before the
-            # turn, so [0, tau] brackets exactly one impact.
-            hi_, hn = (w.offsets[surface], "H") if smode == S2 else (4, "h")
+        # the turn of v (or the section) came after an impact function went negative: an
+        # impact inside a dip the interpolant of H (or h) did not resolve (or placed after the
+        # section). H (h) is monotone before the turn, so [0, tau] brackets exactly one impact.
+        # (any approaching surface: the turn that fired may be a parallel surface's, e.g. the
+        # other wall of a cavity, whose v turns with this one's)
+        candidates = ([j for j, mo in enumerate(w.modes) if mo in (S2, S6)]
+                      if name in ("v", "section") else [])
+        for j in candidates:
+            hi_, hn = (w.offsets[j], "H") if w.modes[j] == S2 else (4, "h")
             if pre[hi_] < 0 <= pr[hi_]:
-                name, idx = hn, hi_
+                name, idx, surface = hn, hi_, j
                 tau, Ye, pre, Fe, Jstep = self._refine(
                     key, Y, tau, tau * pr[hi_] / (pr[hi_] - pre[hi_]), name, idx, section)
+                break
         if section is not None and name != "section":
             # the refined crossing may lie past the section (an event within round-off of
             # it, e.g. a turning point of q on a stroboscopic section): the section comes first
@@ -485,6 +463,8 @@ class Simulator(Transitions):
                 tau, Ye, pre, Fe, Jstep = self._refine(key, Y, tau, tau * a0 / (a0 - a1),
                                                        name, idx, section)
         if w.J is not None:
+            if key in self._exact:
+                Jstep = self._deferred(w, tau)
             Je = Jstep @ w.J
             gx = self._gx(name, idx, Ye, surface)
             dtau = -(gx @ Je) / (gx @ Fe)
@@ -550,109 +530,16 @@ class Simulator(Transitions):
             u, a = w.Y[self.c.N + 1], w.pr[2]
             w.h = min(max(2.0 * u / max(abs(a), 1e-300), 1e-300), max(w.h, 1e-300)) * 1.05
 
-    def _reclassify_others(self, w: _Walk, surface: int) -> None:
-        """After an impact on ``surface`` (a jump of the velocities) the other surfaces'
-        free-flight states follow the sign of their ``v``: an approach (``s2``) may have become
-        a departure (``s1``) or conversely, without any crossing of ``v``."""
-        changed = False
-        for j, mode in enumerate(w.modes):
-            if j == surface or j == w.active or mode not in (S1, S2, S3):
-                continue
-            v = float(w.pr[w.offsets[j] + 1])
-            new = S2 if v < 0 else (S1 if v > 0 else mode)
-            if new != mode:
-                w.modes[j], changed = new, True
-        if changed:
-            self._relayout(w, probe=False)
-
-    def _coincident_turns(self, w: _Walk, surface: int) -> None:
-        """Turns of ``v`` of other surfaces at the instant of the turn on ``surface`` (parallel
-        constraints such as a floor and a ceiling turn together: ``v_floor = -v_ceiling``).
-        At the located turn their ``v`` is zero to round-off, and a round-off sign would hide
-        their crossing from the next step (a lost near approach): each is fired here, in the
-        direction its ``a`` gives."""
-        tiny = 1e-12 * (1.0 + float(np.max(np.abs(w.Y[: self.c.n]))))
-        fired = set(w.just)
-        for j, mode in enumerate(w.modes):
-            if j == surface or mode not in (S1, S2, S5, S6) or ("v", j) in fired:
-                continue
-            off = w.offsets[j]
-            v, a = float(w.pr[off + 1]), float(w.pr[off + 2])
-            if abs(v) > tiny:
-                continue
-            if (mode in (S1, S5) and a < 0) or (mode in (S2, S6) and a > 0):
-                self._apply_transition(w, "v", w.pr, j, coincident=False)
-                fired |= w.just
-        w.just = fired
-
-    #: cosine of the angle between the surface's normals beyond which two impacts of one
-    #: constraint are on different parts of it (:meth:`Simulator._same_contact`)
-    SAME_CONTACT_COSINE = 0.5
-
-    def _contact_normal(self, Y: np.ndarray, surface: int) -> np.ndarray:
-        """Unit normal of ``surface`` at ``Y`` in the position components ``H`` depends on."""
-        pos = self.c.system.position or []
-        g = np.asarray(self.calls.surfaces[surface].grads(Y[: self.c.N])[0])[pos]
-        norm = float(np.linalg.norm(g))
-        return g / norm if norm > 0.0 else g
-
-    def _same_contact(self, w: _Walk) -> bool:
-        """Whether an impact of a chattering flight meets the surface where the sequence
-        began. A chattering sequence accumulates at one point of the surface, so its impacts
-        share the normal; one constraint whose zero set has several parts (``H = d^2 - q^2``
-        for two stops at ``+-d``) is met on another part when the normals differ (by more than
-        60 degrees): that impact ends the sequence, as an impact on another surface would."""
-        if w.seq_normal is None or w.active is None:
-            return True
-        nrm = self._contact_normal(w.Y, w.active)
-        return float(nrm @ w.seq_normal) >= self.SAME_CONTACT_COSINE
-
-    def _break_chatter(self, w: _Walk, surface: int) -> None:
-        """An impact on ``surface`` while another surface (or another part of the same one)
-        sticks or chatters. Sticking on one surface while hitting another is a contact with two
-        surfaces at once, which is not modelled (refused, named); a chattering flight is a
-        free flight: its sequence breaks off there (transition X of Table 1, as if it had
-        turned) and the impact follows as one of a free flight."""
-        c, act = self.c, w.active
-        assert act is not None
-        if w.modes[act] == S4:
-            raise SimulationError(
-                f"impact on {c.surface_label(surface)} at t = {w.t:.6g} while sticking on "
-                f"{c.surface_label(act)}: contact with two surfaces at once is not modelled")
-        N = c.N
-        w.events.append(SimEvent("chatter_broken", w.t, w.Y[: c.n].copy(),
-                                 {"impacts": len(w.seq)}, surface=act))
-        w.seq.clear()
-        w.seq_normal = None
-        w.Y = w.Y[:N].copy()
-        w.J = None if w.J is None else w.J[:N].copy()
-        v = float(c.q(w.Y, act)["v"])
-        w.modes[act] = S1 if v > 0 else S2
-        w.active = None
-        if surface == act:
-            w.modes[surface] = S2
-        self._relayout(w)
-
-    def _check_single_contact(self, w: _Walk, surface: int) -> None:
-        """An impact on ``surface`` while another surface is met at the same instant (within
-        round-off, moving inwards): simultaneous impacts have no declared law (refused)."""
-        c = self.c
-        if c.m == 1:
-            return
-        X = w.Y[: c.N]
-        tiny = 1e-10 * (1.0 + float(np.max(np.abs(X))))
-        for j in range(c.m):
-            if j == surface:
-                continue
-            qj = c.q(X, j)
-            if qj["H"] <= tiny and qj["v"] < 0:
-                raise SimulationError(
-                    f"simultaneous impacts on {c.surface_label(surface)} and "
-                    f"{c.surface_label(j)} at t = {w.t:.6g}: no impact law is declared for "
-                    "two surfaces at once")
-
     def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
+        if w.active is not None and w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
+        if w.mode == S4 and w.stick_start is not None:
+            # a sticking phase open at the end (the section or the end time) counts up to it
+            w.stick_iv.append((w.stick_start, w.t))
+            w.stick_start = None
         return SimResult(
             X=w.Y[:N].copy(), t=w.t, J=None if w.J is None else w.J[:N].copy(),
             Jt=None if w.Jt is None else w.Jt.copy(), events=w.events, state=w.mode,
@@ -662,6 +549,15 @@ class Simulator(Transitions):
             ended_by=ended_by, extremes=np.column_stack([w.lo, w.hi]),
             grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
             surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
+
+    def _deferred(self, w: _Walk, tau: float) -> np.ndarray:
+        """The Jacobian of an exact flow from the start of the steps deferred since the last
+        event (or from ``w.Y``) over their time and ``tau`` more: one evaluation instead of a
+        product per step (the flow composes, ``Phi(a) Phi(b) = Phi(a + b)``,
+        :mod:`.linear_flow`). Clears the deferral."""
+        key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
+        w.defer = None
+        return self._step(key, Y0, T + tau, True)[5]
 
     def _gx(self, name: str, idx: int, Y: np.ndarray, surface: int) -> np.ndarray:
         """Gradient of the event function ``name`` of ``surface`` with respect to the
@@ -683,8 +579,9 @@ class Simulator(Transitions):
 
         ``g(tau)`` is the watched function after one RK step of length ``tau`` from ``Y`` (field
         ``key``, under error control, since ``tau <= dt``); ``g'(tau)`` its exact time
-        derivative there."""
-        sens = self.o.sensitivities
+        derivative there. The Jacobian of an exact flow's step is left to the caller
+        (:meth:`_deferred`)."""
+        sens = self.o.sensitivities and key not in self._exact
         m = Y.size
         off = 0.0
         if name == "section":

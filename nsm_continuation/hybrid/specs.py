@@ -18,16 +18,34 @@ from nsm_continuation.hybrid.simulate import SimOptions
 
 class IntegratorSpec(BaseModel):
     """``parameters.integrator``: numerics of the hybrid simulator (defaults are the ones the
-    speed-accuracy chart in ``benchmarks/bench_chatter.py`` recommends)."""
+    speed-accuracy chart in ``benchmarks/bench_chatter.py`` recommends).
+
+    ``method``: ``dop853`` or ``dopri5`` (Runge-Kutta for every field), ``exact`` (the free
+    flight by its closed-form flow, :mod:`.linear_flow`, for a system linear between events;
+    refused with the reason otherwise) or ``auto`` (``exact`` where it applies, else
+    ``dop853``). The default stays ``dop853``: the exact flow changes a run's numbers at the
+    integration tolerance, and the bundled cases keep theirs; ``auto`` or ``exact`` is chosen
+    in the case (``parameters: {integrator: {method: auto}}``)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
-    method: Literal["dop853", "dopri5"] = "dop853"
+    #: the free flight's integrator: ``dop853`` or ``dopri5`` (Runge-Kutta), ``exact`` (the
+    #: closed-form flow of a system linear between events) or ``auto`` (``exact`` where it
+    #: applies, else ``dop853``)
+    method: Literal["dop853", "dopri5", "exact", "auto"] = "dop853"
     #: at least 1e-14: below, the step error test asks for less than the round-off of a step
     rtol: float = Field(1e-10, ge=1e-14, lt=1e-2)
+    #: absolute tolerance of the step error test
     atol: float = Field(1e-12, gt=0, lt=1e-2)
+    #: the chatter map is applied when its estimated error (scaled by 1 + |x|) is below this
+    #: (sec. 5.2)
     chatter_tol: float = Field(1e-10, gt=0, lt=1e-2)
+    #: the chatter map's order: 1, eqs. (30)-(31); 2, the improved estimate of eq. (35); 3
+    #: and 4, further extrapolation levels
     chatter_order: int = Field(3, ge=1, le=4)
+    #: a chattering sequence longer than this without meeting ``chatter_tol`` ends the
+    #: simulation (a failure, with its reason)
     max_chatter_impacts: int = Field(2000, ge=2)
+    #: wall-clock guard (seconds) on every simulation
     wall_time: float = Field(30.0, gt=0)
     #: a return to the Poincare section taking longer than this (simulated time) fails
     max_return_time: float = Field(1000.0, gt=0)
@@ -47,12 +65,18 @@ class HybridStartSpec(BaseModel):
 
     #: strict: ``true`` is not a number, ``"3"`` or ``2.0`` not an integer
     model_config = ConfigDict(extra="forbid", strict=True)
+    #: the section coordinates of a periodic orbit (the unknowns by name)
     guess: dict[str, float] | None = None
+    #: a full initial state by name (default: the problem's), simulated over
+    #: ``transient`` returns to a stable orbit
     initial: dict[str, float] | None = None
+    #: returns to the section simulated before the orbit is solved for
     transient: int = Field(40, ge=0)
     #: returns to the section per period (2 for a period-2 orbit)
     returns: int = Field(1, ge=1)
+    #: which way along ``continuation.parameter`` the branch is followed
     direction: Literal["both", "increase", "decrease"] = "both"
+    #: the branch's label in the report
     label: str | None = None
     #: with ``continuation.parameter: period``: the parameter that becomes an unknown (the
     #: period is prescribed along the branch), e.g. ``torque``; default the problem's

@@ -42,11 +42,16 @@ import casadi as ca
 import numpy as np
 
 from nsm_continuation.core.casadi_buffers import BufferedFunction
-from nsm_continuation.hybrid import tableaus
+from nsm_continuation.hybrid import linear_flow, tableaus
 
 
 class HybridDeclarationError(ValueError):
     """A declaration that cannot describe an impacting system (named field, clear message)."""
+
+
+#: a restitution ``r >= 1 - ELASTIC_TOL`` is an elastic impact (``r = 1`` up to the round-off of
+#: its derivation, eq. 8): no chatter map (:meth:`CompiledHybrid.validate_at`)
+ELASTIC_TOL = 1e-12
 
 
 def _dop853() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
@@ -60,6 +65,11 @@ def _dopri5() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, None, int
 
 #: explicit embedded Runge-Kutta tableaus (:mod:`nsm_continuation.hybrid.tableaus`)
 TABLEAUS = {"dop853": _dop853, "dopri5": _dopri5}
+
+#: the choices of free flight besides a tableau: ``exact`` (the closed-form flow of a system
+#: linear between events, :mod:`.linear_flow`; refused with the reason otherwise) and ``auto``
+#: (the exact flow where it applies, else DOP853). Sticking and chattering fields keep DOP853.
+FLOWS = ("auto", "exact")
 
 
 def rk_step(f: ca.Function, X: ca.SX, dt: ca.SX, method: str) -> tuple[ca.SX, ca.SX, ca.SX]:
@@ -246,8 +256,16 @@ class HybridSystem:
         state) and build the CasADi Functions: the derived quantities of the module docstring
         (eqs. 2-12, 24, 30-31), the projection onto the sticking set and the Runge-Kutta steps
         (:func:`_step_functions`). Raises :class:`HybridDeclarationError` naming the parameter
-        on a missing, unknown or non-finite value."""
+        on a missing, unknown or non-finite value.
+
+        ``method``: a Runge-Kutta tableau (``dop853``, ``dopri5``) for every field, or one of
+        :data:`FLOWS`: the free flight by its exact flow (:mod:`.linear_flow`; ``exact``
+        refuses a system that is not linear between events with the reason, ``auto`` falls
+        back to DOP853 and keeps the reason in :attr:`CompiledHybrid.flow_note`), the sticking
+        and chattering fields by DOP853. With the exact flow the Runge-Kutta step Functions
+        of the free flight are not built (:attr:`CompiledHybrid.steps` has no ``free``)."""
         self._check_values(values, free, method)
+        tableau = method if method in TABLEAUS else "dop853"
         fixed = [k for k in self.params if k not in free]
         sym_fixed = [self.params[k] for k in fixed]
         num_fixed = [float(values[k]) for k in fixed]
@@ -281,8 +299,21 @@ class HybridSystem:
             parts.append((H, v, a, jerk, LWH, r, lam, Fs, R, Q1, q1, P, W))
         blocks = [ca.vertcat(H, v, a, jerk) for H, v, a, jerk, *_ in parts]
         probe = blocks[0] if m == 1 else ca.vertcat(*blocks)
+        modal = None
+        note = ""
+        if method in FLOWS:
+            found = linear_flow.modal_flow(
+                ca.Function("F", [X], [F]), ca.Function("probe", [X], [probe]), self.n,
+                self.clock_index, [*self.state_names, *free])
+            if isinstance(found, str):
+                if method == "exact":
+                    raise HybridDeclarationError(f"integrator 'exact': {self.name}: {found}")
+                note = found
+            else:
+                modal = found
         fF, steps, probe_field, ext = _step_functions(
-            X, F, [(pt[7], pt[1]) for pt in parts], blocks, [pt[0] for pt in parts], method)
+            X, F, [(pt[7], pt[1]) for pt in parts], blocks, [pt[0] for pt in parts], tableau,
+            free_flight=modal is None)
         surfaces = []
         for i, (H, v, a, _jerk, LWH, r, lam, _Fs, R, Q1, q1, P, W) in enumerate(parts):
             fFs, fFe, probe_e, Xe = ext[i]
@@ -301,11 +332,12 @@ class HybridSystem:
                                                      ca.jacobian(q1, X), r, ca.jacobian(r, X)]),
                 project=ca.Function("project", [X], [P, ca.jacobian(P, X)])))
         return CompiledHybrid(
-            system=self, n=self.n, N=int(X.numel()), free=list(free), method=method,
-            order=TABLEAUS[method]()[5], f=fF,
+            system=self, n=self.n, N=int(X.numel()), free=list(free), method=tableau,
+            order=TABLEAUS[tableau]()[5], f=fF,
             probe=ca.Function("probe", [X], [probe]),
             surfaces=surfaces, steps=steps, probe_field=probe_field,
             values={k: float(v) for k, v in values.items()},
+            flow="exact" if modal is not None else tableau, flow_note=note, modal=modal,
         )
 
     def _check_values(self, values: dict[str, float], free: Sequence[str], method: str) -> None:
@@ -323,8 +355,9 @@ class HybridSystem:
                 raise HybridDeclarationError(f"{self.name}: unknown parameter {k!r}")
             if not np.isfinite(float(val)):
                 raise HybridDeclarationError(f"{self.name}: parameter {k!r} is not finite")
-        if method not in TABLEAUS:
-            raise HybridDeclarationError(f"integrator {method!r}: choose one of {list(TABLEAUS)}")
+        if method not in TABLEAUS and method not in FLOWS:
+            raise HybridDeclarationError(
+                f"integrator {method!r}: choose one of {[*FLOWS, *TABLEAUS]}")
 
     def _sticking_projection(self, X: ca.SX, H: ca.SX, v: ca.SX, W: ca.SX, r: ca.SX,
                              surface: int = 0) -> ca.SX:
@@ -367,7 +400,8 @@ def probe_layout(m: int, active: int | None, extended: bool) -> list[int]:
 
 
 def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
-                    blocks: list[ca.SX], Hs: list[ca.SX], method: str) -> tuple[Any, ...]:
+                    blocks: list[ca.SX], Hs: list[ca.SX], method: str,
+                    free_flight: bool = True) -> tuple[Any, ...]:
     """The fields ``F``, ``F'_i`` of each surface ``i`` (``sticking[i] = (F'_i, v_i)``) and the
     scaled extended field of sec. 4.3, eq. (44) (``(X, h, u)``, ``h' = v_i/u``, ``u' = 0``), with
     one Runge-Kutta step of each and its exact Jacobian, each with its probe (the blocks
@@ -375,7 +409,8 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
     ``(fF, steps, probe_field, ext)``; ``probe_field[key]`` gives the probe and the field of
     ``key`` at a state in one call; ``ext[i] = (fFs_i, fFe_i, probe_e_i, Xe)``. While sticking
     on surface ``i`` the other surfaces' blocks are Lie derivatives along ``F'_i`` (the field
-    integrated), so that each watched function's next entry is its time derivative."""
+    integrated), so that each watched function's next entry is its time derivative. Without
+    ``free_flight`` the steps of ``F`` are not built (the exact flow replaces them)."""
     hs, us = ca.SX.sym("h"), ca.SX.sym("u")
     Xe = ca.vertcat(X, hs, us)
     m = len(blocks)
@@ -404,6 +439,8 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
     probe_field = {}
     for key, f, Y, pr in layouts:
         probe_field[key] = ca.Function(f"probe_field_{key}", [Y], [ca.vertcat(pr, f(Y))])
+        if key == "free" and not free_flight:
+            continue
         Yn, err, err3 = rk_step(f, Y, dt, method)
         fields = f(Yn)
         prn = ca.substitute([pr], [Y], [Yn])[0]
@@ -521,6 +558,12 @@ class CompiledHybrid:
     #: per field (free, stick, ext, ...): ``vertcat(probe, field)`` at a state
     probe_field: dict[str, ca.Function] = field(default_factory=dict)
     values: dict[str, float] = field(default_factory=dict)
+    #: the free flight that runs: ``exact`` (:mod:`.linear_flow`) or the Runge-Kutta tableau
+    flow: str = ""
+    #: why the exact flow does not apply (``method: auto`` that fell back to Runge-Kutta)
+    flow_note: str = ""
+    #: the closed-form flow of the free flight (:class:`.linear_flow.ModalFlow`), if it runs
+    modal: linear_flow.ModalFlow | None = None
     _calls: HybridCalls | None = field(default=None, init=False, repr=False, compare=False)
 
     # the first surface's Functions (the only surface of a one-surface system)
@@ -569,7 +612,20 @@ class CompiledHybrid:
                 steps={k: tuple(BufferedFunction(f) for f in fs)  # type: ignore[misc]
                        for k, fs in self.steps.items()},
                 probe_field={k: BufferedFunction(f) for k, f in self.probe_field.items()})
+            if self.modal is not None:
+                self._calls.steps["free"] = linear_flow.exact_steps(  # type: ignore[assignment]
+                    self.modal, self._calls.probe_field["free"], self._calls.probe, self.n)
         return self._calls
+
+    def flow_description(self) -> str:
+        """The free flight that runs, in words (reports): the exact flow, or the tableau and,
+        for ``method: auto`` that fell back to it, why the exact flow does not apply."""
+        if self.modal is not None:
+            return (f"exact (closed-form modal flow between events; sticking and chattering: "
+                    f"{self.method})")
+        if self.flow_note:
+            return f"{self.method} (the exact flow does not apply: {self.flow_note})"
+        return self.method
 
     def surface_values(self, X: np.ndarray) -> np.ndarray:
         """``H_i(X)`` of every surface."""
@@ -588,17 +644,20 @@ class CompiledHybrid:
     def validate_at(self, X: np.ndarray, where: str,
                     qv: dict[str, float] | None = None, surface: int = 0) -> None:
         """Check the impact law at a point of ``surface`` (eqs. 6, 9 and sec. 2.4):
-        ``0 <= r < 1`` and ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already
-        evaluated). Raises :class:`HybridDeclarationError`."""
+        ``0 <= r <= 1`` and ``W`` tangent to the surface (``qv``: :meth:`q` at ``X`` if already
+        evaluated). ``r = 1`` (to :data:`ELASTIC_TOL`) is an elastic impact: it needs no
+        chatter map (its impacts do not accumulate), and the simulator refuses a chattering
+        sequence at it. Raises :class:`HybridDeclarationError`."""
         qv = self.q(X, surface) if qv is None else qv
         at = "" if self.m == 1 else f" on {self.surface_label(surface)}"
         if not np.isfinite(list(qv.values())).all():
             raise HybridDeclarationError(f"{self.system.name}: non-finite H, v, a, r or lambda "
                                          f"{where}{at}: {qv}")
-        if not (-1e-12 <= qv["r"] < 1.0):
+        if not (-1e-12 <= qv["r"] <= 1.0 + ELASTIC_TOL):
             raise HybridDeclarationError(
-                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}{at}; the chatter "
-                "map needs 0 <= r < 1 (eq. 9, sec. 3)")
+                f"{self.system.name}: restitution r = {qv['r']:.6g} {where}{at}; the impact "
+                "law needs 0 <= r <= 1 (eq. 9, sec. 3: r < 1 for the chatter map, r = 1 "
+                "elastic)")
         # W tangent to {H = 0} where v = 0 (sec. 2.4): L_W H must vanish on the surface
         scale = 1.0 + float(np.linalg.norm(self.calls().f.flat(X)))
         if abs(qv["LWH"]) > 1e-9 * scale:

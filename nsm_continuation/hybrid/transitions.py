@@ -24,7 +24,11 @@ import numpy as np
 
 from nsm_continuation.hybrid.modes import EXTENDED, S1, S2, S3, S4, S5, S6
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimulationError
-from nsm_continuation.hybrid.system import CompiledHybrid
+from nsm_continuation.hybrid.system import ELASTIC_TOL, CompiledHybrid
+
+#: an elastic impact (``r = 1``) with ``a < 0`` whose rebound flight ``2 |v| / |a|`` is shorter
+#: than this times ``1 + t`` starts a chattering sequence that never ends: refused
+ELASTIC_MIN_FLIGHT = 1e-10
 
 
 class Transitions:
@@ -118,7 +122,19 @@ class Transitions:
             info["near_approach"] = -q["v"] ** 2 / (2.0 * a)
         if mode == S2:
             seq.clear()
-        if a < 0 and o.chatter in ("map", "cut"):
+        # an elastic impact (r = 1): the rebound leaves with the incoming speed, so impacts
+        # where the field pushes into the surface (a < 0) do not accumulate: a plain impact,
+        # no chatter map (it needs r < 1). Near rest on the surface the rebounds come back
+        # within the time resolution and never end: a chattering sequence at r = 1, refused
+        elastic = q["r"] >= 1.0 - ELASTIC_TOL
+        if elastic and a < 0 and 2.0 * abs(q["v"]) <= ELASTIC_MIN_FLIGHT * (1.0 + abs(t)) * -a:
+            raise SimulationError(
+                f"chattering at r = 1 (t = {t:.6g}): an elastic impact on "
+                f"{c.surface_label(surface)} at |v| = {abs(q['v']):.3g} where the field pushes "
+                f"into it (a = {a:.3g} < 0) rebounds for less than {ELASTIC_MIN_FLIGHT:g} (1 + t):"
+                " a chattering sequence with r = 1 does not converge (the chatter map needs "
+                "r < 1, sec. 3)")
+        if a < 0 and o.chatter in ("map", "cut") and not elastic:
             # a chattering sequence: impacts accumulate where a < 0 (sec. 2.5)
             done = self._chatter_step(X, JX, Jt, t, seq, events, chatter_errors, surface)
             if done is not None:
@@ -143,12 +159,15 @@ class Transitions:
             seq.clear()
         if vplus <= 1e-14 * (1.0 + abs(q["v"])):                          # r = 0 (IV, V)
             seq.clear()
-            if a < 0:
+            # stick or release on the acceleration at the post-impact state (on {H = 0,
+            # v = 0}): a force that depends on the velocity (damping) changes sign across the
+            # impact, and the pre-impact a would release into the wall or stick off it
+            if self.calls.probe.flat(Xp)[4 * surface + 2] < 0:
                 Xs, Js = self._project(Xp, Jp, surface)
                 events.append(SimEvent("plastic_stick", t, Xs[: c.n].copy(), surface=surface))
                 return S4, Xs, Js, Jt, t, info
             return S3, Xp, Jp, Jt, t, info
-        if a < 0:                                                         # III, VII
+        if a < 0 and not elastic:                                         # III, VII
             v_row = v_grad.ravel()
             Ye = np.concatenate([Xp, [0.0, vplus]])
             Je = None

@@ -78,14 +78,43 @@ def event_record(ev: Event) -> dict[str, Any]:
     return rec
 
 
+def location_uncertainty(br: Branch, ev: Event, names: list[str],
+                         variables: list[str]) -> dict[str, float]:
+    """How far each quantity of ``names`` (a derived quantity or an unknown) may lie from its
+    value at the event: the event's bracket (the accuracy of its location in arclength) times
+    the quantity's rate along the branch, the largest secant slope over the intervals of the
+    branch's points around the event (0 for an event located exactly, as a bound)."""
+    w = float(ev.bracket)
+    pts = br.points
+    if not np.isfinite(w) or len(pts) < 2:
+        return {}
+    s = np.array([p.s for p in pts], dtype=float)
+    i = int(np.searchsorted(s, float(ev.point.s)))
+    spans = [(j, j + 1) for j in range(max(i - 2, 0), min(i + 1, len(pts) - 1))]
+    out = {}
+    for name in names:
+        slope = 0.0
+        for j, k in spans:
+            dv = pts[k].value(name, variables) - pts[j].value(name, variables)
+            if s[k] > s[j] and np.isfinite(dv):
+                slope = max(slope, abs(dv) / (s[k] - s[j]))
+        out[name] = slope * w
+    return out
+
+
 def termination_text(br: Branch) -> str:
     return "; ".join(f"{k}: {v}" for k, v in br.termination.items())
+
+
+#: the text column of ``branch_<id>.csv`` naming the family of each point (its signature)
+SIGNATURE_COLUMN = "signature"
 
 
 def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
                 ) -> tuple[list[str], list[list[Any]]]:
     """Columns and rows of ``branch_<id>.csv``: ``head`` (the problem's ``csv_head``, derived
-    quantities or unknowns), admissibility and stability, the other derived quantities, the
+    quantities or unknowns), admissibility and stability, the arclength, the signature (the
+    family of each point; problems with a signature only), the other derived quantities, the
     test functions, accuracy, the unknowns and the multipliers."""
     pts: list[Point] = br.points
     derived_keys: list[str] = []
@@ -100,7 +129,10 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
     n_mult = max((0 if p.multipliers is None else p.multipliers.size) for p in pts) if pts else 0
     head = list(head) if head is not None else []
     extra = [k for k in derived_keys if k not in head]
-    cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + extra
+    # the family each point belongs to: the problem's signature (a hybrid orbit's sequence of
+    # events), text
+    family = [SIGNATURE_COLUMN] if any(p.signature is not None for p in pts) else []
+    cols = (head + ["admissible", "stable", "max_abs_multiplier", "s"] + family + extra
             + [f"test_{k}" for k in test_keys]
             + ["trivial_multiplier_error", "newton_iterations", "residual_inf"]
             + [f"y_{v}" for v in variables]
@@ -113,6 +145,7 @@ def branch_rows(br: Branch, variables: list[str], head: list[str] | None = None
         mam = p.max_abs_multiplier
         rows.append([p.value(k, variables, "") for k in head] + [int(p.admissible), stable,
                     "" if not np.isfinite(mam) else mam, p.s]
+                    + ([p.signature or ""] if family else [])
                     + [p.derived.get(k, "") for k in extra]
                     + [p.tests.get(k, "") for k in test_keys]
                     + [p.trivial_error if p.multipliers is not None else "",
@@ -149,6 +182,13 @@ def _json_value(x: Any) -> Any:
     return y
 
 
+def is_plugin(problem: Any) -> bool:
+    """Whether ``problem``'s class (and so its presentation's figure hooks) is another
+    package's or a script's, not one of this package's: a failure of its figures is then its
+    own, reported, not a bug of this tool."""
+    return not type(problem).__module__.startswith("nsm_continuation.")
+
+
 def hook_name(problem: Any, hook: str) -> str:
     """The hook of ``problem``'s presentation named for a message: problem name, class, hook."""
     cls = type(problem.presentation)
@@ -163,7 +203,7 @@ def call_hook(problem: Any, hook: str, call: Callable[[], Any], check: Callable[
     its failure must not lose what was computed, nor pass for a bug of this tool."""
     try:
         return check(call())
-    except Exception as exc:  # noqa: BLE001 - any failure of a plugin's hook is reported
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of a hook is reported
         failures.append(f"{hook_name(problem, hook)} failed ({type(exc).__name__}: "
                         f"{short_text(str(exc))}); its part of the outputs is left out")
         return fallback
@@ -259,6 +299,9 @@ def build_report(res: RunResult, folder: str | None = None,
             for c in columns:  # a column that is an unknown, not a derived quantity
                 if c not in rec and c in bpr.variables:
                     rec[c] = _f(ev.point.y[bpr.variables.index(c)])
+            # what the location's accuracy leaves of each printed value (report.md's digits)
+            rec["location_uncertainty"] = {k: _f(v) for k, v in location_uncertainty(
+                br, ev, list(dict.fromkeys([*columns, bpr.parameter])), bpr.variables).items()}
             if link is not None:
                 rec["parent"] = link  # the event's branch was born there
             events.append(rec)
@@ -278,6 +321,9 @@ def build_report(res: RunResult, folder: str | None = None,
             "info": {k: _f(v) for k, v in br.info.items()},
             "events": events,
         })
+        runs = report_md.family_runs(br.points, bpr.parameter_index)
+        if runs:  # the families the branch went through (signature runs)
+            branches[-1]["families"] = runs
     s = res.settings
     saved = res.saved_report
     if saved is not None:  # read back: what the problem said at the end of the run
@@ -367,11 +413,20 @@ def write_files(res: RunResult, directory: Path, draw: Draw | None = None,
             w.writerow(cols)
             w.writerows(rows)
     figures: list[str] = []
-    if drawing:
-        assert drawer is not None
-        figures = drawer.figures()
-    elif draw is not None:
-        figures = draw(res, directory)
+    try:
+        if drawing:
+            assert drawer is not None
+            figures = drawer.figures()
+        elif draw is not None:
+            figures = draw(res, directory)
+    except (Exception, SystemExit) as exc:
+        if not is_plugin(res.problem) or is_no_space(exc):
+            raise
+        line = (f"problem {res.problem.name!r} ({type(res.problem).__module__}): the figures "
+                f"failed in its code ({type(exc).__name__}: {short_text(str(exc))}); they are "
+                "left out, the data and the report are written")
+        failures.append(line)
+        rep["warnings"] = [*rep.get("warnings", []), line]
     rep["figures"] = figures
     (directory / "report.json").write_text(json.dumps(rep, indent=1, default=_f))
     (directory / "report.md").write_text(report_md.markdown(rep))

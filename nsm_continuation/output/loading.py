@@ -21,8 +21,9 @@ report, a restart) can be done with it days later:
   ``nsm-continuation validate`` does.
 
 What a run does not save is not restored: the tangent at a point that is not an event (zero),
-the points' unit-circle tolerance (the case's), discrete signatures and event-function values
-(used while continuing only). A folder that is not a run of this tool, a file changed since
+the points' unit-circle tolerance (the case's) and event-function values (used while
+continuing only); a point's discrete signature is its CSV's ``signature`` column, where the
+problem has one. A folder that is not a run of this tool, a file changed since
 the run (its SHA-256 differs from the marker's), or a run of a newer format is one
 :class:`~nsm_continuation.core.errors.CaseError` line naming the folder and the problem.
 """
@@ -44,7 +45,7 @@ from nsm_continuation.core.errors import CaseError, short_text
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
-from nsm_continuation.output.files import _f
+from nsm_continuation.output.files import SIGNATURE_COLUMN, _f
 from nsm_continuation.runs.result import RunResult
 
 #: the columns of ``branch_<id>.csv`` between the head and the other derived quantities, and
@@ -113,6 +114,8 @@ class _Layout:
             raise CaseError(f"{where}: its columns are not those of a branch of unknowns "
                             f"{', '.join(variables)}")
         middle = cols[a + 4:t]
+        if middle[:1] == [SIGNATURE_COLUMN]:  # the family of each point (text)
+            middle = middle[1:]
         k = len(middle)
         while k > 0 and middle[k - 1].startswith("test_"):
             k -= 1
@@ -138,7 +141,8 @@ def _point(row: list[Any], lay: _Layout, derived_order: list[str], cols: list[st
                  multipliers=mult, trivial_error=0.0 if trivial == "" else trivial,
                  n_unstable=n_out, derived=derived, bordered_det=float("nan"),
                  newton_iterations=cell["newton_iterations"],
-                 residual_norm=cell["residual_inf"], circle_tol=tol)
+                 residual_norm=cell["residual_inf"], circle_tol=tol,
+                 signature=cell.get(SIGNATURE_COLUMN) or None)
 
 
 def _derived_order(events: list[dict[str, Any]], lay: _Layout, variables: list[str],
@@ -209,7 +213,10 @@ def read_rows(folder: Path, name: str, marker: dict[str, Any], label: str
                             "the run's marker)")
         with open(path, newline="", encoding="utf-8") as fh:
             table = list(csv.reader(fh))
-        return table[0], [[_cell(c) for c in r] for r in table[1:]]
+        # the signature column (the family of each point) is text
+        text = table[0].index(SIGNATURE_COLUMN) if SIGNATURE_COLUMN in table[0] else -1
+        return table[0], [[c if j == text else _cell(c) for j, c in enumerate(r)]
+                          for r in table[1:]]
     except CaseError:
         raise
     except OSError as exc:

@@ -37,6 +37,17 @@ def _fmt(x: Any, nd: int = 6) -> str:
     return str(x)
 
 
+def supported_digits(x: Any, uncertainty: Any, most: int = 12) -> int:
+    """The significant digits of ``x`` its ``uncertainty`` supports: the last one printed at
+    the decimal place of the uncertainty's leading digit, at least one, at most ``most`` (all
+    ``most`` when the uncertainty is zero or unknown)."""
+    if not isinstance(x, float) or not isinstance(uncertainty, float) or not uncertainty > 0 \
+            or not np.isfinite(x) or x == 0.0 or not np.isfinite(uncertainty):
+        return most
+    return int(min(most, max(1, np.floor(np.log10(abs(x)))
+                             - np.floor(np.log10(uncertainty)) + 1)))
+
+
 #: event data recorded as ``<name>_before`` / ``<name>_after`` (continuation order), in the
 #: order the ``change`` column of ``report.md`` looks for them
 PAIRED = ("stable", "n_outside", "signature", "admissible", "defined", "value")
@@ -206,6 +217,50 @@ def continue_hints(restart: dict[str, Any], folder: str, doubling: bool = True,
     return out
 
 
+def family_runs(points: list[Any], parameter_index: int) -> list[dict[str, Any]]:
+    """The families along a branch: its runs of consecutive points (in arclength order) with
+    the same signature (``Point.signature``: for a hybrid orbit its sequence of events), each
+    with its signature, first and last row of ``branch_<id>.csv`` and parameter range; empty
+    when the problem has no signature."""
+    runs: list[dict[str, Any]] = []
+    for k, p in enumerate(points):
+        if p.signature is None:
+            return []
+        par = float(p.y[parameter_index])
+        if runs and runs[-1]["signature"] == p.signature:
+            run = runs[-1]
+            run["rows"][1] = k
+            run["parameter_range"] = [min(run["parameter_range"][0], par),
+                                      max(run["parameter_range"][1], par)]
+        else:
+            runs.append({"signature": p.signature, "rows": [k, k],
+                         "parameter_range": [par, par]})
+    return runs
+
+
+def _family_lines(rep: dict[str, Any]) -> list[str]:
+    """The families each branch went through (``report.json``'s ``branches[i].families``),
+    for the branches that went through more than one."""
+    par = rep["continuation"].get("case_parameter") or rep["continuation"]["parameter"]
+    lines = []
+    for b in rep["branches"]:
+        runs = b.get("families") or []
+        if len(runs) < 2:
+            continue
+        parts = [f"`{r['signature']}` (rows {r['rows'][0]}-{r['rows'][1]}, {par} "
+                 f"{_fmt(r['parameter_range'][0])} .. {_fmt(r['parameter_range'][1])})"
+                 for r in runs]
+        lines.append(f"- branch {b['id']}: " + ", then ".join(parts))
+    if not lines:
+        return []
+    return ["## Families", "",
+            "Branches whose points belong to more than one family of orbits (the event "
+            "sequence of each point, column `signature` of the branch CSV, in arclength "
+            "order). A change across a grazing the branch was continued through is a "
+            "`family_change` event; the rows after it belong to the new family.", "",
+            *lines, ""]
+
+
 def _tree_lines(rep: dict[str, Any]) -> list[str]:
     """The bifurcation diagram's tree (``report.json``'s ``diagram``) and its cascade."""
     d = rep.get("diagram")
@@ -259,11 +314,24 @@ def _continue_lines(rep: dict[str, Any]) -> list[str]:
              "are inherited from this run.", ""]
     for h in hints:
         value = h["parameter"]
-        at = f" at {_fmt(value, 10)}" if value is not None else ""
+        at = f" at {_fmt(value, supported_digits(value, _hint_uncertainty(rep, h), 10))}" \
+            if value is not None else ""
         code = " + ".join(f"`{part}`" for part in h["yaml"].split("\n"))
         lines.append(f"- branch {h['branch']}, {h['kind']} #{h['index']}{at}: {h['what']}: "
                      f"{code}")
     return [*lines, ""]
+
+
+def _hint_uncertainty(rep: dict[str, Any], hint: dict[str, Any]) -> float | None:
+    """The uncertainty of the continued parameter at the event a ``continue_from_here`` hint
+    starts from (its ``location_uncertainty``), or None."""
+    branch = next((b for b in rep["branches"] if b["id"] == hint["branch"]), None)
+    evs = [e for e in (branch or {}).get("events", []) if e["kind"] == hint["kind"]]
+    restart = next((b for b in (rep.get("restart") or {}).get("branches", [])
+                    if b["id"] == hint["branch"]), {})
+    if hint["index"] >= len(evs) or "parameter" not in restart:
+        return None
+    return (evs[hint["index"]].get("location_uncertainty") or {}).get(restart["parameter"])
 
 
 def _table(rows: list[dict[str, Any]]) -> list[str]:
@@ -329,7 +397,7 @@ def _branch_lines(rep: dict[str, Any]) -> list[str]:
                   "row of the CSV is in the chart its `section_*` column names, and a "
                   "restart reads it there):", ""]
         lines += [f"- branch {i}: {m}" for i, m in moves]
-    return [*lines, "", *_tree_lines(rep)]
+    return [*lines, "", *_family_lines(rep), *_tree_lines(rep)]
 
 
 def _event_lines(rep: dict[str, Any]) -> list[str]:
@@ -352,7 +420,9 @@ def _event_lines(rep: dict[str, Any]) -> list[str]:
         e = in_parameter_order(e)
         mults = e.get("multipliers") or []
         mam = max((abs(complex(*m)) for m in mults), default=None)
-        vals = " | ".join(_fmt(e.get(c), 12) for c in cols)
+        # each value to the digits its location's accuracy supports (report.json: all)
+        unc = e.get("location_uncertainty") or {}
+        vals = " | ".join(_fmt(e.get(c), supported_digits(e.get(c), unc.get(c))) for c in cols)
         # an event of a branch born at another point links to it
         branch = f"{bid} (from {link_text(e['parent'])})" if e.get("parent") else f"{bid}"
         hidden = " (a window inside one step: found from the Krein signs of its ends)" \

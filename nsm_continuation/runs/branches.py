@@ -15,6 +15,7 @@ from nsm_continuation.algorithms.registry import make_algorithm, unsupported
 from nsm_continuation.cases.restart import start_points
 from nsm_continuation.cases.schema import Case
 from nsm_continuation.core.errors import CaseError
+from nsm_continuation.core.palc import HOOK_FAULTS, describe_fault
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch
 from nsm_continuation.core.settings import ContinuationSettings
@@ -92,7 +93,7 @@ class _Progress:
 
 
 def _failed_start(case: Case, problem: Problem, settings: ContinuationSettings,
-                  window: tuple[float | None, float | None], exc: Exception,
+                  window: tuple[float | None, float | None], exc: Exception | str,
                   t0: float) -> RunResult:
     """The start block passed the preflight but its starts could not be built (e.g. the
     transient simulation that finds a hybrid orbit failed): one failed branch records why."""
@@ -160,6 +161,9 @@ def _run(case: Case, problem: Problem, algorithm: Any, settings: ContinuationSet
                  else algorithm.seeds_from_points(starts))
     except ValueError as exc:
         return _failed_start(case, problem, settings, window, exc, t0)
+    except HOOK_FAULTS as exc:  # the problem's start_points failed: its fault, named
+        return _failed_start(case, problem, settings, window, describe_fault(exc, problem.name),
+                             t0)
     algorithm.prepare()
     t_setup = time.perf_counter() - t0
     bar = _Progress(case, len(seeds) * settings.max_points, progress, poll)

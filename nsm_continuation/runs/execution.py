@@ -48,6 +48,7 @@ why and which workers were lost (:meth:`DaskSession.watch`); the branches comput
 
 from __future__ import annotations
 
+import asyncio
 import time
 import warnings
 from collections.abc import Callable, Iterator
@@ -197,8 +198,9 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     if execution.scheduler:
         security = check_scheduler(execution.scheduler)
         try:
-            return Client(execution.scheduler, timeout=CONNECT_TIMEOUT_S,
-                          security=security), None
+            client = Client(execution.scheduler, timeout=CONNECT_TIMEOUT_S, security=security)
+            _quiet_reconnects()
+            return client, None
         except (OSError, TimeoutError) as exc:  # it went away since it answered the check
             raise CaseError(f"{_SCHEDULER}: no Dask scheduler answers at "
                             f"{execution.scheduler}: {one_line(str(exc))}") from None
@@ -234,6 +236,31 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
                 "`if __name__ == \"__main__\":` (each worker process imports the script "
                 "again)") from None
     return Client(cluster), cluster
+
+
+class _ConnectionLossFilter:
+    """Drops the client's tracebacks of a lost scheduler connection (its reconnection
+    attempts): the run says it in one line (:meth:`DaskSession.watch`)."""
+
+    def filter(self, record: Any) -> bool:
+        if str(record.msg).startswith("Failed to reconnect to scheduler"):
+            return False
+        exc = record.exc_info[1] if record.exc_info else None
+        while exc is not None:
+            if isinstance(exc, (OSError, asyncio.CancelledError)) or \
+                    type(exc).__name__ == "CommClosedError":
+                return False
+            exc = exc.__cause__ or exc.__context__
+        return True
+
+
+def _quiet_reconnects() -> None:
+    """Install :class:`_ConnectionLossFilter` on Dask's client logger (once)."""
+    import logging
+
+    log = logging.getLogger("distributed.client")
+    if not any(isinstance(f, _ConnectionLossFilter) for f in log.filters):
+        log.addFilter(_ConnectionLossFilter())
 
 
 def _abandon(clusters: set[Any]) -> None:
@@ -305,8 +332,18 @@ class DaskSession:
         joined the scheduler); Dask would keep them waiting for a worker forever. Asks the
         scheduler at most once a second; once it holds, it holds for the rest of the run."""
         now = time.monotonic()
-        if self.lost is not None or self._client is None or now - self._checked < 1.0:
+        if self.lost is not None or self._client is None:
             return self.lost
+        status = str(getattr(self._client, "status", "running"))
+        if status not in ("running", "newly-created"):
+            # the scheduler went away: Dask's client tries to reconnect, then cancels every
+            # future ("scheduler-connection-lost"); the run ends with this reason at once
+            where = self.execution.scheduler or "the local cluster"
+            self.lost = one_line(f"{NOT_COMPUTED}the connection to the Dask scheduler of "
+                                 f"{where} was lost during the run (client {status})")
+            return self.lost
+        if now - self._checked < 1.0:
+            return None
         self._checked = now
         try:
             workers = set(self._client.scheduler_info().get("workers", {}))
@@ -513,6 +550,13 @@ def wait_all(futures: list[Any], poll: Callable[[], None] | None,
             done, pending = wait(list(pending), timeout=0.25, return_when="FIRST_COMPLETED")
         except TimeoutError:  # nothing finished yet: only the signals are polled
             done = set()
+        except Exception:  # futures cancelled by a lost scheduler: end with that reason
+            why = None if session is None else session.watch()
+            if why is None:
+                raise
+            for f in pending:
+                f.cancel(reason=why)
+            return
         if done_callback is not None:
             for f in done:
                 done_callback(f)
@@ -560,6 +604,8 @@ def search_seeds_distributed(session: DaskSession, raw_case: dict[str, Any], alg
         # done: adopting overlaps with the pieces still computing
         nonlocal t_adopt
         while len(per_piece) < len(futures) and futures[len(per_piece)].done():
+            if futures[len(per_piece)].cancelled():  # the cluster was lost (session.watch)
+                raise ValueError(f"start: {session.watch() or NOT_COMPUTED + 'cancelled'}")
             result, dt = futures[len(per_piece)].result()  # a piece's error raises here
             t2 = time.perf_counter()
             algorithm.adopt_seed_piece(result)

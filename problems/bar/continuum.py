@@ -33,6 +33,7 @@ from nsm_continuation.problems.bar.continuum_orbits import (
     subharmonic_signature,
 )
 from nsm_continuation.problems.bar.presentation import BarContinuumPresentation
+from nsm_continuation.problems.bar.wfem_operators import check_reference_energy
 from pydantic import (
     BaseModel,
     Discriminator,
@@ -63,9 +64,14 @@ class BarContinuumParameters(CanonicalNames):
 
 
     model_config = STRICT
+    #: Young's modulus ``E``
     E: PosFloat = 1.0
+    #: density ``rho`` (wave speed ``c = sqrt(E / rho)``)
     rho: PosFloat = 1.0
+    #: the bar's length ``L`` (clamped at ``x = 0``, contact at ``x = L``)
     L: PosFloat = 1.0
+    #: the gap ``g0``: contact at ``u(L) = gap``; > 0 open, < 0 prestressed (nonzero:
+    #: the vertical line of ``gap = 0`` is ``problem: wfem_bar``'s)
     gap: Annotated[float, Field(allow_inf_nan=False)]
 
     @field_validator("gap")
@@ -82,27 +88,34 @@ class _StartBase(BaseModel):
     model_config = STRICT
     #: starting frequency; default: middle of the admissible interval for the sign of g0
     omega_ratio: PosFloat | None = None
+    #: which way along ``continuation.parameter`` the branch is followed
     direction: Literal["both", "increase", "decrease"] = "both"
 
 
 class MainStart(_StartBase):
     """Main backbone of mode k (sec. 6.1)."""
 
+    #: the main backbone
     branch: Literal["main"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=100)] = 1
 
 
 class SubharmonicStart(_StartBase):
     """n-th subharmonic backbone of mode k (sec. 6.2)."""
 
+    #: a subharmonic backbone
     branch: Literal["subharmonic"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=100)] = 1
+    #: the subharmonic's order ``n``
     n: Annotated[int, Field(ge=1, le=100)] = 1
 
 
 class SignatureStart(_StartBase):
     """An explicit signature ``[a, b]``: the branch ``t_f = a T + b`` (``m = a M + b N``)."""
 
+    #: ``[a, b]``: the free time ``t_f = a T + b`` in units of ``L / c``
     signature: Annotated[list[int], Field(min_length=2, max_length=2)]
 
     @field_validator("signature")
@@ -160,11 +173,7 @@ class BarContinuumProblem(Problem):
         if not (np.isfinite(self.omega1) and self.omega1 > 0):
             raise ValueError(f"parameters.E: E, rho and L give omega_1 = pi c / (2L) = "
                              f"{self.omega1:.3g}, not a positive finite number: rescale them")
-        if not 1e-200 <= self.energy_ref <= 1e200:
-            raise ValueError(
-                f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
-                f"{self.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200], where double "
-                "precision resolves the energies: rescale E, L or the gap")
+        check_reference_energy(self.E, self.L, self.g0)
 
     # ------------------------------------------------------------------ preflight
     #: seconds of one orbit evaluation (jump set, end series, margins) ~ A + B |a| (laps + 1)

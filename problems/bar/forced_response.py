@@ -58,6 +58,7 @@ from nsm_continuation.problems.bar.linear_forced import (
     linear_wall_response,
 )
 from nsm_continuation.problems.bar.presentation import ForcedBarPresentation
+from nsm_continuation.problems.bar.wfem_operators import check_reference_energy
 from nsm_continuation.problems.bar.wfem_stepping import BarParams, Loading, rest_state
 from pydantic import BaseModel, BeforeValidator, Field, field_validator, model_validator
 
@@ -87,10 +88,15 @@ class ForcedBarParameters(CanonicalNames):
 
 
     model_config = STRICT
+    #: Young's modulus ``E``
     E: PosFloat = 1.0
+    #: density ``rho``
     rho: PosFloat = 1.0
+    #: the bar's length ``L``
     L: PosFloat = 1.0
+    #: the number of WFEM cells (the paper's ``N``)
     cells: Annotated[int, Field(ge=2, le=100_000)] = 100
+    #: the gap ``g0`` at rest: contact at ``u(L) = g0 + w(t)``
     gap: Finite = 1e-3
     #: ``w0`` of the wall ``w(t) = w0 sin(omega t)`` (section 7)
     wall_amplitude: Finite = 0.0
@@ -99,11 +105,21 @@ class ForcedBarParameters(CanonicalNames):
     #: ``zeta_1``, a number or a list (one sweep per value): ``eta = 2 rho omega_1 zeta_1``
     damping_ratio: Annotated[list[DampingRatio], BeforeValidator(_as_list),
                              Field(min_length=1, max_length=10)] = [0.01]
+    #: forcing periods simulated before the averages are compared (at least
+    #: ``transient_time`` too)
     transient_periods: Annotated[int, Field(ge=0, le=1_000_000)] = 10
+    #: forcing periods per block of period averages (blocks are simulated until the
+    #: averages repeat, k-periodic to ``steady_tol``)
     average_periods: Annotated[int, Field(ge=2, le=10_000)] = 8
+    #: the shortest transient (time; default 3 decay times ``2 rho / eta``)
     transient_time: NonNegFloat | None = None
+    #: the longest simulation per frequency (time; default 12 decay times; required
+    #: with a zero damping): beyond it the response is recorded as not steady
     max_time: PosFloat | None = None
+    #: relative tolerance of the k-periodicity of the period averages
     steady_tol: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 2e-3
+    #: contact switches on the time grid (``grid``, the paper's algorithm, exactly
+    #: energy-conserving without damping) or inside the step (``subcell``)
     switching: Literal["grid", "subcell"] = "subcell"
 
     @field_validator("gap")
@@ -132,6 +148,7 @@ class ForcedStart(BaseModel):
     rest at every frequency."""
 
     model_config = STRICT
+    #: start each frequency from the previous one's steady state (else from rest)
     warm_start: bool = True
 
 
@@ -186,10 +203,7 @@ class WfemForcedBarProblem(SweepProblem):
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"parameters.E: E, rho and L give {name} = {v:.3g}, not a "
                                  "positive finite number: rescale them")
-        if bar.g0 != 0 and not 1e-200 <= bar.energy_ref <= 1e200:
-            raise ValueError(f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
-                             f"{bar.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200]: "
-                             "rescale E, L or the gap")
+        check_reference_energy(bar.E, bar.L, bar.g0)
 
     @property
     def energy_scale(self) -> float:

@@ -37,8 +37,10 @@ from nsm_continuation.problems.bar.wfem_lattice import (
     BarModel,
     LatticeSolution,
     profile_jumps,
+    solve_node,
 )
 from nsm_continuation.problems.bar.wfem_nodes import WfemLatticeNodes
+from nsm_continuation.problems.bar.wfem_operators import check_reference_energy
 from nsm_continuation.problems.bar.wfem_preflight import WfemBarPreflight
 from nsm_continuation.problems.bar.wfem_starts import (
     MainStart,
@@ -63,10 +65,16 @@ class WfemBarParameters(CanonicalNames):
 
 
     model_config = STRICT
+    #: Young's modulus ``E``
     E: PosFloat = 1.0
+    #: density ``rho`` (wave speed ``c = sqrt(E / rho)``)
     rho: PosFloat = 1.0
+    #: the bar's length ``L`` (clamped at ``x = 0``, contact at ``x = L``)
     L: PosFloat = 1.0
+    #: the number of WFEM cells (the paper's ``N``)
     cells: Annotated[int, Field(ge=2, le=200_000)] = 200
+    #: the gap ``g0``: contact at ``u(L) = gap``; > 0 open, 0 static grazing (vertical
+    #: backbones), < 0 prestressed
     gap: Annotated[float, Field(allow_inf_nan=False)] = 1e-3
     #: filter: largest number of profile jumps kept, as a fraction of N (grid-scale orbits jump at
     #: O(N) places); persistence under N -> 2N is always checked
@@ -122,11 +130,12 @@ class WfemBarProblem(WfemBarPreflight, WfemBarSeeds, WfemLatticeNodes, LatticePr
                 raise ValueError(f"parameters.E: E, rho and L give {name} = {v:.3g}, not a "
                                  "positive finite number: rescale them")
         if md.g0 != 0:
-            if not 1e-200 <= md.energy_ref <= 1e200:
+            check_reference_energy(md.E, md.L, md.g0)
+            if abs(md.g0) > md.L:
                 raise ValueError(
-                    f"parameters.gap: the reference energy pi^2 E g0^2 / (16 L) = "
-                    f"{md.energy_ref:.3g} (eq. 14) is outside [1e-200, 1e200], where double "
-                    "precision resolves the energies: rescale E, L or the gap")
+                    f"parameters.gap: |gap| = {abs(md.g0):g} exceeds the bar's length L = "
+                    f"{md.L:g}: no orbit meets COND3 (strain |sigma| / E <= 1), since the end's "
+                    "displacement g0 is the integral of the strain over the bar")
             need = ceil(2 / p.max_jumps_fraction - 1e-12)
             if md.N < need:
                 raise ValueError(
@@ -217,8 +226,23 @@ class WfemBarProblem(WfemBarPreflight, WfemBarSeeds, WfemLatticeNodes, LatticePr
                 best = min(cands, key=lambda s: (abs(np.log(s.energy / e_pred)),
                                                  abs(s.counts[0] - m_c)))
                 return best, ""
+        if len(last.counts) == 2 and self._strained(last, dM, W + jumps):
+            return None, ("COND3: the next orbits strain the bar beyond |sigma| = E (the "
+                          "small-strain model ends here; the strain grows with the energy and "
+                          "the gap)")
         return None, (f"no physical admissible lattice orbit within {max_gap} period steps "
                       "of the prediction")
+
+    def _strained(self, last: LatticeSolution, dM: int, width: int) -> bool:
+        """Whether an orbit of the next three periods (``M + dM j``) near ``last`` fails COND3
+        alone (where the branch's next orbits are: the search found none admissible)."""
+        m0 = last.counts[0]
+        for j in (1, 2, 3):
+            M = last.M + dM * j
+            for m in range(max(1, m0 - width * j), min(M - 1, m0 + width * j) + 1):
+                if solve_node(self.model, (m, M - m))[0] == "inadmissible: cond3_strain":
+                    return True
+        return False
 
     @staticmethod
     def _energy_predict(history: list[LatticeSolution], M: int) -> float:

@@ -47,6 +47,29 @@ FREE = -1
 CONTACT = 1
 
 
+#: the energies double precision resolves, with room for their squares and ratios
+ENERGY_RANGE = (1e-200, 1e200)
+
+
+def check_reference_energy(E: float, L: float, g0: float) -> None:
+    """A bar with ``g0 != 0`` whose reference energy ``pi^2 E g0^2 / (16 L)`` (eq. 14), the scale
+    of all its energies, lies outside :data:`ENERGY_RANGE` is refused, naming the gap range
+    that holds for these ``E`` and ``L`` (the orbits scale with the gap, the energies with its
+    square: the gap is what a user rescales)."""
+    if g0 == 0:
+        return
+    e_ref = np.pi**2 * E * g0**2 / (16 * L)
+    lo, hi = ENERGY_RANGE
+    if lo <= e_ref <= hi:
+        return
+    g_lo, g_hi = (float(np.sqrt(e * 16 * L / (np.pi**2 * E))) for e in (lo, hi))
+    raise ValueError(
+        f"parameters.gap: |gap| = {abs(g0):.3g} is outside [{g_lo:.3g}, {g_hi:.3g}], the gaps "
+        f"whose energies (E_ref = pi^2 E g0^2 / (16 L) = {e_ref:.3g}, eq. 14) double precision "
+        f"resolves with E = {E:g}, L = {L:g}: the orbits scale with the gap and the energies "
+        "with its square, so solve with a gap in that range (other units) and scale the results")
+
+
 class BarConstants:
     """Wave speed, impedance, mesh size and omega_1 of a bar with fields E, rho, L, N."""
 

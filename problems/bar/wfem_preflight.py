@@ -200,6 +200,8 @@ class WfemBarPreflight:
             try:
                 seeds = self.lattice_seeds(s, window)
             except ValueError as exc:
+                if str(exc).startswith("parameters."):  # the search named its cause
+                    raise
                 key = start_key(i, "node") if isinstance(s, NodeStart) else "parameters.cells"
                 raise ValueError(f"{key}: {exc}") from None
             for seed in seeds:

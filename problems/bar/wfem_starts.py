@@ -18,6 +18,7 @@ from nsm_continuation.problems.bar.wfem_lattice import (
     classify,
     grazing_representative,
     profile_jumps,
+    solve_node,
 )
 from pydantic import BaseModel, Discriminator, Field, Tag
 
@@ -29,7 +30,10 @@ class MainStart(BaseModel):
     """The main backbone of mode k (section 6.1)."""
 
     model_config = STRICT
+    #: the main backbone (from ``omega_k`` if g0 > 0, from ``Omega_k`` if g0 < 0, the
+    #: vertical line if g0 = 0)
     branch: Literal["main"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=50)] = 1
 
 
@@ -37,8 +41,11 @@ class SubharmonicStart(BaseModel):
     """The n-th subharmonic backbone of mode k (g0 > 0), starting near eq. (15)."""
 
     model_config = STRICT
+    #: a subharmonic backbone (g0 > 0)
     branch: Literal["subharmonic"]
+    #: the mode ``k``
     mode: Annotated[int, Field(ge=1, le=50)] = 1
+    #: the subharmonic's order ``n`` (eq. 15)
     n: Annotated[int, Field(ge=1, le=50)] = 1
 
 
@@ -46,6 +53,7 @@ class ScanStart(BaseModel):
     """Every physical admissible orbit in the window seeds a branch (Fig. 12, 16)."""
 
     model_config = STRICT
+    #: ``true``: scan the lattice nodes of every period in the window
     scan: Annotated[Literal[True], exactly(True)]
     #: at most this many seeds (fewest profile jumps, then lowest energy); default every one
     max_seeds: Annotated[int, Field(ge=1)] | None = None
@@ -55,7 +63,9 @@ class NodeStart(BaseModel):
     """An explicit lattice node (m, p) or (m, p, k, l) (eq. 18)."""
 
     model_config = STRICT
+    #: ``[m, p]`` (eq. 12) or ``[m, p, k, l]`` (eq. 18): the phase lengths, in time steps
     node: list[Annotated[int, Field(ge=1)]]
+    #: which way along ``continuation.parameter`` the branch is followed
     direction: Literal["both", "increase", "decrease"] = "both"
 
 
@@ -107,6 +117,7 @@ class WfemBarSeeds:
                                  "lattice node is [m, p] (eq. 12) or [m, p, k, l] (eq. 18)")
             sols = self.physical(tuple(spec.node))
             if not sols:
+                self._refuse_strained([tuple(spec.node)], f"at node {spec.node}")
                 raise ValueError(f"node {spec.node}: no physical admissible orbit")
             d = {"both": 0, "increase": 1, "decrease": -1}[spec.direction]
             return [LatticeSeed(sols[0], f"node {tuple(spec.node)}", d)]
@@ -151,17 +162,36 @@ class WfemBarSeeds:
         so only nodes whose short phase is at most 5 % of the period are tried.
         """
         N = self.model.N
+        tried: list[tuple[int, int]] = []
         for j in range(max(4, int(0.1 * N))):
             M = M0 + dM * j
             short = max(2, int(0.05 * M))
             pairs = ([(M - p, p) for p in range(1, short)] if direction > 0
                      else [(m, M - m) for m in range(1, short)])
+            tried += pairs
             cands = [s for c in pairs for s in self.physical(c)]
             if cands:
                 best = min(cands, key=lambda s: (profile_jumps(s.w0), s.energy))
                 return [LatticeSeed(best, label, direction)]
+        self._refuse_strained(tried, f"near the start of the {label}")
         raise ValueError(f"no physical orbit found near the start of the {label} (N = {N}); "
                          "increase cells")
+
+    def _refuse_strained(self, nodes: list[tuple[int, ...]], where: str) -> None:
+        """Where no seed was found because the orbits at ``nodes`` fail COND3 alone (strain
+        ``|sigma| / E`` above 1: the gap is large against the bar's length), say so, naming
+        the gap and the gap below which these orbits exist (they scale with it)."""
+        md = self.model
+        strains = [float(np.abs(sol.w0).max()) / md.E for c in nodes[:400]
+                   for status, sol in [solve_node(md, c)]
+                   if status == "inadmissible: cond3_strain" and sol is not None]
+        if strains:
+            s = min(strains)
+            raise ValueError(
+                f"parameters.gap: at |gap| = {abs(md.g0):g} the orbits {where} strain the bar "
+                f"beyond COND3 (strain |sigma| / E = {s:.4g} > 1; L = "
+                f"{md.L:g}): they scale with the gap, so they exist for |gap| below "
+                f"{abs(md.g0) / s:.4g}")
 
     def _grazing_seeds(self, k: int) -> list[LatticeSeed]:
         """g0 = 0: the vertical backbone of mode k at its asymptote (section 6.1).

@@ -18,8 +18,9 @@ Residual used for continuation (``formulation: half_angle``, the default). The b
   gives an analytic residual whose Jacobian keeps full rank *through* the linear grazing orbits,
   so a branch is continued across a pole from its phantom to its admissible part (Theorem 3.1).
 
-Unknowns ``y = (u_1(0) .. u_N(0), v, T)``, equations ``sin(w_j T/2) q_j - cos(w_j T/2) p_j/w_j = 0``
-(``j = 1..N``) and ``u_c(0) - g = 0``: ``N + 1`` equations in ``N + 2`` unknowns.
+Unknowns ``y = (u_1(0) .. u_N(0), v, T)`` (displacements and velocity in units of ``|g|``, below),
+equations ``sin(w_j T/2) q_j - cos(w_j T/2) p_j/w_j = 0`` (``j = 1..N``) and
+``u_c(0) - sign(g) = 0``: ``N + 1`` equations in ``N + 2`` unknowns.
 
 ``formulation: shooting`` keeps the physical ``2N + 1`` unknowns ``(u(0), u'(0), T)`` and the rows
 of ``(Gamma(T) - I) x`` (``Gamma`` = eq. A.1) without the redundant one, plus ``u_c(0) = g``. Its
@@ -36,7 +37,12 @@ Conventions (differences from the paper, documented and tested):
   matrices are accepted with a warning;
 * the gap only sets the scale: the residual is linear in ``(u(0), v)`` and in ``g``, so for
   ``g != 0`` every orbit is ``|g|`` times the orbit for ``g = sign(g)`` (same periods,
-  multipliers and events; energy times ``g^2``; tested). Gaps with ``0 < |g| < 1e-100`` or
+  multipliers and events; energy times ``g^2``; tested). The unknowns ``u(0), v`` are in units
+  of ``|g|`` (:attr:`NDofImpactProblem.length`; :meth:`~NDofImpactProblem.state` and
+  :meth:`~NDofImpactProblem.y_from_state` convert), so the residual, its Jacobian and every
+  step of the continuation are the gap-1 problem's whatever the gap (the arclength measured in
+  physical units made a gap of 1000 cover 1.6 % of its branch, tested over 1e-100 .. 1e100 in
+  ``tests/chain/test_gap_scale_invariance.py``). Gaps with ``0 < |g| < 1e-100`` or
   ``|g| > 1e100`` are refused (:func:`nsm_continuation.core.preflight.check_gap`): there the
   energies leave the range double precision resolves (with ``g = 1e-300`` the first branch
   ended after 14 points at a spurious branch point instead of its nonlinear grazing orbit);
@@ -113,6 +119,11 @@ class NDofImpactProblem(ChainStability, ChainAdmissibility, ChainClosedForm, Cha
         self.N = params.chain.dofs if params.chain is not None else len(params.M or [])
         self.c = (params.impacting_dof or self.N) - 1
         self.g = float(params.gap)
+        #: the unit of the unknowns ``u(0)``, ``v``: ``|g|`` (1 for ``g = 0``). The model is
+        #: linear in the gap, so in these units the residual is the gap-1 problem's and the
+        #: continuation at any gap is the one at ``sign(g)``, step for step (see the module
+        #: docstring); :meth:`state` and :meth:`y_from_state` convert
+        self.length = abs(self.g) if self.g != 0.0 else 1.0
         self.formulation = params.formulation
         self.check_size()
         N = self.N
@@ -192,7 +203,7 @@ class NDofImpactProblem(ChainStability, ChainAdmissibility, ChainClosedForm, Cha
             p = ca.DM(self.Pinv[:, c]) * v
             half = w * T / 2
             modal = ca.sin(half) * q - ca.cos(half) * p / w
-            return ca.vertcat(modal, u0[c] - self.g)
+            return ca.vertcat(modal, u0[c] - self.g / self.length)
         du0 = y[N:2 * N]
         q = mtimes(Pinv, u0)
         p = mtimes(Pinv, du0)
@@ -203,7 +214,7 @@ class NDofImpactProblem(ChainStability, ChainAdmissibility, ChainClosedForm, Cha
         s[c] = -1.0
         vel = vT - ca.DM(s) * du0
         keep = [i for i in range(N) if i != c]
-        return ca.vertcat(uT - u0, vel[keep], u0[c] - self.g)
+        return ca.vertcat(uT - u0, vel[keep], u0[c] - self.g / self.length)
 
     # ------------------------------------------------------------------ linear algebra
     def _structured_solves(self) -> bool:
@@ -244,19 +255,22 @@ class NDofImpactProblem(ChainStability, ChainAdmissibility, ChainClosedForm, Cha
 
     # ------------------------------------------------------------------ state helpers
     def state(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        """Physical initial state ``(u(0), u'(0+))`` on the section and the period."""
-        N = self.N
+        """Physical initial state ``(u(0), u'(0+))`` on the section and the period (the
+        unknowns are in units of :attr:`length`)."""
+        N, L = self.N, self.length
         y = np.asarray(y, dtype=float)
         if self.formulation == "half_angle":
             du = np.zeros(N)
-            du[self.c] = y[N]
-            return y[:N].copy(), du, float(y[-1])
-        return y[:N].copy(), y[N:2 * N].copy(), float(y[-1])
+            du[self.c] = y[N] * L
+            return y[:N] * L, du, float(y[-1])
+        return y[:N] * L, y[N:2 * N] * L, float(y[-1])
 
     def y_from_state(self, u0: np.ndarray, du0: np.ndarray, T: float) -> np.ndarray:
+        """The unknowns of the physical state ``(u(0), u'(0+))`` and the period ``T``."""
+        L = self.length
         if self.formulation == "half_angle":
-            return np.concatenate([u0, [du0[self.c]], [T]])
-        return np.concatenate([u0, du0, [T]])
+            return np.concatenate([u0 / L, [du0[self.c] / L], [T]])
+        return np.concatenate([u0 / L, du0 / L, [T]])
 
     def energy(self, y: np.ndarray) -> float:
         u0, du0, _ = self.state(y)

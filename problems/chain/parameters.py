@@ -42,8 +42,11 @@ class ChainSpec(CanonicalNames):
     model_config = STRICT
     deprecated_names = {"n": "dofs"}
     key_path = "parameters.chain"
+    #: the number of masses (the paper's ``N``)
     dofs: Annotated[int, Field(ge=1)]
+    #: the masses ``m_i``: one value for all, or one per mass
     mass: Positive | list[Positive]
+    #: the spring stiffnesses ``k_i``: one value for all, or one per spring
     stiffness: Positive | list[Positive]
 
     @model_validator(mode="after")
@@ -73,12 +76,23 @@ class NDofParameters(CanonicalNames):
     ``u_c = gap``), ``restitution`` its ``e`` (must be 1)."""
 
     model_config = STRICT
+    #: the spring-mass chain of eq. (2.17) (or give ``M`` and ``K``)
     chain: ChainSpec | None = None
+    #: an explicit mass matrix (symmetric positive definite; with ``K``, instead of ``chain``)
     M: list[list[Finite]] | None = None
+    #: an explicit stiffness matrix (symmetric positive definite; with ``M``)
     K: list[list[Finite]] | None = None
+    #: the gap ``g``: the wall at ``u_c = gap``; > 0 open, 0 static grazing, < 0
+    #: pre-stressed
     gap: Finite
+    #: the impacting dof ``c`` (1-based; default the last, ``N``)
     impacting_dof: Annotated[int, Field(ge=1)] | None = None
+    #: the restitution ``e``: must be 1 (the families exist only for a purely elastic
+    #: impact)
     restitution: Finite = 1.0
+    #: the residual: ``half_angle`` (``N + 1`` equations in ``u(0), v, T``, full rank
+    #: through the linear grazing orbits) or ``shooting`` (``(Gamma(T) - I) x = 0`` less the
+    #: redundant row)
     formulation: Literal["half_angle", "shooting"] = "half_angle"
 
     @field_validator("gap")
@@ -129,7 +143,9 @@ class ModeStart(BaseModel):
     """Start at the linear grazing orbit of mode ``mode`` (or its subharmonic ``k T_j``)."""
 
     model_config = STRICT
+    #: the mode ``j``: start at its linear grazing orbit, at the period ``k T_j``
     mode: Annotated[int, Field(ge=1)]
+    #: ``k``: start at the pole ``k T_j`` (1: the mode itself)
     subharmonic: Annotated[int, Field(ge=1)] = 1
     #: 'admissible' continues towards a_j (T - k T_j) < 0 only; 'both' also through the pole
     side: Literal["admissible", "both"] = "admissible"
@@ -139,7 +155,10 @@ class PeriodStart(BaseModel):
     """Start from the closed form (4.2) at a given period."""
 
     model_config = STRICT
+    #: the period at which the closed form (4.2) gives the start
     T: Positive
+    #: which way along ``continuation.parameter`` the branch is followed: 1, -1 or
+    #: 0 (both)
     direction: Annotated[Literal[-1, 0, 1], exactly(-1, 0, 1)] = 0
 
 
@@ -148,7 +167,9 @@ class AllStart(BaseModel):
     seeds in the pole-free gaps; a pole already crossed by a computed branch is skipped."""
 
     model_config = STRICT
+    #: ``true``: every branch of the window
     all: Annotated[Literal[True], exactly(True)]
+    #: the highest ``k`` of the poles ``k T_j`` started from
     max_subharmonic: Annotated[int, Field(ge=1)] = 10
 
 

@@ -17,6 +17,11 @@ import numpy as np
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import OrbitTrace
 
+#: the model a run of ``ndof_impact`` uses, for the report (``problem_summary.model``)
+MODEL = ("closed form (Legrand, Junca, Heng 2017, eqs. 4.1-4.2, multipliers from A.8): the "
+         "default model of the one-impact orbits, exact where their assumptions hold (one "
+         "impact per period); problem ndof_impact_hybrid simulates the same chain")
+
 
 class ChainPresentation(Presentation):
     """Presentation members of
@@ -114,7 +119,7 @@ class ChainPresentation(Presentation):
 
     def summary(self) -> dict[str, Any]:
         pr = self.problem
-        return {"N": pr.N, "impacting_dof": pr.c + 1, "gap": pr.g,
+        return {"model": MODEL, "N": pr.N, "impacting_dof": pr.c + 1, "gap": pr.g,
                 "omega_linear": pr.omega.tolist(), "T_linear": pr.T_lin.tolist(),
                 "interaction_coefficients": self.problem.a.tolist(),
                 "alpha": float(np.sum(self.problem.a / self.problem.omega**2)),

@@ -396,9 +396,6 @@ class ChainStability:
         DF = self.return_map_jacobian(y)
         red = restrict_to_section(DF, self.c)
         du, ddu, _ = self.state(tangent)
-        if self.formulation == "half_angle":
-            ddu = np.zeros(self.N)
-            ddu[self.c] = tangent[self.N]
         v = np.delete(np.concatenate([du, ddu]), self.c)
         if np.linalg.norm(v) == 0.0:
             return None

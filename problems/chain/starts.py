@@ -30,6 +30,7 @@ class ChainStarts:
     N: int
     c: int
     g: float
+    formulation: str
     P: np.ndarray
     T_lin: np.ndarray
     a: np.ndarray
@@ -63,6 +64,14 @@ class ChainStarts:
                                  f"T = {T:g}, not a positive finite number")
         items = as_list(START_ADAPTER.validate_python(start))
         self.check_size()
+        for i, s in items:
+            if self.formulation == "shooting" and (
+                    isinstance(s, ModeStart) or (isinstance(s, AllStart) and self.g != 0.0)):
+                key = start_key(i, "mode" if isinstance(s, ModeStart) else "all")
+                raise ValueError(f"{key}: this start lies on a pole k T_j (a linear grazing "
+                                 "orbit), where the Jacobian of formulation: shooting loses "
+                                 "rank and Newton cannot converge; use formulation: half_angle "
+                                 "(the default) or start: {T: ...} off the poles")
         for i, s in items:
             if isinstance(s, ModeStart):
                 key = start_key(i, "mode")

@@ -56,12 +56,17 @@ class BouncingBallParameters(CanonicalNames):
 
     model_config = STRICT
     deprecated_names = {"e": "restitution"}
+    #: gravity ``g``
     g: float = Field(9.8, gt=0, allow_inf_nan=False)
     restitution: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False,
                                description="e; complete chattering needs 0 <= e < 1")
     s: float = Field(1.0, gt=0, allow_inf_nan=False, description="initial height (at rest)")
+    #: the chatter map's order (``parameters.integrator.chatter_order`` of the other
+    #: hybrid problems)
     chatter_order: int = Field(2, ge=1, le=4)
+    #: the chatter map is applied when its estimated error is below this
     chatter_tol: float = Field(1e-10, gt=0, lt=1)
+    #: the simulated time
     t_end: float = Field(5.0, gt=0, allow_inf_nan=False)
 
 

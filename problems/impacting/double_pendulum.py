@@ -49,15 +49,27 @@ class DoublePendulumParameters(CanonicalNames):
 
     model_config = STRICT
     deprecated_names = {"e": "restitution"}
+    #: gravity ``g``
     g: float = Field(9.81, gt=0, allow_inf_nan=False)
+    #: the upper bar's point mass ``m1``
     m1: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: the lower bar's point mass ``m2``
     m2: float = Field(2.0, gt=0, allow_inf_nan=False)
+    #: the upper bar's length ``L1``
     L1: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: the lower bar's length ``L2``
     L2: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: viscous damping ``D`` of the upper joint (``D q1dot``)
     D: float = Field(10.0, ge=0, allow_inf_nan=False)
+    #: the constant torque ``T`` on the upper bar (``T < 0`` turns it downwards: one
+    #: period is one revolution)
     torque: float = Field(-31.15, allow_inf_nan=False)
+    #: coefficient of restitution ``e`` of the impact law (54)-(58)
     restitution: float = Field(0.89, ge=0, lt=1, allow_inf_nan=False)
+    #: the wall's distance from the upper joint: the wall is the plane ``X = -d``, the
+    #: admissible side ``H = X + d >= 0`` (eq. 52)
     d: float = Field(0.5, gt=0, allow_inf_nan=False)
+    #: the hybrid simulator's numerics (defaults as the speed-accuracy chart recommends)
     integrator: IntegratorSpec = IntegratorSpec()
 
 

@@ -43,7 +43,9 @@ class ImpactDamperParameters(BaseModel):
     """``parameters:`` of ``problem: impact_damper``."""
 
     model_config = STRICT
+    #: damping ratio ``zeta`` (``2 zeta qd`` in the equation of motion)
     zeta: float = Field(0.0, ge=0, allow_inf_nan=False)
+    #: forcing frequency ``omega`` of ``cos(omega t)``
     omega: float = Field(2.0, gt=0, allow_inf_nan=False)
     #: the ball's mass over the primary's (``mu``)
     mass_ratio: float = Field(0.2, gt=0, allow_inf_nan=False)
@@ -53,6 +55,7 @@ class ImpactDamperParameters(BaseModel):
     restitution: float = Field(0.6, ge=0, lt=1, allow_inf_nan=False)
     #: forcing phase of the stroboscopic section (``phase = section_phase`` mod ``2 pi``)
     section_phase: float = Field(0.0, ge=0, lt=2 * np.pi, allow_inf_nan=False)
+    #: the hybrid simulator's numerics (defaults as the speed-accuracy chart recommends)
     integrator: IntegratorSpec = IntegratorSpec()
     #: two constraints (``surfaces``) or one whose zero set is both walls (``single``)
     encoding: Literal["surfaces", "single"] = "surfaces"

@@ -36,7 +36,9 @@ class ImpactOscillatorParameters(CanonicalNames):
 
     model_config = STRICT
     deprecated_names = {"sigma": "gap", "e": "restitution"}
+    #: damping ratio ``zeta`` (``2 zeta qd`` in the equation of motion)
     zeta: float = Field(0.1, ge=0, allow_inf_nan=False)
+    #: forcing frequency ``omega`` of ``cos(omega t)``
     omega: float = Field(1.0, gt=0, allow_inf_nan=False)
     #: the stop's position, ``q >= gap`` (``sigma`` in Nordmark & Piiroinen sec. 2.2.1)
     gap: float = Field(0.0, allow_inf_nan=False)
@@ -46,6 +48,7 @@ class ImpactOscillatorParameters(CanonicalNames):
     #: it away from a phase where the orbit grazes (for omega > 1 the free orbit's minimum is at
     #: phase 0, where a section would sit on the grazing point)
     section_phase: float = Field(0.0, ge=0, lt=2 * np.pi, allow_inf_nan=False)
+    #: the hybrid simulator's numerics (defaults as the speed-accuracy chart recommends)
     integrator: IntegratorSpec = IntegratorSpec()
 
 

@@ -30,15 +30,25 @@ class TwoMassChainParameters(CanonicalNames):
 
     model_config = STRICT
     deprecated_names = {"e": "restitution"}
+    #: mass ``m1`` (on the spring ``k1`` to the fixed base, forced)
     m1: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: mass ``m2`` (the one that hits the wall)
     m2: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: stiffness ``k1`` of the spring from the base to ``m1``
     k1: float = Field(1.0, ge=0, allow_inf_nan=False)
+    #: stiffness ``k2`` of the spring from ``m1`` to ``m2``
     k2: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: viscous damping ``c`` of both masses
     c: float = Field(0.05, ge=0, allow_inf_nan=False)
+    #: amplitude ``F0`` of the force ``F0 cos(omega t)`` on ``m1``
     F0: float = Field(0.5, allow_inf_nan=False)
+    #: forcing frequency ``omega``
     omega: float = Field(1.0, gt=0, allow_inf_nan=False)
+    #: the wall's position: ``q2 <= gap`` (``H = gap - q2 >= 0``)
     gap: float = Field(0.5, allow_inf_nan=False)
+    #: coefficient of restitution ``e``: ``q2dot+ = -e q2dot-``
     restitution: float = Field(0.8, ge=0, lt=1, allow_inf_nan=False)
+    #: the hybrid simulator's numerics (defaults as the speed-accuracy chart recommends)
     integrator: IntegratorSpec = IntegratorSpec()
 
 

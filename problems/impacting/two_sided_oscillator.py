@@ -40,7 +40,9 @@ class TwoSidedOscillatorParameters(BaseModel):
     """``parameters:`` of ``problem: two_sided_oscillator``."""
 
     model_config = STRICT
+    #: damping ratio ``zeta`` (``2 zeta qd`` in the equation of motion)
     zeta: float = Field(0.05, ge=0, allow_inf_nan=False)
+    #: forcing frequency ``omega`` of ``cos(omega t)``
     omega: float = Field(2.0, gt=0, allow_inf_nan=False)
     #: the stops are at ``q = +clearance`` and ``q = -clearance``
     clearance: float = Field(0.5, gt=0, allow_inf_nan=False)
@@ -48,6 +50,7 @@ class TwoSidedOscillatorParameters(BaseModel):
     restitution: float = Field(0.6, ge=0, lt=1, allow_inf_nan=False)
     #: forcing phase of the stroboscopic section (``phase = section_phase`` mod ``2 pi``)
     section_phase: float = Field(0.0, ge=0, lt=2 * np.pi, allow_inf_nan=False)
+    #: the hybrid simulator's numerics (defaults as the speed-accuracy chart recommends)
     integrator: IntegratorSpec = IntegratorSpec()
     #: two constraints (``surfaces``) or one whose zero set is both stops (``single``)
     encoding: Literal["surfaces", "single"] = "surfaces"

@@ -347,3 +347,50 @@ def test_a_plugin_missing_its_class_or_not_a_problem(plugin: Callable[..., str],
     refused_before_computing(case_file(tmp_path),
                              f"problem: plugin 'toy' ({target}) failed to provide a Problem "
                              "subclass")
+
+
+#: the toy plugin with a start and hooks that fail during the run, as ``FAULT`` says
+RUNNING = TEMPLATE.format(
+    top="import sys\nimport numpy as np\nfrom nsm_continuation.core.problem import StartPoint\n"
+        "from nsm_continuation.core.presentation import Presentation\n"
+        "FAULT = {fault!r}\n\n\n"
+        "class ToyPresentation(Presentation):\n"
+        "    def plot_decorations(self, ax, x_range, branches):\n"
+        "        if FAULT == 'figure':\n"
+        "            raise RuntimeError('no colour map')\n"
+        "        if FAULT == 'figure_exit':\n"
+        "            sys.exit(6)\n",
+    config="STRICT", init="self.presentation_class = ToyPresentation",
+    residual="y[0] - self.params.a * y[1]", preflight="return None",
+) + '''
+    def start_points(self, start, window=(None, None)):
+        if FAULT == "start_exit":
+            sys.exit(7)
+        return [StartPoint(np.array([0.0, 0.0]), "toy")]
+'''
+
+
+@pytest.mark.parametrize(("fault", "status", "line"), [
+    ("start_exit", 3, "problem 'toy' raised SystemExit(7) in a hook (sys.exit)"),
+    ("figure", 0, "problem 'toy' ({module}): the figures failed in its code (RuntimeError: "
+                  "no colour map); they are left out"),
+    ("figure_exit", 0, "problem 'toy' ({module}): the figures failed in its code "
+                       "(SystemExit: 6); they are left out"),
+])
+def test_a_plugin_failing_during_the_run_is_named_and_the_results_written(
+        plugin: Callable[..., str], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        fault: str, status: int, line: str) -> None:
+    """After the preflight, a plugin's ``start_points`` calling ``sys.exit`` is a failed start
+    (exit 3, its reason named, the report written), and its figure hooks failing (an
+    exception or ``sys.exit``) leave the figures out with a warning naming it, the data and
+    the report written: not the plugin's exit code without a word, nor "this is a bug" with
+    everything computed lost."""
+    target = plugin(source=RUNNING.replace("{fault!r}", repr(fault)))
+    line = line.format(module=target.partition(":")[0])
+    path = case_file(tmp_path, output={"progress": False, "plots": True})
+    out = tmp_path / "out"
+    assert cli.main(["run", str(path), "--out", str(out)]) == status
+    err = capsys.readouterr().err
+    assert line in err, err
+    assert (out / "branch_0.csv").is_file() and (out / "report.md").is_file()
+    assert line in (out / "report.md").read_text() or status == 3

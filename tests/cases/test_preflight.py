@@ -111,9 +111,10 @@ def test_ndof_gap_outside_the_resolved_range(gap: float) -> None:
 
 
 def test_ndof_gap_scale_invariance() -> None:
-    """The decision for tiny gaps: the model is linear in g (g != 0), so the starts at gap
-    1e-100 (the smallest accepted) are exactly 1e-100 times those at gap 1, and they solve the
-    residual; below, the energies (~g^2) leave the resolved range and the gap is refused."""
+    """The model is linear in g (g != 0): the unknowns are in units of |g|, so the starts at
+    gap 1e-100 (the smallest accepted) have the unknowns of gap 1, their physical state is
+    1e-100 times it and they solve the residual; below, the energies (~g^2) leave the resolved
+    range and the gap is refused (the whole branch: tests/chain/test_gap_scale_invariance.py)."""
     one = NDofImpactProblem(CHAIN)
     tiny = NDofImpactProblem({**CHAIN, "gap": GAP_MIN})
     NDofImpactProblem({**CHAIN, "gap": -GAP_MAX})
@@ -122,9 +123,10 @@ def test_ndof_gap_scale_invariance() -> None:
     for start in ({"mode": 1}, {"T": 4.0}):
         y1 = one.start_points(start, T_WINDOW)[0].y
         yt = tiny.start_points(start, T_WINDOW)[0].y
-        np.testing.assert_allclose(yt[:-1], GAP_MIN * y1[:-1], rtol=1e-13)
-        assert yt[-1] == y1[-1]
-        assert np.abs(tiny.evaluate(yt)).max() <= 1e-13 * GAP_MIN
+        np.testing.assert_allclose(yt, y1, rtol=1e-13)
+        for a, b in zip(tiny.state(yt)[:2], one.state(y1)[:2], strict=True):
+            np.testing.assert_allclose(a, GAP_MIN * b, rtol=1e-13)
+        assert np.abs(tiny.evaluate(yt)).max() <= 1e-13
         assert tiny.derived(yt)["energy"] == pytest.approx(GAP_MIN**2 * one.derived(y1)["energy"],
                                                             rel=1e-12)
 
@@ -299,7 +301,7 @@ def test_continuum_parameter_scales() -> None:
     assert refused_case(case_of("bar_continuum_main.yaml", parameters__gap=1e-300)).startswith(
         "parameters.gap: ")
     msg = refused(BarContinuumProblem, {"gap": 1e-90, "E": 1e-30})
-    assert msg.startswith("parameters.gap: the reference energy"), msg
+    assert msg.startswith("parameters.gap: |gap| = 1e-90 is outside [1.27e-85, "), msg
     msg = refused_case(case_of("bar_continuum_main.yaml", parameters__E=True))
     assert msg.startswith("parameters.E: "), msg
 

@@ -118,8 +118,9 @@ def test_restart_from_csv_rows_and_the_api(chain_run: tuple[Any, Path]) -> None:
 
 def test_parameters_are_inherited_and_overridden(chain_run: tuple[Any, Path]) -> None:
     """The chain is linear in the gap: restarted with ``parameters: {gap: 2}`` at the same
-    period, Newton (at fixed T) lands on twice the saved orbit; continued in T instead of
-    omega, the window is the case's (not inherited in other units)."""
+    period, the orbit is twice the saved one (its unknowns are in units of the gap: the same
+    numbers, a converged point at once); continued in T instead of omega, the window is the
+    case's (not inherited in other units)."""
     res, folder = chain_run
     pd = [e for e in res.events if e.kind == "period_doubling"][0]
     T = pd.point.y[-1]
@@ -130,12 +131,15 @@ def test_parameters_are_inherited_and_overridden(chain_run: tuple[Any, Path]) ->
                      "output": {"plots": False}})
     p0 = first_point(again)
     assert p0.y[-1] == pytest.approx(T, abs=1e-12)
-    assert np.linalg.norm(p0.y[:-1] - 2 * pd.point.y[:-1], np.inf) < 1e-9
+    for new, old in zip(again.run_result.problem.state(p0.y)[:2],
+                        res.run_result.problem.state(pd.point.y)[:2], strict=True):
+        assert np.linalg.norm(new - 2 * old, np.inf) < 1e-9
+    assert p0.derived["energy"] == pytest.approx(4 * pd.point.derived["energy"], rel=1e-9)
     assert again.case.parameters["gap"] == 2.0
     assert again.case.parameters["chain"] == {"dofs": 5, "mass": 0.2, "stiffness": 5.0}
     ts = [p.y[-1] for p in again.run_result.branches[0].points]
     assert min(ts) >= T - 0.01 - 1e-12 and max(ts) <= T + 0.01 + 1e-12
-    assert p0.newton_iterations > 1  # a different orbit: a genuine correction
+    assert p0.newton_iterations == 1  # the scaled orbit solves the residual at once
 
 
 def _sha(path: Path) -> str:

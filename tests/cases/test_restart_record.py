@@ -122,7 +122,7 @@ BAD: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
     ("branches a mapping", _set("branches", {"0": {}}),
      "restart.branches: Input should be a valid list"),
     ("parameters a list", _set("parameters", [1, 2]),
-     "restart.parameters: Input should be a valid dictionary"),
+     "restart.parameters: expected a mapping of keys (key: value), got [1, 2]"),
     ("row past the end", _set("branches[0].events[2].row", 10**6),
      "restart.branches[0].events[2].row: 1000000, the branch has"),
 ]

@@ -114,8 +114,10 @@ def test_pitchfork_branch_point_located():
     assert abs(br.points[-1].y[1] - 0.5) < 1e-12  # endpoint located at the bound
 
 
+# a real multiplier through +1 where the parameter does not turn (the line x = p) is a branch
+# point, not a fold (the fold is the tangent test's: test_circle_folds_located_and_passed)
 @pytest.mark.parametrize("mult, kind, p_star", [
-    (lambda p: [1.0 + p, 0.5], "fold", 0.1),
+    (lambda p: [1.0 + p, 0.5], "branch_point", 0.1),
     (lambda p: [-(1.0 + p), 0.5j, -0.5j], "period_doubling", 0.1),
     (lambda p: [(1 + p) * np.exp(0.7j), (1 + p) * np.exp(-0.7j), 0.5], "neimark_sacker", 0.1),
 ])

@@ -217,7 +217,9 @@ def test_continuation_through_grazing_both_ways() -> None:
     for p in after[1:]:
         v, _ = undamped_impacting_orbit(p.y[2])
         assert p.derived["n_impacts"] == 1
-        assert p.derived["min_impact_velocity"] == pytest.approx(v, rel=1e-6)
+        # H = q - gap: dH/dt and the normal velocity N^T qdot / |N| are both qdot
+        assert p.derived["min_impact_normal_velocity"] == pytest.approx(v, rel=1e-6)
+        assert p.derived["min_impact_dH_dt"] == pytest.approx(v, rel=1e-6)
     for p in br.points:
         if p.s < graz[0].point.s - 1e-9:
             assert p.derived["max_q"] == pytest.approx(amplitude(p.y[2]), abs=1e-9)

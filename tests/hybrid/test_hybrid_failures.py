@@ -4,7 +4,8 @@ never a hang: near grazing, incomplete chattering, restitution near 0 and near 1
 velocities, the wall-clock guard, Newton near a homoclinic orbit, bad declarations.
 
 Nordmark & Piiroinen (2009): grazing (sec. 6.1), incomplete chattering (secs. 5.2, 6.1),
-``0 <= r < 1`` (eq. 9, sec. 3), transversality of W (sec. 2.4), homoclinic orbit (sec. 6.3).
+``0 <= r <= 1`` (eq. 9, sec. 3; ``r = 1`` elastic, no chatter map), transversality of W
+(sec. 2.4), homoclinic orbit (sec. 6.3).
 """
 
 from __future__ import annotations
@@ -164,9 +165,27 @@ def test_restitution_one_or_more_rejected():
             BouncingBallProblem({"restitution": e})
         with pytest.raises(ValueError, match=r"(?s)\brestitution\b.*less than 1"):
             ImpactOscillatorProblem({"restitution": e})
-    # a system compiled with r >= 1 anyway is stopped at its first impact (eq. 9)
-    with pytest.raises(HybridDeclarationError, match="restitution r = 1"):
-        Simulator(ball(1.0)).run(np.array([1.0, 0.0]), t_end=1.0)
+    # a system compiled with r > 1 anyway is stopped at its first impact (eq. 9)
+    with pytest.raises(HybridDeclarationError, match="restitution r = 1.5"):
+        Simulator(ball(1.5)).run(np.array([1.0, 0.0]), t_end=1.0)
+
+
+def test_elastic_ball_bounces_to_its_height_and_refuses_chattering_at_rest():
+    """r = 1 is an elastic impact: released from rest at s = 1 the ball hits the floor at
+    sqrt(2 s / g) and every 2 sqrt(2 s / g) after, with the speed sqrt(2 g s) each time (no
+    accumulation, no chatter map); arriving on the floor at a round-off speed (a = -g < 0)
+    the elastic 'sequence' of bounces would never end: refused, named."""
+    res = Simulator(ball(1.0), SimOptions(rtol=1e-12, atol=1e-14)).run(
+        np.array([1.0, 0.0]), t_end=10.0)
+    t_fall = np.sqrt(2.0 / G)
+    impacts = [ev for ev in res.events if ev.kind == "impact"]
+    assert len(impacts) == int((10.0 + t_fall) / (2 * t_fall))
+    for k, ev in enumerate(impacts):
+        assert ev.t == pytest.approx((2 * k + 1) * t_fall, abs=1e-10)
+        assert abs(ev.info["v"]) == pytest.approx(np.sqrt(2 * G), rel=1e-10)
+    assert not any(ev.kind in ("chatter", "chatter_broken") for ev in res.events)
+    with pytest.raises(SimulationError, match="chattering at r = 1"):
+        Simulator(ball(1.0)).run(np.array([0.0, -1e-11]), t_end=1.0)
 
 
 # --------------------------------------------------------------------------- tiny velocities
@@ -375,3 +394,24 @@ def test_start_at_rest_where_the_force_balances_still_sees_the_impact() -> None:
                     events=stop)
     assert first.t == pytest.approx(float(sol.t_events[0][0]), abs=1e-8)
     assert res.extremes is None or res.extremes[0, 0] >= -1e-9
+
+
+@pytest.mark.parametrize("depth", [1e-7, 1e-5])
+def test_grazing_dip_found_when_a_parallel_surface_turns_first(grazing_start, depth):
+    """The same dip with a second, parallel stop far above (``q <= 10``, declared first): at
+    the dip both surfaces' ``v`` turn at one instant and the far stop's turn is the crossing
+    found first; the impact inside the dip is still located (not recorded as a near approach
+    of the lower stop with ``H < 0``), with velocity ``sqrt(2 a depth)``."""
+    q, qd, ph = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase")
+    p = {"omega": ca.SX.sym("omega")}
+    force = -q - 2 * ZETA * qd + ca.cos(ph)
+    sys = HybridSystem.mechanical("two_stops", q, qd, p, ca.SX(1.0), force,
+                                  [10.0 - q, q - (Q_MIN + depth)], 0.6,
+                                  surfaces=["far", "near"], clock=ph, clock_rate=p["omega"])
+    c = sys.compile({"omega": OMEGA})
+    for opts in (SimOptions(), SimOptions(h_init=1.0)):
+        res = Simulator(c, opts).run(grazing_start, t_end=1.5)
+        imp = [ev for ev in res.events if ev.kind == "impact"]
+        assert len(imp) == 1 and imp[0].surface == 1
+        assert abs(imp[0].info["v"]) == pytest.approx(np.sqrt(2 * A_MIN * depth), rel=1e-3)
+        assert all(ev.info["H"] >= 0 for ev in res.events if ev.kind == "near_approach")

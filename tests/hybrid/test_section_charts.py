@@ -79,15 +79,21 @@ def test_grazing_at_the_section_phase_is_located_with_no_false_event(
         grazing_on_the_section: Any) -> None:
     """The same events as with the section away from the grazing (README, case
     ``impact_oscillator_grazing``): the fold, the grazing at sqrt(3) to 1e-10 with the
-    sequence ``I -> -``, the stability changes there, and nothing else (no branch point, no
-    false fold, no sequence change from the section at the grazing phase)."""
+    sequence ``I -> -`` (a family change there), the stability changes there, and nothing
+    else (no branch point, no false fold, no sequence change from the section at the grazing
+    phase)."""
     res = grazing_on_the_section
     (br,) = res.run_result.branches
     kinds = sorted(e.kind for e in br.events)
-    assert kinds == ["endpoint", "fold", "grazing", "stability_change", "stability_change"]
+    assert kinds == ["endpoint", "family_change", "fold", "grazing", "stability_change",
+                     "stability_change"]
     (g,) = [e for e in br.events if e.kind == "grazing"]
     assert abs(g.point.y[-1] - np.sqrt(3.0)) < 1e-10
     assert (g.data["signature_before"], g.data["signature_after"]) == ("I", "-")
+    # the branch goes on along the free orbits: a family change at the grazing
+    (f,) = [e for e in br.events if e.kind == "family_change"]
+    assert f.point is g.point
+    assert (f.data["signature_before"], f.data["signature_after"]) == ("I", "-")
     assert br.termination["forward"] == "bound: omega = max"
     assert any(p.chart for p in br.points)  # the section moved off the grazing phase
 
@@ -190,7 +196,7 @@ def test_a_move_keeps_the_orbit(impact_through_the_section: Any,
     assert moved.y[-1] == p.y[-1]
     assert np.max(np.abs(moved.problem.evaluate(moved.y))) < 1e-8
     a, b = pb.derived(p.y), moved.problem.derived(moved.y)
-    for key in ("amplitude_q", "min_impact_velocity", "period"):
+    for key in ("amplitude_q", "min_impact_normal_velocity", "min_impact_dH_dt", "period"):
         assert b[key] == pytest.approx(a[key], rel=1e-8, abs=1e-10)
     ma = np.sort_complex(pb.floquet(p.y, p.tangent).multipliers)
     mb = np.sort_complex(moved.problem.floquet(moved.y, moved.tangent).multipliers)

@@ -231,3 +231,19 @@ def test_near_approach_of_one_surface_during_a_chattering_flight_on_another() ->
     assert near[0].info["H"] == pytest.approx(0.3 - 0.25, abs=1e-10)
     assert near[0].info["J"].shape == (c.N, c.N)
     assert res.grazing_surface() == "ceiling"
+
+
+@pytest.mark.parametrize("omega, x0", [(0.8, (0.3, 0.1)), (1.3, (0.0, 0.0))])
+def test_exact_flow_between_two_stops_equals_the_runge_kutta_flow(omega, x0) -> None:
+    """The two-stop oscillator is linear between impacts: its exact modal flow
+    (``method="exact"``) and DOP853 at rtol 1e-12 give the same impacts on the same surfaces,
+    the same state and the same sensitivities after 60 time units (to 1e-11)."""
+    out = {}
+    for method in ("dop853", "exact"):
+        c = two_sided("surfaces", omega, amp=1.5).compile({"omega": omega}, method=method)
+        out[method] = Simulator(c, SimOptions(rtol=1e-12, atol=1e-14)).run(
+            np.array([*x0, 0.0]), t_end=60.0)
+    rk, exact = out["dop853"], out["exact"]
+    assert rk.signature == exact.signature and rk.n_impacts >= 10
+    assert np.max(np.abs(rk.X - exact.X)) < 1e-11
+    assert np.max(np.abs(rk.J - exact.J)) < 1e-11

@@ -174,6 +174,8 @@ def test_every_bundled_case_validates():
             expected = prefix[f.name.split("_")[0]]
         if f.name.startswith(("wfem_fig20", "wfem_fig21", "wfem_fig22")):
             expected = "wfem_forced_bar"  # the bar's forced response (Figs. 20-22)
+        if f.name.startswith("ndof_hybrid"):
+            expected = "ndof_impact_hybrid"  # the chain through the hybrid layer
         assert case.problem == expected
         if case.problem == "ndof_impact":
             assert problem.N == 5

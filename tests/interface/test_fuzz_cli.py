@@ -73,6 +73,7 @@ BASE_SOURCES: dict[str, tuple[str, dict[str, Any]]] = {
                         {"continuation": {"max_points": 2}}),
     "two_sided_oscillator": ("two_sided_oscillator.yaml", {}),
     "impact_damper": ("impact_damper.yaml", {}),
+    "ndof_impact_hybrid": ("ndof_hybrid_branch1.yaml", {"continuation": {"max_points": 2}}),
 }
 #: problems whose runs are cheap enough to fuzz ``run`` as well as ``validate`` with
 #: schema-generated parameters (the hybrid ones simulate a transient of random systems)
@@ -80,7 +81,8 @@ SCHEMA_RUN = {"ndof_impact", "wfem_bar", "bar_continuum"}
 #: hypothesis examples per problem for the mutation fuzz (validate + run)
 MUTATION_EXAMPLES = {"ndof_impact": 60, "wfem_bar": 50, "bar_continuum": 50, "bouncing_ball": 30,
                      "impact_oscillator": 25, "two_mass_chain": 25, "double_pendulum": 20,
-                     "wfem_forced_bar": 15, "two_sided_oscillator": 15, "impact_damper": 15}
+                     "wfem_forced_bar": 15, "two_sided_oscillator": 15, "impact_damper": 15,
+                     "ndof_impact_hybrid": 15}
 SCHEMA_EXAMPLES = {"ndof_impact": 30, "wfem_bar": 30, "bar_continuum": 30}
 SCHEMA_EXAMPLES_VALIDATE_ONLY = 15
 #: parameters that set the size of a problem: kept from the base when a schema-generated

@@ -82,7 +82,7 @@ def test_the_sdist_takes_what_its_tests_read() -> None:
     assert "*.py" in recursive["tests"]  # tests/oracles/*.py among them
     assert (ROOT / "tests" / "oracles" / "__init__.py").is_file()
     assert "*.yaml" in recursive["yaml_cases"]
-    assert {"*.md", "*.png"} <= set(recursive["docs"])
+    assert {"*.md", "*.png", "*.py"} <= set(recursive["docs"])  # the reference generator too
     assert {"LICENSE", "CHANGELOG.md", "CITATION.cff", "README.md"} <= included
     for name in included:
         assert (ROOT / name).is_file(), name
@@ -202,3 +202,13 @@ def test_cases_lists_and_copies_the_bundled_cases(
         assert (dest / f"{name}.yaml").read_bytes() == path.read_bytes()
     assert cli.main(["cases", "--copy", str(dest)]) == 2  # never over a file
     assert "exists" in capsys.readouterr().err
+
+
+def test_tests_import_oracles_and_helpers_from_their_folder() -> None:
+    """The console ``pytest`` (CI's) puts ``tests/`` on ``sys.path``, not the repository: a test
+    importing ``tests.oracles...`` is not collected there (``conftest.py``)."""
+    root = Path(__file__).resolve().parents[1]
+    bad = [str(p.relative_to(root)) for p in root.rglob("*.py")
+           if any(line.startswith(("from tests.", "import tests."))
+                  for line in p.read_text().splitlines())]
+    assert bad == []

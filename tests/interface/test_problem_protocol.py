@@ -241,12 +241,14 @@ def test_problem_declared_event_kind_is_reported_with_its_meaning(tmp_path: Path
 def test_family_kinds_are_not_core_kinds() -> None:
     core = set(records.CORE_EVENT_KINDS)
     assert core == {"fold", "branch_point", "period_doubling", "neimark_sacker",
-                    "stability_change", "grazing", "endpoint", "asymptote"}
+                    "unresolved_crossing", "stability_change", "grazing", "endpoint",
+                    "asymptote"}
     from nsm_continuation.core.lattice import LatticeProblem
     from nsm_continuation.hybrid.problem import HybridShootingProblem
 
     assert set(HybridShootingProblem.event_kinds) == {
-        "sticking_lost", "impact_sequence_change", "homoclinic_approach"}
+        "sticking_lost", "impact_sequence_change", "homoclinic_approach", "family_change",
+        "impact_velocity_vanishes"}
     assert set(LatticeProblem.event_kinds) == {"pattern_change"}
 
 

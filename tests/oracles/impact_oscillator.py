@@ -56,10 +56,12 @@ def period_doubling_function(omega: float, gap: float, r: float) -> float:
     return min(found, key=lambda o: o["v_minus"])["pd"]
 
 
-def section_state(omega: float, gap: float, r: float, phase: float = np.pi) -> np.ndarray:
-    """``(q, q')`` of the orbit of :func:`period_doubling_function` where ``omega t = phase``
-    (the stroboscopic section of the bundled problem)."""
-    orbit = min(orbits(omega, gap, r), key=lambda o: o["v_minus"])
+def section_state(omega: float, gap: float, r: float, phase: float = np.pi,
+                  low_velocity: bool = False) -> np.ndarray:
+    """``(q, q')`` of the orbit of :func:`period_doubling_function` (``low_velocity``: of the
+    orbit whose impact velocity is nearest zero, the one that ends at a grazing) where
+    ``omega t = phase`` (the stroboscopic section of the bundled problem)."""
+    orbit = (max if low_velocity else min)(orbits(omega, gap, r), key=lambda o: o["v_minus"])
     G, T = 1.0 / (1.0 - omega ** 2), 2.0 * np.pi / omega
     phi = orbit["phase"]
     tau = phi / omega

@@ -70,7 +70,8 @@ def test_forced_oscillator_in_omega_is_a_frequency_response_curve() -> None:
                                           r"response amplitude $(\max q - \min q)/2$")
     assert pr.presentation.diagram_yscale == "linear"
     assert pr.presentation.csv_head == ["omega", "amplitude_q", "max_q", "min_q",
-                                        "min_impact_velocity", "period", "sticking_time",
+                                        "min_impact_normal_velocity", "period",
+                                        "sticking_time",
                                         "n_impacts_before_chatter"]
     # the impacting coordinate of the two-mass chain is q2 (H = gap - q2), not q1
     chain = nsm.problem("two_mass_chain", {})

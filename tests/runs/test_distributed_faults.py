@@ -269,6 +269,47 @@ def test_a_cluster_that_loses_every_worker_ends_the_waiting_branches(tmp_path: P
             f"(execution.no_workers_timeout); workers lost: {worker}")}
 
 
+def test_a_scheduler_lost_mid_run_ends_the_waiting_branches_at_once(tmp_path: Path) -> None:
+    """An existing cluster whose scheduler goes away mid-run (closed here): the branches not
+    computed end with one reason naming the lost connection, those computed before are kept,
+    and the run returns well before Dask's own reconnection attempts would have cancelled
+    everything (before: an ``internal error: FuturesCancelledError`` with Dask's tracebacks)."""
+    from dask.distributed import Client, LocalCluster
+
+    case = {**CASE, "continuation": {**CASE["continuation"], "max_points": 150}}
+    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=40)
+    address = cluster.scheduler_address
+    result: list[Any] = []
+    run = threading.Thread(target=lambda: result.append(nsm.run(case, scheduler=address)),
+                           daemon=True)
+    with Client(cluster) as client:
+        run.start()
+
+        def finished() -> int:
+            return int(client.run_on_scheduler(lambda dask_scheduler: sum(
+                ts.state == "memory" for ts in dask_scheduler.tasks.values())))
+
+        end = time.monotonic() + 120
+        while finished() < 1 and run.is_alive():
+            assert time.monotonic() < end, "no task finished"
+            time.sleep(0.05)
+        assert run.is_alive(), "the run ended before its scheduler could be closed"
+    t0 = time.monotonic()
+    cluster.close()
+    run.join(60)
+    assert not run.is_alive(), "the run still waits for its scheduler"
+    assert time.monotonic() - t0 < 30
+    branches = result[0].run_result.branches
+    done = [b for b in branches if b.points]
+    lost = [b for b in branches if not b.points]
+    assert done and lost, [b.termination for b in branches]
+    for b in lost:
+        (why,) = b.termination.values()
+        assert why.startswith(f"not computed: the connection to the Dask scheduler of {address} "
+                              "was lost during the run"), why
+
+
 def test_no_workers_timeout_is_a_positive_number_of_seconds(tmp_path: Path,
                                                             capsys: Any) -> None:
     """``execution.no_workers_timeout``: refused in one line when not a positive number."""

@@ -82,6 +82,15 @@ def classify_crossing(before: np.ndarray, after: np.ndarray, tol: float,
     complex quadruple leaves after a Krein collision; the angle of the leaving multiplier decides.
     """
     side = after if count_outside(after, tol) > count_outside(before, tol) else before
+    return classify_outside(side, tol, angle_tol)
+
+
+def classify_outside(side: np.ndarray, tol: float, angle_tol: float = 1e-3
+                     ) -> tuple[str, np.ndarray]:
+    """The kind of a crossing seen from its unstable side ``side`` alone (the multipliers of
+    the point with more of them outside ``|lambda| = 1 + tol``, ``tol`` that point's own noise
+    threshold), and the multipliers outside there: the one that has just crossed is the
+    outside one closest to the circle (:func:`classify_crossing`)."""
     leaving = side[np.abs(side) > 1.0 + tol]
     if leaving.size == 0:
         return "stability_change", leaving

@@ -8,13 +8,21 @@
 * :mod:`~nsm_continuation.core.palc.crossings`: multiplier crossings and Krein collisions;
 * :mod:`~nsm_continuation.core.palc.kinks`: kinks of the branch and moves to another chart;
 * :mod:`~nsm_continuation.core.palc.asymptote`: branches that run to infinite amplitude;
+* :mod:`~nsm_continuation.core.palc.ends`: branches that end at a boundary of their family;
 * :mod:`~nsm_continuation.core.palc.errors`: how a step fails.
 """
 
 from nsm_continuation.core.palc.asymptote import ASYMPTOTE_GROWTH, ASYMPTOTE_POINTS
 from nsm_continuation.core.palc.crossings import CrossingLocator, crossing_events
 from nsm_continuation.core.palc.engine import ContinuationEngine
-from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS, RetryStep, describe_error
+from nsm_continuation.core.palc.errors import (
+    HOOK_FAULTS,
+    NUMERICAL_ERRORS,
+    MonitorError,
+    RetryStep,
+    describe_error,
+    describe_fault,
+)
 from nsm_continuation.core.palc.kinks import Kink, KinkCrosser, KinkCrossing
 from nsm_continuation.core.palc.locate import TANGENT_NOISE, EventLocator, EventSource, StepEvents
 from nsm_continuation.core.palc.motion import (
@@ -36,10 +44,10 @@ from nsm_continuation.core.palc.step_control import (
     Trial,
 )
 
-__all__ = ["ASYMPTOTE_GROWTH", "ASYMPTOTE_POINTS", "KREIN_CLOSING", "KREIN_NEAR",
+__all__ = ["ASYMPTOTE_GROWTH", "ASYMPTOTE_POINTS", "HOOK_FAULTS", "KREIN_CLOSING", "KREIN_NEAR",
            "MOTION_LATTICE", "MOTION_TARGET", "NUMERICAL_ERRORS", "OUTSIDE_TRAVEL",
            "STEP_RESOLUTION", "TANGENT_NOISE", "TEST_STEP_FACTOR", "ContinuationEngine",
            "CrossingLocator", "EventLocator", "EventSource", "Kink", "KinkCrosser",
-           "KinkCrossing", "RetryStep", "Step", "StepController", "StepEvents", "Trial",
-           "crossing_events", "describe_error", "krein_closing", "krein_motion",
-           "krein_motion_ratio", "multiplier_motion"]
+           "KinkCrossing", "MonitorError", "RetryStep", "Step", "StepController",
+           "StepEvents", "Trial", "crossing_events", "describe_error", "describe_fault",
+           "krein_closing", "krein_motion", "krein_motion_ratio", "multiplier_motion"]

@@ -11,21 +11,31 @@
   (:func:`~nsm_continuation.core.floquet.krein.swap_paths`).
 
 Each crossing is recorded with :func:`crossing_events` (its kind from
-:func:`~nsm_continuation.core.floquet.classify_crossing`, and a ``stability_change`` where
-stability changes).
+:func:`~nsm_continuation.core.floquet.classify_outside`, and a ``stability_change`` where
+stability changes); a change of the count that no multiplier resolved on both sides of the
+circle explains is an ``unresolved_crossing`` (:func:`unresolved_event`). Whether a +1 crossing
+is a fold or a branch point is decided with the step's other tests
+(:func:`~nsm_continuation.core.palc.branch_points.plus_one_events`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from nsm_continuation.core.floquet import classify_crossing
+from nsm_continuation.core.floquet import classify_crossing, classify_outside
 from nsm_continuation.core.floquet.krein import SEVERAL, discriminant, swap_paths
 from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS
 from nsm_continuation.core.palc.part import EnginePart
 from nsm_continuation.core.records import Event, Point
 from nsm_continuation.core.roots import bisect_predicate, illinois
 from nsm_continuation.core.scalar_search import bounded_minimum
+
+#: the tracked values of a crossing multiplier by arclength, and the arclength where it is
+#: inside the circle beyond noise (:meth:`CrossingLocator._track_inward`)
+_Track = tuple[dict[float, complex], float] | str
+#: :meth:`CrossingLocator._track_inward` found no point where the multiplier is inside beyond
+#: noise
+UNRESOLVED = "unresolved"
 
 
 class CrossingLocator(EnginePart):
@@ -71,10 +81,23 @@ class CrossingLocator(EnginePart):
         """Locate where multipliers cross the unit circle between ``a`` and ``b``.
 
         Detector: the number of multipliers outside ``|lambda| = 1 + tol`` (``tol`` the
-        point's ``circle_tol``), bisected to ``multiplier_event_tol`` in arclength. It finds
-        each change of the count, classifies it (``classify_crossing`` of
-        :mod:`~nsm_continuation.core.floquet`) and names the crossing multiplier ``lambda_c`` (the
-        newly outside one closest to the circle).
+        point's ``circle_tol``: ``unit_circle_tol`` raised to the noise of the eigenvalues),
+        bisected to ``multiplier_event_tol`` in arclength. It finds each change of the count,
+        classifies it from the point of the count's bracket with more multipliers outside, on
+        that point's own threshold (``classify_outside`` of
+        :mod:`~nsm_continuation.core.floquet`) and names the crossing multiplier ``lambda_c``
+        (the outside one closest to the circle there).
+
+        Evidence on both sides: ``lambda_c`` is outside beyond its noise at the outside end of
+        the bracket (by the count); it is tracked by continuity through the points analysed on
+        the other side (:meth:`_track_inward`) to one where it lies inside beyond the noise
+        there (``|lambda_c| - 1 < -circle_tol``). In a dissipative family a count change
+        without that evidence is no crossing: the multiplier stays within the noise band of
+        the circle on that side, and the count changed because the noise threshold passed it
+        (e.g. ``(rtol + 10 eps) |Phi_T|`` of a hybrid orbit, growing with the multipliers near
+        a zero-velocity impact). It is reported as an ``unresolved_crossing`` at the count's
+        bracket (:func:`unresolved_event`), not as a bifurcation; a conservative family, whose
+        stable multipliers lie on the circle within noise, keeps the count's location.
 
         Location: on the true condition ``phi(sigma) = |lambda_c(sigma)| - 1 = 0``
         (:meth:`_locate_on_modulus`): ``phi = -lambda_c - 1`` for a real multiplier through
@@ -93,7 +116,6 @@ class CrossingLocator(EnginePart):
         collision = self._locate_collision(a, b)
         if collision is not None:
             return collision
-        tol = self.settings.unit_circle_tol
         h = b.s - a.s
         #: every point analysed with multipliers on the arc, by arclength from ``a``
         seen: dict[float, Point] = {0.0: a, h: b}
@@ -120,14 +142,24 @@ class CrossingLocator(EnginePart):
                 left, sig_left = plo, lo
             else:
                 seen[sig_left] = left
-            kind, leaving = classify_crossing(left.multipliers, right.multipliers,
-                                              max(tol, right.circle_tol, left.circle_tol))
+            outside = right if vr > vl else left
+            kind, leaving = classify_outside(np.asarray(outside.multipliers),
+                                             outside.circle_tol)
             located = None
+            track: _Track | None = None
             if leaving.size:
                 # the newly outside multiplier at the outside end of the count's bracket
                 lam_out = leaving[np.argmin(np.abs(leaving))]
                 out_sig, inward = (sig, -1.0) if vr > vl else (sig_left, 1.0)
-                located = self._locate_on_modulus(a, b, seen, out_sig, lam_out, inward)
+                track = self._track_inward(seen, out_sig, lam_out, inward)
+                if track is UNRESOLVED and not self.problem.conservative:
+                    events.append(unresolved_event(self.engine.full(right), width, int(vl),
+                                                   int(vr), _nearest(right.multipliers,
+                                                                     lam_out)))
+                    lo, vlo, plo = right.s - a.s, vr, right
+                    continue
+                if isinstance(track, tuple):
+                    located = self._locate_on_modulus(a, b, *track, out_sig)
             if located is not None:
                 p, width, lam_c = located
                 located_on = "multiplier_modulus"
@@ -392,28 +424,18 @@ class CrossingLocator(EnginePart):
             return None
         return pair
 
-    def _locate_on_modulus(self, a: Point, b: Point, seen: dict[float, Point],
-                           out_sig: float, lam_out: complex, inward: float
-                           ) -> tuple[Point, float, complex] | None:
-        """Zero of ``phi(sigma) = |lambda_c(sigma)| - 1`` on the arc from ``a`` to ``b``:
-        ``(event point, bracket width, lambda_c there)``, or None where ``phi`` gives no
-        trustworthy location (then the count's location stands).
-
-        ``lambda_c`` is ``lam_out`` at ``out_sig`` (outside: ``phi > tol``) and is tracked by
-        continuity (nearest neighbour, step by step) through the points already analysed on
-        the side ``inward`` (``-1``: smaller arclength) to the nearest one where it lies
-        inside the circle beyond the noise of the eigenvalues (``phi < -circle_tol``). On that
-        bracket the Illinois iteration (:func:`~nsm_continuation.core.roots.illinois`) locates
-        ``phi = 0`` to ``event_tol`` in arclength; at each trial point ``lambda_c`` is the
-        multiplier nearest to the linear interpolation of the tracked values on both sides.
-        The result is kept only if the iteration converged to within
-        ``multiplier_event_tol`` and ``|phi|`` there is below ``circle_tol`` or the change of
-        a continuous ``phi`` over the final bracket (not a jump of the tracked multiplier).
-        """
-        st = self.settings
+    @staticmethod
+    def _track_inward(seen: dict[float, Point], out_sig: float, lam_out: complex,
+                      inward: float) -> _Track | None:
+        """``lambda_c`` (``lam_out`` at ``out_sig``, outside the circle) tracked by continuity
+        (nearest neighbour, point by point) through the points already analysed on the side
+        ``inward`` (``-1``: smaller arclength) to the nearest one where it lies inside the
+        circle beyond the noise of its eigenvalues (``|lambda_c| - 1 < -circle_tol``): ``(the
+        tracked values by arclength, that arclength)``; :data:`UNRESOLVED` where it never does
+        (no evidence that it crossed), None where the tracking is ambiguous (two multipliers
+        about equally close to the tracked one)."""
         track: dict[float, complex] = {out_sig: complex(lam_out)}
         lam = complex(lam_out)
-        sig_in = None
         for k in sorted((k for k in seen if (k - out_sig) * inward > 0),
                         key=lambda k: abs(k - out_sig)):
             m = np.asarray(seen[k].multipliers)
@@ -424,10 +446,26 @@ class CrossingLocator(EnginePart):
             lam = complex(m[order[0]])
             track[k] = lam
             if abs(lam) - 1.0 < -seen[k].circle_tol:
-                sig_in = k
-                break
-        if sig_in is None:
-            return None  # phi never clearly negative: no sign change to locate
+                return track, k
+        return UNRESOLVED
+
+    def _locate_on_modulus(self, a: Point, b: Point, track: dict[float, complex],
+                           sig_in: float, out_sig: float) -> tuple[Point, float, complex] | None:
+        """Zero of ``phi(sigma) = |lambda_c(sigma)| - 1`` on the arc from ``a`` to ``b``:
+        ``(event point, bracket width, lambda_c there)``, or None where ``phi`` gives no
+        trustworthy location (then the count's location stands).
+
+        ``track``: ``lambda_c`` at the points analysed between ``out_sig`` (outside: ``phi >
+        tol``) and ``sig_in`` (inside beyond noise: ``phi < -circle_tol``,
+        :meth:`_track_inward`). On that bracket the Illinois iteration
+        (:func:`~nsm_continuation.core.roots.illinois`) locates ``phi = 0`` to ``event_tol``
+        in arclength; at each trial point ``lambda_c`` is the multiplier nearest to the linear
+        interpolation of the tracked values on both sides. The result is kept only if the
+        iteration converged to within ``multiplier_event_tol`` and ``|phi|`` there is below
+        ``circle_tol`` or the change of a continuous ``phi`` over the final bracket (not a
+        jump of the tracked multiplier).
+        """
+        st = self.settings
 
         def phi(sig: float) -> tuple[float, tuple[Point, complex] | None]:
             p = self.engine.point_at(a, b, sig, tests=False)
@@ -460,7 +498,6 @@ class CrossingLocator(EnginePart):
         return q, width, lam_c
 
 
-
 #: the ``detail`` of a multiplier crossing, by kind
 _CROSSING_DETAIL = {
     "fold": "a multiplier pair crosses the unit circle at +1",
@@ -469,6 +506,23 @@ _CROSSING_DETAIL = {
                       "conservative system: a Krein collision)",
     "stability_change": "multipliers cross the unit circle",
 }
+
+
+def unresolved_event(p: Point, width: float, n_before: int, n_after: int,
+                     lam: complex) -> Event:
+    """An ``unresolved_crossing`` at ``p`` (the count's bracket ``width``): the number of
+    multipliers counted outside the circle changes ``n_before -> n_after`` while the
+    multiplier ``lam`` (the one counted on one side only, nearest to ``p``'s) is not resolved
+    beyond the noise of the multipliers on the other side (:meth:`CrossingLocator.locate`)."""
+    dist = abs(lam) - 1.0
+    data = {"n_outside_before": n_before, "n_outside_after": n_after,
+            "stable_before": n_before == 0, "stable_after": n_after == 0,
+            "located_on": "count", "critical_multiplier": [float(lam.real), float(lam.imag)],
+            "modulus_minus_one": float(dist), "noise": float(p.circle_tol)}
+    detail = (f"the count of multipliers outside the unit circle changes ({n_before} -> "
+              f"{n_after}) while |lambda| - 1 = {dist:.2g} stays within the multipliers' "
+              f"noise ({p.circle_tol:.2g}) on one side: no crossing resolved")
+    return Event("unresolved_crossing", p, detail, data=data, bracket=width)
 
 
 def crossing_events(kind: str, p: Point, width: float, n_before: int, n_after: int,

@@ -25,7 +25,10 @@ The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
   quantity, maximum number of points, step below minimum (with the problem's own message when it
   raised), step below the floating-point resolution, singular Jacobian, loss of admissibility
   (when asked), an asymptote (amplitude growing without bound, ``p*`` extrapolated), and
-  ``internal error: Type: message`` for a bug, keeping the points computed so far.
+  ``internal error: Type: message`` for a bug, keeping the points computed so far. A branch
+  that fails next to a boundary of its family ends at it, named
+  (:mod:`~nsm_continuation.core.palc.ends`): a kink located ahead that cannot be crossed, or the
+  extrapolated zero of a vanishing quantity (e.g. an impact velocity).
 
 At each accepted point the problem's hooks give admissibility test functions, event functions
 (:meth:`~nsm_continuation.core.problem.Problem.event_functions`: located, never ending the branch),
@@ -39,8 +42,8 @@ The engine holds the curve (corrector, tangent, analysis of a point, points on t
 step) and the step loop (:meth:`ContinuationEngine._walk`); its parts hold the rest: the step
 control (:class:`~.step_control.StepController`), the event location
 (:class:`~.locate.EventLocator`), the multiplier crossings (:class:`~.crossings.
-CrossingLocator`), kinks and charts (:class:`~.kinks.KinkCrosser`) and asymptotes
-(:class:`~.asymptote.AsymptoteMonitor`).
+CrossingLocator`), kinks and charts (:class:`~.kinks.KinkCrosser`), asymptotes
+(:class:`~.asymptote.AsymptoteMonitor`) and named ends (:class:`~.ends.EndLocator`).
 """
 
 from __future__ import annotations
@@ -53,10 +56,19 @@ import numpy as np
 from nsm_continuation.core.floquet import count_outside
 from nsm_continuation.core.palc.asymptote import AsymptoteMonitor
 from nsm_continuation.core.palc.crossings import CrossingLocator
-from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS, RetryStep, describe_error
+from nsm_continuation.core.palc.ends import EndLocator
+from nsm_continuation.core.palc.errors import (
+    HOOK_FAULTS,
+    NUMERICAL_ERRORS,
+    MonitorError,
+    RetryStep,
+    check_finite,
+    describe_error,
+    describe_fault,
+)
 from nsm_continuation.core.palc.kinks import KinkCrosser
 from nsm_continuation.core.palc.locate import EventLocator
-from nsm_continuation.core.palc.step_control import Step, StepController
+from nsm_continuation.core.palc.step_control import StepController
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.core.records import Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
@@ -92,6 +104,7 @@ class ContinuationEngine:
         self.crossings = CrossingLocator(self)
         self.kinks = KinkCrosser(self)
         self.asymptote = AsymptoteMonitor(self)
+        self.ends = EndLocator(self)
 
     # ------------------------------------------------------------------ linear algebra
     # every solve is with the bordered matrix [G_y(y); r^T], factorised by the problem
@@ -164,6 +177,7 @@ class ContinuationEngine:
         """
         pr = self.problem
         test_values = pr.admissibility(y) if tests else {}
+        check_finite("admissibility test (Problem.admissibility)", test_values, self._at(y))
         event_values = pr.event_functions(y) if tests else {}
         fl = None
         if floquet and (self.settings.stability_on_phantom or not tests
@@ -198,9 +212,21 @@ class ContinuationEngine:
             fl = self.problem.floquet(y, t)
         except (*NUMERICAL_ERRORS, ValueError):
             return None
-        if fl is None or not np.all(np.isfinite(fl.multipliers)):
+        if fl is None:
             return None
+        if not isinstance(fl, FloquetData):
+            raise MonitorError(f"Problem.floquet at {self._at(y)} returned "
+                               f"{type(fl).__name__}, not FloquetData or None")
+        mult = np.asarray(fl.multipliers)
+        if not np.all(np.isfinite(mult)):
+            raise MonitorError(f"Floquet multipliers (Problem.floquet) at {self._at(y)} are "
+                               f"not finite: {mult.tolist()}")
         return fl
+
+    def _at(self, y: np.ndarray) -> str:
+        """Where a point is, for a message: ``problem 'name', p = value``."""
+        pr = self.problem
+        return f"{pr.parameter} = {float(y[self.ip]):.10g} (problem {pr.name!r})"
 
     def full(self, p: Point) -> Point:
         """``p`` analysed with every hook (after a partial analysis during event location)."""
@@ -237,9 +263,11 @@ class ContinuationEngine:
         moved_before = len(self.rechart_notes)
         try:
             p0, why = self.correct_start(start)
-        except Exception as exc:  # a bug in a hook must not take the whole run down
-            p0, why = None, f"internal error at start point: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # a bug in a hook must not take the whole run down
+            p0, why = None, f"at the start point: {describe_fault(exc, self.problem.name)}"
         if p0 is None:
+            if start.info.get("found"):  # what the start's own search found, e.g. a transient
+                why = f"{why}; {start.info['found']}"
             return Branch(branch_id, start.label, [], [], {"start": why}, dict(start.info))
         directions = [1] if (start.direction != 0 or self.settings.direction != 0) else [1, -1]
         if self.settings.direction != 0 and start.direction == 0:
@@ -285,8 +313,8 @@ class ContinuationEngine:
         base = self.problem
         try:
             reason = self._walk(pts, events)
-        except Exception as exc:  # noqa: BLE001 - recorded, never raised
-            reason = f"internal error: {type(exc).__name__}: {exc}"
+        except HOOK_FAULTS as exc:  # noqa: BLE001 - recorded, never raised
+            reason = describe_fault(exc, self.problem.name)
         finally:  # the other half starts from p0, in p0's chart
             self.problem = base
         return pts, events, reason
@@ -304,24 +332,47 @@ class ContinuationEngine:
             return "start outside parameter bounds"  # a start outside the window ends at once
         control.begin()
         self.asymptote.begin()
+        self.ends.begin()
         kink_tried = -1
         while len(pts) < self.settings.max_points:
             self.kinks.rechart(pts)
             a = pts[-1]
             step = control.plan(pts)
-            if not isinstance(step, Step):  # no step: the branch ends here
-                return step if step is not None else self.locator.stop_on_edge(a, events)
+            if isinstance(step, str):  # the step no longer moves the point
+                return self.ends.named(pts, events, step)
+            if step is None:  # on the window edge
+                return self.locator.stop_on_edge(a, events)
+            if control.approaching_kink(step) and kink_tried != len(pts) \
+                    and not self.ends.expecting(a):
+                # an event function's zero approached geometrically: a kink may lie there
+                kink_tried = len(pts)
+                crossing = self.kinks.ahead(pts, step.h)
+                if crossing is not None and crossing.end is None:
+                    crossing.record(pts, events)
+                    continue
+                if crossing is not None:  # located, nothing beyond: ends there if it fails
+                    self.ends.expect(crossing, a)
             y, t, it, control.why = self._predict_correct(a, step.h, step.edge)
             if y is None:
                 # the step may have failed on a kink of the branch ahead (e.g. a grazing
                 # approached from the side where the residual's Jacobian blows up): looked
-                # for once from each point
-                crossing = None if kink_tried == len(pts) else self.kinks.ahead(pts, step.h)
+                # for once from each point, and not again while one located ahead that
+                # cannot be crossed still lies there (the branch ends at it if it fails)
+                crossing = None if kink_tried == len(pts) or self.ends.expecting(a) \
+                    else self.kinks.ahead(pts, step.h)
                 kink_tried = len(pts)
-                if crossing is not None:
+                if crossing is not None and crossing.end is None:
                     crossing.record(pts, events)
-                elif (stop := control.fail(step, control.why)) is not None:
-                    return stop
+                    continue
+                if crossing is not None:
+                    self.ends.expect(crossing, a)
+                # a step that failed reaching past the zero of a vanishing quantity (the
+                # family ends there): the branch ends at it
+                if (end := self.ends.vanishing_end(pts, events, f"the step towards it: "
+                                                   f"{control.why}", step.h)) is not None:
+                    return end
+                if (stop := control.fail(step, control.why)) is not None:
+                    return self.ends.named(pts, events, stop)
                 continue
             trial = control.admit(a, step, y, t, it)
             if trial is None:
@@ -333,17 +384,19 @@ class ContinuationEngine:
                 continue
             except NUMERICAL_ERRORS as exc:
                 if (stop := control.fail(step, describe_error(exc))) is not None:
-                    return stop
+                    return self.ends.named(pts, events, stop)
                 continue
             crossing = self.kinks.in_step(a, found, step.h)
             if crossing is not None:
                 crossing.record(pts, events)
+                if crossing.end is not None:  # located, and no branch beyond it
+                    return crossing.end
                 continue
             if found.stop is not None:
                 events.extend(found.until_stop())
                 pts.append(found.stop[0])
                 return found.stop[1]
-            events.extend(found.events)
+            events.extend(self.kinks.family_events(a, b, found.entries))
             pts.append(b)
             if self.progress is not None:
                 self.progress(1)
@@ -351,6 +404,8 @@ class ContinuationEngine:
             if asym is not None:
                 events.append(asym)
                 return f"asymptote ({asym.detail})"
+            if (end := self.ends.unresolved_end(pts, events)) is not None:
+                return end
             control.accept(trial)
         return "max_points"
 

@@ -5,6 +5,10 @@ arclength corrector.
   the Jacobian of the residual jumps): the problem returns the points across it
   (:meth:`~nsm_continuation.core.problem.Problem.continue_beyond`), found in a step
   (:meth:`KinkCrosser.in_step`) or ahead of a step that failed (:meth:`KinkCrosser.ahead`);
+  where the problem locates the zero but cannot go beyond it, the crossing is an ``end``
+  (:class:`~nsm_continuation.core.palc.ends.EndLocator` ends the branch there if it cannot step
+  past the zero either); a change of the problem's signature across a crossed kink is a
+  change of family, an event of the ``family`` monitor's kind;
 * a move to another chart where the problem asks for one
   (:meth:`~nsm_continuation.core.problem.Problem.rechart`, :meth:`KinkCrosser.rechart`).
 """
@@ -39,10 +43,13 @@ class Kink:
 @dataclass
 class KinkCrossing:
     """The branch across a kink: the points to append (the approach, the zero and the first
-    point beyond) and the events to record with them."""
+    point beyond) and the events to record with them. ``end``: the kink is located but the
+    branch cannot be continued beyond it (the points end at the zero; the reason the branch
+    ends there)."""
 
     points: list[Point]
     events: list[Event]
+    end: str | None = None
 
     def record(self, pts: list[Point], events: list[Event]) -> None:
         """Append the crossing to a half-branch's points and events."""
@@ -82,7 +89,8 @@ class KinkCrosser(EnginePart):
         any stop) at which the problem says the branch has a kink
         (:meth:`Problem.continue_beyond`): the branch goes on from the problem's point beyond
         it instead of from ``b`` (which the arclength corrector may have reached across the
-        kink on another branch, or on the right one inaccurately). The crossing's events are
+        kink on another branch, or on the right one inaccurately), or, where the problem finds
+        no branch beyond it (an ``end`` crossing), ends at the zero. The crossing's events are
         the step's before the kink, then the kink's."""
         zeros = found.of(EventSource.FUNCTION)
         if not zeros:
@@ -105,12 +113,44 @@ class KinkCrosser(EnginePart):
                   and src not in (EventSource.SIGNATURE, EventSource.FUNCTION)
                   and not (e.kind in ("branch_point", "fold")
                            and s_zero - e.point.s <= at_kink)]
-        return KinkCrossing(crossing.points, before + crossing.events)
+        return KinkCrossing(crossing.points, before + crossing.events, crossing.end)
 
-    def ahead(self, pts: list[Point], h_step: float) -> KinkCrossing | None:
+    def family_events(self, a: Point, b: Point, found: list[tuple[EventSource, Event]]
+                      ) -> list[Event]:
+        """The events of a step ``a -> b`` that crossed a zero of an event function without
+        the problem's parametrisation (the arclength corrector went across it): where the
+        signature changes over the step, the branch went on along another family at the zero,
+        and its change of signature is the ``family`` monitor's event at the zero (located on
+        the smooth function, where the signature's bisection across the kink is not
+        reliable). Other steps' events unchanged."""
+        family = self.problem.monitors.family_kind
+        zeros = [ev for src, ev in found if src is EventSource.FUNCTION]
+        if family is None or not zeros or a.signature == b.signature \
+                or a.signature is None or b.signature is None:
+            return [ev for _, ev in found]
+        out: list[Event] = []
+        for src, ev in found:
+            if src is not EventSource.SIGNATURE:
+                out.append(ev)
+                continue
+            zero = min(zeros, key=lambda z: abs(z.point.s - ev.point.s))
+            before = ev.data.get("signature_before")
+            after = ev.data.get("signature_after")
+            out.append(Event(family, zero.point, f"event sequence {before} -> {after}: the "
+                             f"branch goes on along another family across the {zero.kind}",
+                             data={"signature_before": before, "signature_after": after,
+                                   "at": zero.kind}, bracket=zero.bracket))
+        return out
+
+    def ahead(self, pts: list[Point], h_step: float, start: Point | None = None
+              ) -> KinkCrossing | None:
         """After a step from ``pts[-1]`` that failed: the crossing of a kink the step may have
-        met (:meth:`_approaching`), or None."""
+        met (:meth:`_approaching`), or None (an ``end`` crossing: the kink is located, the
+        branch cannot be continued beyond it). ``start``: an earlier point of the branch to
+        locate the kink from (where the last ones are too close to it to be resolved)."""
         kink = self._approaching(pts, h_step)
+        if kink is not None and start is not None and kink.function in start.event_values:
+            kink = Kink(kink.function, float(start.event_values[kink.function]), start)
         return None if kink is None else self.cross(pts[-1], kink, h_step)
 
     def _approaching(self, pts: list[Point], h_step: float) -> Kink | None:
@@ -150,16 +190,24 @@ class KinkCrosser(EnginePart):
                 return None
             path: list[Point] = []
             prev = a
+            # the approach from ``a`` on (from an earlier start it may pass points behind it),
+            # without points that are the zero itself to round-off
+            reach = float(np.linalg.norm(a.y - np.asarray(out.zero, dtype=float)))
             for z in out.approach:
                 z = np.asarray(z, dtype=float)
-                if np.linalg.norm(z - prev.y) <= 1e-12 * (1.0 + np.linalg.norm(z)):
+                tiny = 1e-12 * (1.0 + np.linalg.norm(z))
+                if np.linalg.norm(z - prev.y) <= tiny \
+                        or not tiny < np.linalg.norm(z - out.zero) < reach:
                     continue
                 t = self.engine.tangent(z, prev.tangent)
                 prev = self.engine.analyse(z, t, prev.s + float(np.linalg.norm(z - prev.y)))
                 path.append(prev)
-            yg, y1 = (np.asarray(z, dtype=float) for z in (out.zero, out.beyond))
+            yg = np.asarray(out.zero, dtype=float)
             pg = self.engine.analyse(yg, prev.tangent,
                                      prev.s + float(np.linalg.norm(yg - prev.y)), floquet=False)
+            if out.beyond is None:
+                return self._end_at(name, value, a, path, pg, out.why)
+            y1 = np.asarray(out.beyond, dtype=float)
             d = y1 - yg
             if not self._is_real(name, value, pg, prev, d):
                 return None
@@ -183,6 +231,14 @@ class KinkCrosser(EnginePart):
         found = [Event(kind, pg, f"event function '{name}' vanishes; the branch has a kink "
                        "here and goes on beyond it (the problem's local parametrisation)",
                        data=data, bracket=0.0)]
+        family = self.problem.monitors.family_kind
+        if family is not None and a.signature != p1.signature \
+                and a.signature is not None and p1.signature is not None:
+            found.append(Event(family, pg, f"event sequence {a.signature} -> {p1.signature}: "
+                               f"the branch goes on along another family across the {kind}",
+                               data={"signature_before": a.signature,
+                                     "signature_after": p1.signature, "at": kind},
+                               bracket=0.0))
         if prev.multipliers is not None and p1.multipliers is not None \
                 and prev.n_unstable != p1.n_unstable:
             found += crossing_events("stability_change", pg, 0.0, prev.n_unstable,
@@ -190,6 +246,25 @@ class KinkCrosser(EnginePart):
         if self.engine.progress is not None:
             self.engine.progress(len(path) + 2)
         return KinkCrossing([*path, pg, p1], found)
+
+    def _end_at(self, name: str, value: float, a: Point, path: list[Point], zero: Point,
+                why: str) -> KinkCrossing | None:
+        """The crossing that ends at the zero ``zero`` of event function ``name`` (the problem
+        locates it but cannot continue the branch beyond it, for the reason ``why``): the
+        approach and the zero, with the zero's event; None if ``zero`` is no zero."""
+        fz = zero.event_values.get(name, np.nan)
+        if np.isfinite(fz) and abs(fz) > 1e-6 * max(abs(value), 1e-300):
+            return None
+        kind = self.problem.monitors.kind(Source.FUNCTION, name)
+        p = float(zero.y[self.ip])
+        data: dict[str, Any] = {"function": name, "value_before": value, "kink": True,
+                                "crossed": False, "signature_before": a.signature,
+                                "reason": why}
+        ev = Event(kind, zero, f"event function '{name}' vanishes; the branch is not continued "
+                   f"beyond it: {why}", data=data, bracket=0.0)
+        end = (f"{kind} at {self.problem.parameter} = {p:.12g}, located; the branch is not "
+               f"continued beyond it: {why}")
+        return KinkCrossing([*path, zero], [ev], end=end)
 
     def _is_real(self, name: str, value: float, zero: Point, prev: Point,
                  beyond: np.ndarray) -> bool:

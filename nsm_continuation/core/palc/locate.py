@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nsm_continuation.core.monitors import Source
+from nsm_continuation.core.palc.branch_points import plus_one_events, stencil_zero
 from nsm_continuation.core.palc.errors import RetryStep
 from nsm_continuation.core.palc.part import EnginePart
 from nsm_continuation.core.palc.step_control import Trial
@@ -130,7 +131,8 @@ class EventLocator(EnginePart):
     def _locate_continuous(self, a: Point, b: Point, fun: Callable[[Point], float],
                            lo: float = 0.0, flo: float | None = None,
                            hi: float | None = None, fhi: float | None = None,
-                           floquet: bool = False, tests: bool = True) -> tuple[Point, float]:
+                           floquet: bool = False, tests: bool = True,
+                           failures: list[float] | None = None) -> tuple[Point, float]:
         """A zero of ``fun`` on the arc from ``a`` to ``b`` (Illinois with Dekker's closing
         step, to ``event_tol`` in arclength, between arclengths ``lo`` and ``hi`` from ``a``:
         5-10 trial points where the plain iteration's halvings took 20-30), as ``(point,
@@ -138,7 +140,8 @@ class EventLocator(EnginePart):
         the multipliers only if ``floquet`` and with the admissibility tests and event
         functions only if ``tests``: a function of the parameter, of a derived quantity, of
         the tangent or of the bordered determinant reads neither (each trial point's tests
-        cost the chain's certified critical points of ``u_N``)."""
+        cost the chain's certified critical points of ``u_N``). ``failures`` collects the
+        arclengths of the trial points where the corrector failed (or ``fun`` is NaN)."""
         h = b.s - a.s
         hi = h if hi is None else hi
         flo = fun(a) if flo is None else flo
@@ -151,6 +154,8 @@ class EventLocator(EnginePart):
             value = float("nan") if p is None else fun(p)
             if np.isfinite(value):
                 seen.append(abs(value))
+            elif failures is not None:
+                failures.append(sig)
             return value, p
 
         sig, p, width = illinois(f, lo, flo, hi, fhi, self.settings.event_tol, close=True)
@@ -161,6 +166,44 @@ class EventLocator(EnginePart):
         if p is None:
             p = b if abs(sig - h) < abs(sig) else a
         return self.engine.full(p), width
+
+    def _locate_branch_point(self, a: Point, b: Point) -> Event | None:
+        """The simple branch point of the step ``a -> b`` where ``det[G_y; t^T]`` changes sign
+        (Illinois, :meth:`_locate_continuous`). Where the corrector failed at trial points
+        near it (the bordered Jacobian is singular there), the location is checked against
+        the zero interpolated from resolved points around it (:func:`~nsm_continuation.core.
+        palc.branch_points.stencil_zero`, at least 8 widths of the failed zone away): where
+        that zero is accurate to ``multiplier_event_tol`` (the accuracy a crossing's location
+        must reach, :meth:`~.crossings.CrossingLocator._locate_on_modulus`) and the two
+        differ by more than both accuracies, the corrector's noise misled the iteration, and
+        the interpolated zero is the event (``data['interpolated']``;
+        ``data['iteration_offset']``: how far the iteration's location was). None through a
+        pole (the Jacobian blows up, e.g. like ``1/|v|`` as an impact's velocity vanishes at a
+        grazing: no second branch crosses) or off the step's arc (counted in
+        ``sign_changes_without_zero`` / ``unlocated_events``)."""
+        def det(q: Point) -> float:
+            return q.bordered_det
+
+        failed: list[float] = []
+        p, w = self._locate_continuous(a, b, det, tests=False, failures=failed)
+        if self.last_was_pole:
+            self.engine.sign_changes_without_zero += 1
+            return None
+        data: dict[str, object] = {"test": "bordered_determinant"}
+        sig = p.s - a.s
+        z = None if not failed else stencil_zero(
+            sig, b.s - a.s, lambda x: self.engine.point_at(a, b, x, tests=False, floquet=False),
+            det, float(np.sign(a.bordered_det)), min_half_width=8.0 * (max(failed) - min(failed)))
+        if z is not None and z.accuracy <= self.settings.multiplier_event_tol \
+                and abs(z.sigma - sig) > max(w, z.accuracy):
+            p = self.engine.analyse(z.y, z.tangent, a.s + z.sigma)
+            w = max(z.accuracy, self.settings.event_tol)
+            data.update(interpolated=True, iteration_offset=float(abs(z.sigma - sig)))
+        if not self._on_arc(a, b, p):
+            self.engine.unlocated_events += 1
+            return None
+        return Event("branch_point", p, "simple branch point: det[G_y; t^T] changes sign",
+                     data=data, bracket=w)
 
     def _on_arc(self, a: Point, b: Point, p: Point) -> bool:
         """Whether a located point can lie on the arc between ``a`` and ``b``: where the
@@ -379,9 +422,11 @@ class EventLocator(EnginePart):
     def _bifurcation_events(self, a: Point, b: Point,
                             kinks: list[Event] | None = None) -> list[Event]:
         """Folds (the parameter component of the tangent changes sign), simple branch points
-        (``det[G_y; t^T]`` changes sign, tangents oriented continuously) and multipliers
-        crossing the unit circle. ``kinks``: the step's admissibility events, beyond which
-        an end may have no multipliers
+        (``det[G_y; t^T]`` changes sign, tangents oriented continuously,
+        :meth:`_locate_branch_point`) and multipliers crossing the unit circle, a crossing
+        at +1 named fold or branch point by the tangent test
+        (:func:`~nsm_continuation.core.palc.branch_points.plus_one_events`). ``kinks``: the
+        step's admissibility events, beyond which an end may have no multipliers
         (:meth:`~nsm_continuation.core.palc.crossings.CrossingLocator.ends`)."""
         ip = self.ip
         found: list[Event] = []
@@ -391,19 +436,11 @@ class EventLocator(EnginePart):
             found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
                                "along the branch", data={"test": "tangent"}, bracket=w))
         elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
-            p, w = self._locate_continuous(a, b, lambda q: q.bordered_det, tests=False)
-            if self.last_was_pole:
-                # through a pole, not a zero: the Jacobian blows up (e.g. like 1/|v| as an
-                # impact's velocity vanishes at a grazing), no second branch crosses here
-                self.engine.sign_changes_without_zero += 1
-            elif self._on_arc(a, b, p):
-                found.append(Event("branch_point", p, "simple branch point: det[G_y; t^T] "
-                                   "changes sign", data={"test": "bordered_determinant"},
-                                   bracket=w))
-            else:
-                self.engine.unlocated_events += 1
+            bp = self._locate_branch_point(a, b)
+            if bp is not None:
+                found.append(bp)
         found.extend(self.engine.crossings.events(a, b, kinks or []))
-        return _merge_fold_crossings(found)
+        return plus_one_events(found, self.problem.conservative)
 
     def _signature_events(self, a: Point, b: Point) -> list[Event]:
         """A change of the problem's discrete signature (event sequence of a hybrid orbit)."""
@@ -457,25 +494,6 @@ class EventLocator(EnginePart):
         p = b if p is None else self.engine.full(p)
         return [Event(kind, p, f"event sequence {vl} -> {vr}",
                       data={"signature_before": vl, "signature_after": vr}, bracket=width)]
-
-
-def _merge_fold_crossings(events: list[Event]) -> list[Event]:
-    """A limit point of the branch (the tangent's parameter component changes sign) is where a
-    multiplier passes +1: the crossing located there on the multipliers is the same event,
-    reported once (the fold, with the crossing's data: multipliers outside before and after)."""
-    folds = [e for e in events if e.kind == "fold" and e.data.get("test") == "tangent"]
-    if not folds:
-        return events
-    out: list[Event] = []
-    for ev in events:
-        twin = next((f for f in folds if ev is not f and ev.kind == "fold" and abs(
-            ev.point.s - f.point.s) <= max(1e-8 * (1.0 + abs(f.point.s)),
-                                           2 * ev.bracket, 2 * f.bracket)), None)
-        if twin is not None:
-            twin.data.update({k: v for k, v in ev.data.items() if k != "test"})
-            continue
-        out.append(ev)
-    return out
 
 
 def _admissibility_change(name: str, leaving: bool, others: dict[str, float]) -> str:

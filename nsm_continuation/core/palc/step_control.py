@@ -80,10 +80,13 @@ def _adapted_step(h: float, iterations: int, angle: float, st: ContinuationSetti
 @dataclass(frozen=True)
 class Step:
     """A planned step from the last point: its length ``h`` and, when it ends on an edge of
-    the parameter window, that edge's parameter value (``edge``; None otherwise)."""
+    the parameter window, that edge's parameter value (``edge``; None otherwise); ``kink``:
+    the event function whose predicted zero shortened it (:meth:`StepController._test_cap`),
+    or None."""
 
     h: float
     edge: float | None
+    kink: str | None = None
 
 
 @dataclass(frozen=True)
@@ -115,6 +118,8 @@ class StepController(EnginePart):
         self.h = engine.settings.step_initial
         self.why = ""
         self.halvings = 0
+        #: the event function that shortened the last accepted step (Step.kink)
+        self.kink: str | None = None
         #: the Floquet data of the last few points, by their unknowns (:meth:`krein_at`)
         self._floquet_memo: dict[bytes, FloquetData] = {}
         #: the Krein data of the last point a step started from (:meth:`krein_at`)
@@ -125,6 +130,15 @@ class StepController(EnginePart):
         self.h = self.settings.step_initial
         self.why = ""
         self.halvings = 0
+        self.kink = None
+
+    def approaching_kink(self, step: Step) -> bool:
+        """Whether ``step`` and the last accepted one were both shortened by the predicted
+        zero of the same event function: its linear prediction keeps receding, the zero is
+        approached geometrically and never reached (a grazing margin ``-v^2 / (2a)`` on the
+        impacting side is quadratic in the arclength). A kink of the branch may lie there
+        (:meth:`~nsm_continuation.core.palc.kinks.KinkCrosser.ahead`)."""
+        return step.kink is not None and step.kink == self.kink
 
     def inside_window(self, p: Point) -> bool:
         """Whether ``p``'s parameter lies inside the window ``[param_min, param_max]``."""
@@ -194,19 +208,21 @@ class StepController(EnginePart):
         turning angle (:func:`_adapted_step`), its growth capped by its motion ratio
         (:func:`_motion_capped_step`)."""
         self.halvings = 0
+        self.kink = trial.step.kink
         self.h = _adapted_step(self.h, trial.iterations, trial.angle, self.settings)
         if trial.ratio > 0.0:
             self.h = min(self.h, _motion_capped_step(trial.step.h, trial.ratio))
 
     def _step_length(self, pts: list[Point], h: float, res: float
-                     ) -> tuple[float, float | None] | None:
-        """``(h_step, edge)``: the step from ``pts[-1]`` shortened so that it never carries
-        the parameter past an edge of the window (it then ends on the edge, whose parameter
-        value is ``edge``) nor a test or event function far past a zero (:meth:`_test_cap`);
-        None when the point already lies on the edge its tangent points out of."""
+                     ) -> tuple[float, float | None, str | None] | None:
+        """``(h_step, edge, kink)``: the step from ``pts[-1]`` shortened so that it never
+        carries the parameter past an edge of the window (it then ends on the edge, whose
+        parameter value is ``edge``) nor a test or event function far past a zero
+        (:meth:`_test_cap`; ``kink``: the event function that shortened it); None when the
+        point already lies on the edge its tangent points out of."""
         st = self.settings
         a = pts[-1]
-        h_step, edge = h, None
+        h_step, edge, kink = h, None, None
         cap = self._window_cap(a)
         if cap is not None:
             dist, value = cap
@@ -214,10 +230,11 @@ class StepController(EnginePart):
                 return None
             if dist <= h_step:
                 h_step, edge = dist, value
-        tcap = max(self._test_cap(pts), st.step_min, 4 * res)
+        tcap, by = self._test_cap(pts)
+        tcap = max(tcap, st.step_min, 4 * res)
         if tcap < h_step:
-            h_step, edge = tcap, None
-        return h_step, edge
+            h_step, edge, kink = tcap, None, by
+        return h_step, edge, kink
 
     def _window_cap(self, a: Point) -> tuple[float, float] | None:
         """``(arclength along a's tangent to the window edge ahead, that edge's parameter)``,
@@ -232,28 +249,30 @@ class StepController(EnginePart):
             return None
         return max((value - float(a.y[self.ip])) / tp, 0.0), value
 
-    def _test_cap(self, pts: list[Point]) -> float:
+    def _test_cap(self, pts: list[Point]) -> tuple[float, str | None]:
         """Longest step that moves no admissibility test function and no event function
         towards zero by more than ``TEST_STEP_FACTOR`` times its value, predicted from the
         secant of the last step. A huge step could otherwise jump over a zero pair (out of
         admissibility and back; an event function's two zeros) or land on another solution
-        beyond a grazing point, with no sign change to see."""
+        beyond a grazing point, with no sign change to see. Also the event function that
+        sets the cap (None when a test function does, or none)."""
         if len(pts) < 2:
-            return np.inf
+            return np.inf, None
         a, prev = pts[-1], pts[-2]
         ds = a.s - prev.s
-        cap = np.inf
+        cap, by = np.inf, None
         if not ds > 0:
-            return cap
-        for now, before in ((a.tests, prev.tests), (a.event_values, prev.event_values)):
+            return cap, by
+        for event, now, before in ((False, a.tests, prev.tests),
+                                   (True, a.event_values, prev.event_values)):
             for name, fa in now.items():
                 fp = before.get(name)
                 if fp is None or fa == 0 or not (np.isfinite(fa) and np.isfinite(fp)):
                     continue
                 slope = (fa - fp) / ds
-                if slope * fa < 0:
-                    cap = min(cap, TEST_STEP_FACTOR * abs(fa / slope))
-        return cap
+                if slope * fa < 0 and TEST_STEP_FACTOR * abs(fa / slope) < cap:
+                    cap, by = TEST_STEP_FACTOR * abs(fa / slope), (name if event else None)
+        return cap, by
 
     def _multiplier_motion(self, a: Point, y_new: np.ndarray, t_new: np.ndarray,
                            h_step: float, halvings: int) -> tuple[FloquetData | None, float]:

@@ -1,0 +1,161 @@
+"""The chain of Legrand, Junca, Heng (2017) declared through the hybrid layer: the second model
+of the same nonsmooth modes (``problem: ndof_impact_hybrid``).
+
+``M u'' + K u = 0`` between impacts (the matrices of the chain, :class:`.parameters.ChainSpec`,
+the same as ``ndof_impact``'s), the wall ``H = g - u_c >= 0`` at the impacting dof ``c`` with
+Newton's law ``u_c'+ = -e u_c'-`` (``e = 1``: eq. 2.5), simulated event by event
+(:class:`~nsm_continuation.hybrid.simulate.Simulator`: Runge-Kutta between impacts, located
+impacts, saltation-chained sensitivities) and continued as a conservative family
+(:class:`~nsm_continuation.hybrid.conservative_family.ConservativeFamilyProblem`: the unfolding
+``M u'' + K u = beta M u'`` that vanishes on every orbit, shooting on the section ``u_c = 0``
+crossed falling, the energy ``E = (u'^T M u' + u^T K u) / 2``).
+
+**Which model runs.** ``ndof_impact`` (the closed form (4.1)-(4.2), its multipliers from
+(A.8)) is the default: exact to round-off, 1.4 ms per point (0.25 s here), but only for one
+impact per period. This model assumes nothing about the impact sequence (several impacts per
+period, a damping or a restitution below 1 to check that the unfolding catches them); a case
+chooses it explicitly, and the report names it (``problem_summary.model``). The two agree on
+the one-impact modes (``tests/chain/test_two_models.py``).
+
+Starts: ``{omega: w}`` or ``{T: T}``: the closed-form orbit (4.2) at that period (a guess: the
+hybrid model corrects it in its own equations at that frequency), or ``{guess: {...}}`` on the
+section. The section is crossed once per period on branch 1; a start counts the crossings of
+its orbit (``returns``).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, ClassVar, Literal
+
+import casadi as ca
+import numpy as np
+from nsm_continuation.problems.chain.modal import ModalModel
+from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from nsm_continuation.problems.chain.parameters import ChainSpec
+from pydantic import BaseModel, Field, model_validator
+
+from nsm_continuation.core.preflight import STRICT, one_or_many
+from nsm_continuation.hybrid.conservative import CrossingSection
+from nsm_continuation.hybrid.conservative_family import ConservativeFamilyProblem, GuessStart
+from nsm_continuation.hybrid.specs import IntegratorSpec
+from nsm_continuation.hybrid.system import HybridSystem
+
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class HybridChainParameters(BaseModel):
+    """``parameters:`` of ``problem: ndof_impact_hybrid``: the chain, the gap (the wall at
+    ``u_c = gap > 0``), the impacting dof (default the last), the restitution (1: the nonsmooth
+    modes; below 1 the unfolding does not vanish and the branch ends, named), a viscous damping
+    ``damping * K`` (0: conservative) and the integrator (default ``rtol`` 1e-12)."""
+
+    model_config = STRICT
+    #: the chain's masses and springs (as for ``problem: ndof_impact``)
+    chain: ChainSpec
+    #: the wall's position: the impacting dof's displacement ``u_c <= gap``
+    gap: Positive
+    #: the dof that hits the wall (1-based; null: the last)
+    impacting_dof: Annotated[int, Field(ge=1)] | None = None
+    #: coefficient of restitution (1: elastic, the nonsmooth modes; below 1 the unfolding
+    #: parameter does not vanish and the branch ends, named)
+    restitution: float = Field(1.0, gt=0, le=1, allow_inf_nan=False)
+    #: viscous damping ``damping * K`` (0: conservative)
+    damping: float = Field(0.0, ge=0, allow_inf_nan=False)
+    #: the section ``u_c = section_value`` (crossed falling: moving away from the wall)
+    section_value: float = Field(0.0, allow_inf_nan=False)
+    #: the impacts per period of the orbits continued (1: the paper's one-impact modes; a
+    #: branch ends where its impact sequence changes, e.g. at the nonlinear grazing orbit B);
+    #: null: any
+    impacts: Annotated[int, Field(ge=1)] | None = 1
+    #: the simulation's tolerances and integrator (default ``rtol`` 1e-12)
+    integrator: IntegratorSpec = IntegratorSpec(rtol=1e-12, atol=1e-14)
+
+    @model_validator(mode="after")
+    def _checks(self) -> HybridChainParameters:
+        if self.impacting_dof is not None and not 1 <= self.impacting_dof <= self.chain.dofs:
+            raise ValueError(f"impacting_dof = {self.impacting_dof} is out of range "
+                             f"1..{self.chain.dofs}")
+        if not self.section_value < self.gap:
+            raise ValueError(f"section_value = {self.section_value} must lie below the wall "
+                             f"(gap = {self.gap})")
+        return self
+
+
+class ClosedFormStart(BaseModel):
+    """``start: {omega: w}`` or ``{T: T}``: the closed-form one-impact orbit (4.2) at that
+    period, as the guess."""
+
+    model_config = STRICT
+    #: the orbit's angular frequency (give this or ``T``)
+    omega: Positive | None = None
+    #: the orbit's period (give this or ``omega``)
+    T: Positive | None = None
+    #: the directions to continue in from the start
+    direction: Literal["both", "increase", "decrease"] = "both"
+    #: a label for the start's branch
+    label: str | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> ClosedFormStart:
+        if (self.omega is None) == (self.T is None):
+            raise ValueError("give exactly one of omega, T")
+        return self
+
+    @property
+    def period(self) -> float:
+        return self.T if self.T is not None else 2.0 * np.pi / float(self.omega)  # type: ignore[arg-type]
+
+
+class NDofImpactHybridProblem(ConservativeFamilyProblem):
+    """The chain's nonsmooth modes by the hybrid layer (see the module docstring)."""
+
+    name: ClassVar[str] = "ndof_impact_hybrid"
+    Parameters: ClassVar[type[BaseModel]] = HybridChainParameters
+    case_parameter: ClassVar[str | None] = "omega"
+    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
+                                                 "section_value", "impacts")
+    start_adapter = one_or_many(ClosedFormStart | GuessStart)
+    model: ClassVar[str] = (
+        "hybrid (problem ndof_impact_hybrid): event-driven simulation of the chain between "
+        "impacts with the unfolding beta, chosen by the case; the closed form (problem "
+        "ndof_impact) is the default model of one-impact orbits")
+
+    def __init__(self, params: BaseModel | dict[str, Any]) -> None:
+        p = params if isinstance(params, BaseModel) else HybridChainParameters.model_validate(
+            dict(params))
+        self.chain_problem = NDofImpactProblem(
+            {"chain": p.chain.model_dump(), "gap": p.gap,  # type: ignore[attr-defined]
+             "impacting_dof": p.impacting_dof})  # type: ignore[attr-defined]
+        super().__init__(p)
+
+    @property
+    def modal(self) -> ModalModel:
+        """The chain's matrices and modal data (shared with its closed form)."""
+        return self.chain_problem.modal
+
+    def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
+        cp = self.chain_problem
+        N, c = cp.N, cp.c
+        M, K = ca.DM(cp.M), ca.DM(cp.K)
+        q, qd = ca.SX.sym("u", N), ca.SX.sym("du", N)
+        p = {k: ca.SX.sym(k) for k in ("gap", "restitution", "damping")}
+        force = -ca.mtimes(K, q) - p["damping"] * ca.mtimes(K, qd)
+        names = [f"u{i + 1}" for i in range(N)] + [f"du{i + 1}" for i in range(N)]
+        system = HybridSystem.mechanical("chain", q, qd, p, M, force, p["gap"] - q[c],
+                                         p["restitution"], state_names=names)
+        energy = 0.5 * (ca.dot(qd, ca.mtimes(M, qd)) + ca.dot(q, ca.mtimes(K, q)))
+        return system, energy
+
+    def impacts_per_period(self) -> int | None:
+        return self.params.impacts  # type: ignore[attr-defined,no-any-return]
+
+    def section(self) -> CrossingSection:
+        return CrossingSection(self.chain_problem.c, float(self.params.section_value),  # type: ignore[attr-defined]
+                               0.0, crossing=-1, returns=1)
+
+    def orbit_start(self, spec: Any) -> tuple[np.ndarray, float, str, dict[str, Any]]:
+        """The closed-form orbit (4.2) at the start's period: its post-impact state."""
+        T = spec.period
+        u0, du0 = self.chain_problem.closed_form(T)
+        label = spec.label or f"omega = {2 * np.pi / T:.6g}"
+        return np.concatenate([u0, du0]), T, label, {"start": "closed form (4.2)", "T0": T}
