@@ -81,6 +81,12 @@ PAPER: dict[str, tuple[str, str]] = {
                      "the first nonlinear mode from its linear grazing to its nonlinear "
                      "grazing, stability changes"),
     "ndof_fig3_1_wN": (f"{LEGRAND}, Fig. 3.1", "poles k T_j, zeros of w_N"),
+    "ndof_hybrid_branch1": (f"{LEGRAND}, Figs. 5.1 (branch 1), 6.1, by the hybrid model",
+                            "the same curve, multipliers and stability changes as "
+                            "ndof_default"),
+    "ndof_hybrid_period_doubling": ("none (beyond the paper: two impacts per period)",
+                                    "the period-2 families born at the period doublings of "
+                                    "branch 1"),
     "ndof_fig3_2_fep": (f"{LEGRAND}, Fig. 3.2",
                         "admissible (thick) and phantom (thin grey) spectrum, linear "
                         "frequencies and subharmonics"),
