@@ -17,19 +17,21 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from nsm_continuation.problems.bar.continuum_orbits import main_backbone  # noqa: E402
 
-from nsm_continuation.cases import schema as cases  # noqa: E402
-from nsm_continuation.runs.runner import run_case  # noqa: E402
+import nsm_continuation as nsm  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-COLORS = {"positive": "tab:blue", "zero": "k", "negative": "tab:red"}
+#: colours of the gaps (the package's palette: no stability red, no Neimark-Sacker green)
+COLORS = {"positive": "tab:blue", "zero": "k", "negative": "tab:orange"}
+LABELS = {"positive": r"$g_0 = 10^{-3}$", "zero": r"$g_0 = 0$ (vertical: energy free)",
+          "negative": r"$g_0 = -10^{-3}$"}
 
 
 def branches(path: Path, overrides: list[str] | None = None):
-    case, problem = cases.load(path, overrides or [])
     t0 = time.perf_counter()
-    res = run_case(case, problem, progress=False)
-    return res, time.perf_counter() - t0
+    res = nsm.run(path, [*(overrides or []), "output.plots=false", "output.progress=false"])
+    return res.run_result, time.perf_counter() - t0
 
 
 def main() -> None:
@@ -37,22 +39,30 @@ def main() -> None:
     for gap in ("positive", "zero", "negative"):
         res, dt = branches(ROOT / f"yaml_cases/wfem_fig5_6_backbones_gap_{gap}.yaml")
         print(f"gap {gap}: {sum(b.n_points for b in res.branches)} points in {dt:.2f} s")
+        label = LABELS[gap]
         for br in res.branches:
             x = [p.derived["omega_ratio"] for p in br.points]
             y = [p.derived["energy_ratio"] for p in br.points]
             if gap == "zero":
-                ax.axvline(x[0], color="k", lw=2)
+                ax.axvline(x[0], color="k", lw=2, label=label)
             else:
-                ax.plot(x, y, ".-", color=COLORS[gap], ms=2, lw=1.2)
+                ax.plot(x, y, ".-", color=COLORS[gap], ms=2, lw=1.2, label=label)
+            label = "_nolegend_"
+        if gap != "zero":  # the continuum limit in closed form (sec. 6.1), dashed over them
+            for k in (1, 2):
+                xb, yb = main_backbone(k, 1.0 if gap == "positive" else -1.0)
+                ax.plot(xb, yb, ls=(0, (4, 3)), color="0.2", lw=0.9,
+                        label="continuum limit (closed form, sec. 6.1)"
+                        if (gap, k) == ("positive", 1) else "_nolegend_")
     for k, lab in ((1, r"$\omega_1$"), (2, r"$\Omega_1$"), (3, r"$\omega_2$"), (4, r"$\Omega_2$")):
         ax.axvline(k, ls=":", color="0.5", lw=0.8)
         ax.text(k + 0.02, 0.6, lab, ha="left", fontsize=9)
     ax.set_yscale("log")
     ax.set_ylim(0.5, 1e3)
-    ax.set_xlabel(r"$\omega/\omega_1$")
-    ax.set_ylabel(r"$E/E_{ref}$ (eq. 14)")
-    ax.set_title("Figs. 5-6: main backbones, N = 1000\n"
-                 r"blue $g_0=10^{-3}$, black $g_0=0$, red $g_0=-10^{-3}$")
+    ax.set_xlabel(r"frequency $\omega/\omega_1$ (eq. 13)")
+    ax.set_ylabel(r"energy $E/E_{ref}$ (eq. 14)")
+    ax.set_title("Figs. 5-6: main backbones, N = 1000")
+    ax.legend(fontsize=7, loc="upper center")
     for g0 in (1e-2, 3e-3, 1e-3, -1e-3, -3e-3, -1e-2):
         res, _ = branches(ROOT / "yaml_cases/wfem_fig5_6_backbones_gap_positive.yaml",
                           [f"parameters.gap={g0}", "parameters.cells=400",
@@ -61,12 +71,12 @@ def main() -> None:
         for br in res.branches:
             x = [p.derived["omega_ratio"] for p in br.points]
             y = [p.derived["energy"] for p in br.points]
-            ax7.plot(x, y, "-", color="tab:blue" if g0 > 0 else "tab:red",
+            ax7.plot(x, y, "-", color=COLORS["positive" if g0 > 0 else "negative"],
                      alpha=0.35 + 0.2 * abs(round(1e3 * g0)) / 10, label=f"g0 = {g0:g}")
     ax7.axvline(4 / 3, color="k", lw=2, label="g0 = 0")
     ax7.set_yscale("log")
-    ax7.set_xlabel(r"$\omega/\omega_1$")
-    ax7.set_ylabel("energy E (not normalised)")
+    ax7.set_xlabel(r"frequency $\omega/\omega_1$ (eq. 13)")
+    ax7.set_ylabel("energy $E$ (not normalised)")
     ax7.set_title("Fig. 7: first backbone vs g0 (N = 400)")
     ax7.legend(fontsize=7)
     fig.tight_layout()

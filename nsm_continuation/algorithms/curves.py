@@ -150,11 +150,25 @@ class CodimOneCurve(Problem):
 BASE_SETTINGS = ("newton_tol", "derived_bounds", "step_initial")
 
 
+def _flat(values: dict[str, Any]) -> dict[str, Any]:
+    """A nested mapping of parameters flattened to its leaves, each under its own key
+    (``{"chain": {"stiffness": 4}}`` -> ``{"stiffness": 4}``)."""
+    out: dict[str, Any] = {}
+    for k, v in values.items():
+        out.update(_flat(v) if isinstance(v, dict) else {k: v})
+    return out
+
+
 class LocatedCurvePresentation(Presentation):
     """A located two-parameter curve: the continued parameter against the free one, each point
     with its condition."""
 
-    diagram_title: ClassVar[str] = "Two-parameter curve"
+    two_parameter: ClassVar[bool] = True
+
+    @property
+    def diagram_title(self) -> str:  # type: ignore[override]
+        """``<Kind> curve in two parameters``."""
+        return f"{self.problem.curve_kind.replace('_', ' ').capitalize()} curve in two parameters"
 
     @property
     def fep_axes(self) -> tuple[str, str]:
@@ -162,8 +176,31 @@ class LocatedCurvePresentation(Presentation):
 
     @property
     def fep_labels(self) -> tuple[str, str]:
+        """The two parameters as the base family labels them."""
         pr = self.problem
-        return (pr.parameter, f"{pr.free} at the {pr.curve_kind.replace('_', ' ')}")
+        base = pr.base.presentation
+        return (base.label(pr.parameter),
+                f"{base.label(pr.free)} at the {pr.curve_kind.replace('_', ' ')}")
+
+    def start_point(self, branch: Any) -> Any:
+        """The point of the curve at the base run's value of the continued parameter (the
+        codimension-one point it was started from; the curve's arclength starts at one of its
+        ends)."""
+        value = _flat(self.problem.base.params.model_dump()).get(self.problem.parameter)
+        if value is None or not branch.points:
+            return super().start_point(branch)
+        i = self.problem.variables.index(self.problem.parameter)
+        return min(branch.points, key=lambda p: abs(p.y[i] - value))
+
+    def branch_name(self, branch: Any) -> str:
+        return f"{self.problem.curve_kind.replace('_', ' ')} curve (computed)"
+
+    def closed_forms(self, x_range: tuple[float, float], branches: list[Any]
+                     ) -> list[tuple[np.ndarray, np.ndarray, str]]:
+        """The base family's closed form of this curve, if it has one."""
+        pr = self.problem
+        return pr.base.presentation.curve_closed_forms(pr.curve_kind, pr.parameter, pr.free,
+                                                       x_range)
 
     @property
     def csv_head(self) -> list[str]:

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from nsm_continuation.core.records import OrbitTrace
+from nsm_continuation.core.symbols import quantity_label
 
 if TYPE_CHECKING:
     from nsm_continuation.core.problem import Problem
@@ -29,10 +30,14 @@ class Presentation:
     """How the results of :attr:`problem` are shown (the module docstring); built by
     :attr:`Problem.presentation <nsm_continuation.core.problem.Problem.presentation>`."""
 
-    #: title of the branch diagram (``fep.png``), followed by ``: <case name>``
+    #: title of the branch diagram (``fep.png``)
     diagram_title: ClassVar[str] = "Branch diagram"
-    #: scale of the branch diagram's vertical axis: "linear" or "log" (log drops values <= 0)
+    #: preferred scale of the branch diagram's vertical axis: "linear" or "log" (log drops
+    #: values <= 0, and is used only where the values span more than a decade)
     diagram_yscale: ClassVar[str] = "linear"
+    #: the branches are two-parameter curves (each point a codimension-one point of a base
+    #: family): drawn as curves with their start, not with the stability legend
+    two_parameter: ClassVar[bool] = False
 
     def __init__(self, problem: Problem) -> None:
         #: the problem whose results are shown
@@ -49,8 +54,60 @@ class Presentation:
 
     @property
     def fep_labels(self) -> tuple[str, str]:
-        """Axis labels of the two ``fep_axes`` quantities (default: their names)."""
-        return self.fep_axes
+        """Axis labels of the two ``fep_axes`` quantities (default: :meth:`label`)."""
+        x, y = self.fep_axes
+        return (self.label(x), self.label(y))
+
+    @property
+    def quantity_labels(self) -> dict[str, str]:
+        """Axis labels of quantities (unknowns, parameters, derived quantities) the family
+        declares: words and symbol in mathtext, with units where there are some (e.g.
+        ``{"omega": "forcing frequency $\\omega$"}``). Default none."""
+        return {}
+
+    def label(self, name: str) -> str:
+        """The axis label of quantity ``name``: declared (:attr:`quantity_labels`), else the
+        symbol its identifier spells, else its words
+        (:func:`~nsm_continuation.core.symbols.quantity_label`)."""
+        return quantity_label(name, self.quantity_labels)
+
+    def event_styles(self) -> dict[str, tuple[str, str, str] | None]:
+        """How the family's own event kinds are drawn: ``kind -> (marker, colour, name)``
+        (matplotlib marker and colour, the name in the legend), or None for a kind the
+        figures show otherwise (then not as a marker). Kinds not listed take the styles of
+        :mod:`nsm_continuation.figures.styles` (a default marker for a kind it does not
+        know). Default none."""
+        return {}
+
+    def closed_forms(self, x_range: tuple[float, float], branches: list[Any]
+                     ) -> list[tuple[np.ndarray, np.ndarray, str]]:
+        """Known closed forms in the branch diagram's axes over ``x_range``: ``(x, y,
+        label)`` curves drawn thin over the computed branches (NaN: a gap). Default none."""
+        return []
+
+    def curve_closed_forms(self, kind: str, parameter: str, free: str,
+                           x_range: tuple[float, float]
+                           ) -> list[tuple[np.ndarray, np.ndarray, str]]:
+        """Known closed forms of the two-parameter curve of ``kind`` points (``grazing``,
+        ``period_doubling``, ...) in the plane ``(parameter, free)`` over ``x_range`` of
+        ``parameter``: ``(x, y, label)`` curves drawn over a computed curve of this family
+        (the curve's presentation asks its base problem's). Default none."""
+        return []
+
+    def branch_name(self, branch: Any) -> str:
+        """A branch's name in a legend (default its label, identifiers in words)."""
+        return str(branch.label).replace("_", " ")
+
+    def start_point(self, branch: Any) -> Any:
+        """The point ``branch`` was started from: the one at arclength 0 (the nearest), or
+        None for a branch without points. A two-parameter curve's presentation marks it."""
+        return min(branch.points, key=lambda p: abs(p.s)) if branch.points else None
+
+    def point_fill(self) -> tuple[str, str, str] | None:
+        """Points of the branch diagram marked filled or hollow: ``(derived key, name of
+        filled, name of hollow)``, filled where the derived quantity is positive (e.g. a
+        steady forced response). Default None: the branches are lines."""
+        return None
 
     @property
     def csv_head(self) -> list[str]:

@@ -29,9 +29,20 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.ticker import LogFormatterSciNotation
 
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch, Point
+from nsm_continuation.figures.styles import (
+    ADMISSIBLE_WIDTH,
+    EVENT_STYLES,
+    NOT_COMPUTED_DASHES,
+    PHANTOM,
+    PHANTOM_WIDTH,
+    STABLE,
+    STATE_NAMES,
+    UNSTABLE,
+)
 
 #: resolution of the figures written to files [dots per inch]
 DPI = 130
@@ -41,9 +52,15 @@ DPI = 130
 DIAGRAM_SIZE = (11, 5.5)
 
 
-MARKERS = {"fold": ("s", "tab:blue"), "period_doubling": ("D", "tab:purple"),
-           "neimark_sacker": ("o", "tab:green"), "branch_point": ("X", "tab:orange"),
-           "grazing": ("v", "tab:red")}
+#: ``kind: (marker, colour)`` of the event kinds with a declared style
+#: (:data:`~nsm_continuation.figures.styles.EVENT_STYLES`; any other kind is drawn too, with
+#: :func:`~nsm_continuation.figures.styles.event_style`'s default marker)
+MARKERS = {k: (st.marker, st.colour) for k, st in EVENT_STYLES.items()}
+
+#: data spanning at most this ratio (max / min) are drawn on a linear axis even where the
+#: family prefers a log one: a log axis over less than a decade only bends the curve and
+#: labels its ticks "6x10^0"
+LOG_MIN_RATIO = 10.0
 
 
 def quantity(problem: Problem, p: Point, name: str) -> float:
@@ -186,30 +203,168 @@ def vertical_bands(ax: Axes, spans: list[tuple[float, float]], **kw) -> None:
     ax.autoscale_view(scaley=False)
 
 
+def wants_log(values: Any, preferred: str = "log") -> bool:
+    """Whether an axis of ``values`` is drawn on a log scale: the family prefers it
+    (``preferred == "log"``) and the finite positive values span more than a decade
+    (:data:`LOG_MIN_RATIO`); a linear axis otherwise, with plain tick labels."""
+    if preferred != "log":
+        return False
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & (v > 0)]
+    return bool(v.size >= 2 and v.max() > LOG_MIN_RATIO * v.min())
+
+
+class PlainLogFormatter(LogFormatterSciNotation):
+    """The tick labels of a log axis: where the axis spans at most :data:`PLAIN_DECADES`
+    decades, the ticks matplotlib labels (decades, and some minor ticks when there are few
+    decades) written as plain numbers (``0.6``, ``4``, ``20``) instead of ``6x10^-1``;
+    matplotlib's powers of ten over wider spans."""
+
+    def __call__(self, x: float, pos: int | None = None) -> str:
+        label = super().__call__(x, pos)
+        lo, hi = sorted(self.axis.get_view_interval()) if self.axis is not None else (0, 0)
+        if not label or not (lo > 0 and np.log10(hi / lo) <= PLAIN_DECADES):
+            return label
+        return f"{x:g}"
+
+
+#: a log axis spanning at most this many decades has plain tick labels
+PLAIN_DECADES = 3.0
+
+
+def set_scale(ax: Axes, axis: str, log: bool) -> None:
+    """The ``axis`` ("x" or "y") of ``ax`` on a log scale (tick labels by
+    :class:`PlainLogFormatter`), or linear with plain tick labels (no offset, no scientific
+    factor for values between 1e-4 and 1e6)."""
+    target = ax.xaxis if axis == "x" else ax.yaxis
+    if log:
+        (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+        target.set_major_formatter(PlainLogFormatter(labelOnlyBase=False))
+        target.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
+        return
+    fmt = (ax.xaxis if axis == "x" else ax.yaxis).get_major_formatter()
+    if hasattr(fmt, "set_useOffset"):
+        fmt.set_useOffset(False)
+        fmt.set_powerlimits((-4, 6))
+
+
+#: a piece of branch smaller than this fraction of the drawn extent in both directions is not
+#: seen on the figure (one point, or a step between two points at a branch's end)
+SEEN = 0.015
+
+
+def seen_pieces(pieces: list[tuple[Any, Any]], log: bool = False) -> list[bool]:
+    """Whether each piece ``(x, y)`` of branch is seen: at least two points spanning
+    :data:`SEEN` of the extent of all pieces in one direction (the ordinate in decades on a
+    log axis). A piece not seen is drawn but not listed in the legend."""
+    def span(v: np.ndarray) -> float:
+        v = v[np.isfinite(v)]
+        return float(v.max() - v.min()) if v.size else 0.0
+
+    def tr(y: Any) -> np.ndarray:
+        y = np.asarray(y, dtype=float)
+        return np.log10(np.where(y > 0, y, np.nan)) if log else y
+
+    if not pieces:
+        return []
+    wx = span(np.concatenate([np.asarray(x, dtype=float) for x, _ in pieces]))
+    wy = span(np.concatenate([tr(y) for _, y in pieces]))
+    return [len(x) > 1 and (span(np.asarray(x, dtype=float)) > SEEN * wx
+                            or span(tr(y)) > SEEN * wy) for x, y in pieces]
+
+
+def state_style(admissible: bool, stable: bool | None, width: float = ADMISSIBLE_WIDTH
+                ) -> dict[str, Any]:
+    """Line keywords of a piece of branch in the stability state ``(admissible, stable)``
+    (:mod:`nsm_continuation.figures.styles`), labelled with the state's legend text."""
+    label = STATE_NAMES[(bool(admissible), stable if admissible else None)]
+    if not admissible:
+        return {"color": PHANTOM, "lw": PHANTOM_WIDTH, "zorder": 2, "label": label}
+    if stable is False:
+        return {"color": UNSTABLE, "lw": width, "zorder": 3, "label": label}
+    return {"color": STABLE, "lw": width, "zorder": 3, "label": label,
+            "ls": "-" if stable else NOT_COMPUTED_DASHES}
+
+
+def legend_entries(axes: Any) -> tuple[list[Any], list[str]]:
+    """The labelled artists of ``axes`` (one Axes or several), each label once: the
+    stability states first (in the order of
+    :data:`~nsm_continuation.figures.styles.STATE_NAMES`), then in drawing order. A legend
+    made of them lists only what is drawn."""
+    handles: list[Any] = []
+    labels: list[str] = []
+    for ax in np.atleast_1d(axes):
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
+    states = list(dict.fromkeys(STATE_NAMES.values()))
+    order = sorted(range(len(labels)), key=lambda i: (
+        states.index(labels[i]) if labels[i] in states else len(states), i))
+    return [handles[i] for i in order], [labels[i] for i in order]
+
+
+def outside_legend(ax: Axes, handles: list[Any] | None = None,
+                   labels: list[str] | None = None, **kw: Any) -> Any:
+    """The legend of ``ax`` (its labelled artists, :func:`legend_entries`, unless given) to
+    the right of the axes; None when nothing is labelled."""
+    if handles is None or labels is None:
+        handles, labels = legend_entries(ax)
+    if not handles:
+        return None
+    opts = {"fontsize": 7, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0),
+            "framealpha": 0.9}
+    opts.update(kw)
+    return ax.legend(handles, labels, **opts)
+
+
 def quantity_panels(problem: Problem, branches: list[Branch], xlabel: str,
-                    panels: list[tuple[list[str], str]], title: str, path: Path) -> None:
+                    panels: list[tuple[list[str], str]], title: str, path: Path,
+                    log: tuple[str, ...] = (), x: str | None = None) -> bool:
     """One panel per ``(keys, ylabel)`` of ``panels``: each quantity of ``keys`` against the
-    continued parameter along every branch, styled as the branch diagram (admissible stable
-    black, unstable red, phantom thin grey; the second and later keys of a panel dashed), saved
-    to ``path``. Quantities missing at a point are NaN: a gap, never an error."""
-    xk = problem.parameter
-    fig, axes = new_figure(nrows=len(panels), ncols=1, figsize=(9, 2.3 * len(panels) + 0.8),
-                        sharex=True, squeeze=False)
+    quantity ``x`` (default the continued parameter) along every branch, styled as the branch
+    diagram (admissible stable black, unstable red, phantom thin grey; the second and later
+    keys of a panel dashed), the branches' located events marked where the quantity is
+    defined, saved to ``path``. The
+    quantities of ``log`` are drawn on a log axis where they span more than a decade
+    (:func:`wants_log`). Quantities missing at a point are NaN: a gap, never an error; a panel
+    whose quantities are missing everywhere is left out. False (nothing written) when no
+    panel has a value."""
+    from nsm_continuation.figures.events import draw_events
+
+    xk = x or problem.parameter
+    values = {k: np.array([quantity(problem, p, k) for br in branches for p in br.points],
+                          dtype=float) for keys, _ in panels for k in keys}
+    panels = [(keys, yl) for keys, yl in panels
+              if any(np.isfinite(values[k]).any() for k in keys)]
+    if not panels:
+        return False
+    fig, axes = new_figure(nrows=len(panels), ncols=1, figsize=(9.5, 2.3 * len(panels) + 0.9),
+                           sharex=True, squeeze=False)
     for ax, (keys, ylabel) in zip(axes[:, 0], panels, strict=True):
         for j, yk in enumerate(keys):
             ls = "-" if j == 0 else (0, (4, 1.5))
-            for br in branches:
-                for (adm, stable), x, y in segments(problem, br, xk, yk):
-                    if not adm:
-                        branch_line(ax, x, y, draws_markers(br), color="0.6", lw=0.8, ls=ls)
-                    else:
-                        branch_line(ax, x, y, draws_markers(br),
-                                    color="tab:red" if stable is False else "k", lw=1.8, ls=ls)
+            pieces = [(br, st, x, y) for br in branches
+                      for st, x, y in segments(problem, br, xk, yk)]
+            for (br, (adm, stable), x, y), seen in zip(
+                    pieces, seen_pieces([(x, y) for _, _, x, y in pieces]), strict=True):
+                kw = state_style(adm, stable, width=1.8)
+                if j > 0 or not seen:  # the panel's ylabel names the dashed quantity
+                    kw.update(label="_nolegend_")
+                if j > 0:
+                    kw.update(ls=ls)
+                branch_line(ax, x, y, draws_markers(br), **kw)
+            draw_events(ax, problem, branches, xk, yk)
         ax.set_ylabel(ylabel if len(keys) == 1 else f"{ylabel}\n(" + ", ".join(
-            f"{k} {'solid' if j == 0 else 'dashed'}" for j, k in enumerate(keys)) + ")",
-                      fontsize=8)
-        ax.grid(alpha=0.25)
+            f"{problem.presentation.label(k)} {'solid' if j == 0 else 'dashed'}"
+            for j, k in enumerate(keys)) + ")", fontsize=8)
+        set_scale(ax, "y", any(k in log for k in keys)
+                  and wants_log(np.concatenate([values[k] for k in keys])))
+        ax.grid(alpha=0.25, which="both")
+    set_scale(axes[-1, 0], "x", False)
     axes[-1, 0].set_xlabel(xlabel)
-    axes[0, 0].set_title(f"{title}: black stable, red unstable, grey phantom", fontsize=10)
+    axes[0, 0].set_title(title, fontsize=10)
+    outside_legend(axes[0, 0], *legend_entries(axes[:, 0]))
     fig.tight_layout()
     save(fig, path)
+    return True

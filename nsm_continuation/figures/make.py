@@ -16,10 +16,11 @@ if TYPE_CHECKING:
 
 
 def make_all(res: RunResult, out: Path) -> list[str]:
-    """Every figure of a run written into ``out`` (the branch diagram, the multipliers, the
-    problem's own figures, the bifurcation diagram of a tree, the orbit figures of
-    ``output.orbits``, :mod:`nsm_continuation.figures.orbits`): their file names, in this order.
-    Drawn in two processes where that is possible
+    """Every figure of a run written into ``out`` (the branch diagram, the multipliers against
+    the diagram's horizontal quantity and in the complex plane, the problem's own figures, the
+    bifurcation diagram of a tree, the orbit figures of ``output.orbits``,
+    :mod:`nsm_continuation.figures.orbits`): their file names, in this order. Drawn in two
+    processes where that is possible
     (:func:`nsm_continuation.figures.process.in_two_processes`)."""
     from nsm_continuation.figures import branches, multipliers, orbits, trees
 
@@ -30,8 +31,8 @@ def make_all(res: RunResult, out: Path) -> list[str]:
         return []
 
     def along() -> list[str]:
-        ok = multipliers.multipliers_vs_frequency(res, out / "multipliers_vs_frequency.png")
-        return ["multipliers_vs_frequency.png"] if ok else []
+        name = multipliers.along_name(res)
+        return [name] if multipliers.multipliers_along(res, out / name) else []
 
     def plane() -> list[str]:
         ok = multipliers.multipliers_plane(res, out / "multipliers_complex_plane.png")

@@ -54,6 +54,7 @@ from nsm_continuation.figures.orbit_selection import (
     select,
     traces,
 )
+from nsm_continuation.figures.styles import palette_colour
 
 #: resolution of the figures written to files [dots per inch] (as :mod:`plots`)
 DPI = 130
@@ -64,8 +65,14 @@ MARK_STYLES = ("o", "^", "s", "D", "v", "P")
 
 
 def legend_text(ch: Chosen, name: str) -> str:
-    """``<branch label> [<id>], <tag>: <parameter> = <value>``."""
+    """``<branch label> [<id>], <tag>: <parameter> = <value>`` (``name``: the parameter's
+    axis label)."""
     return f"{ch.branch.label} [{ch.branch.id}], {ch.tag}: {name} = {ch.value:.6g}"
+
+
+def parameter_label(res: Any) -> str:
+    """The continued parameter's label (its symbol, else its words), for legends."""
+    return str(res.problem.presentation.label(parameter_name(res)))
 
 
 #: longest line of a figure title [characters] (longer ones are wrapped: a title centred over
@@ -75,11 +82,11 @@ TITLE_WIDTH = 80
 
 def _title(res: Any, what: str, spec: OrbitsSpec | None, view: str,
            width: int = TITLE_WIDTH) -> str:
-    """``<caption>: <what> (<case>)``, each line of ``what`` wrapped at ``width``
-    characters."""
+    """``<caption>: <what>``, each line of ``what`` wrapped at ``width`` characters (the
+    case is named by the run's folder, not in the title)."""
     caption = spec.figures.get(view) if spec is not None else None
     head = f"{caption}: " if caption else ""
-    text = f"{head}{what} ({res.case.name})"
+    text = f"{head}{what}"
     return "\n".join(textwrap.fill(line, width, break_on_hyphens=False)
                      for line in text.splitlines())
 
@@ -89,6 +96,48 @@ def _mark_styles(items: list[tuple[Chosen, OrbitTrace]]) -> dict[str, str]:
     return {k: MARK_STYLES[i % len(MARK_STYLES)] for i, k in enumerate(kinds)}
 
 
+#: line styles of the orbits of one figure, in the order chosen (the first thick and solid
+#: under the others: orbits that nearly coincide stay told apart)
+ORBIT_LINES = (("-", 2.4), ((0, (5, 2)), 1.5), ((0, (1, 1.2)), 1.5), ((0, (6, 2, 1, 2)), 1.3))
+#: height of one orbit's strip of intervals (fraction of the axes) and the narrowest interval
+#: drawn (fraction of the period: a shorter one is widened to it and marked by a triangle)
+STRIP = 0.035
+NARROWEST = 0.004
+
+
+def orbit_style(i: int) -> dict[str, Any]:
+    """Colour, line style, width and drawing order of the ``i``-th orbit of a figure."""
+    ls, lw = ORBIT_LINES[i % len(ORBIT_LINES)]
+    return {"color": palette_colour(i), "ls": ls, "lw": lw, "zorder": 3 + i}
+
+
+def interval_text(tr: OrbitTrace) -> str:
+    """``, sticking 0.2477 (4.0 % of T)``: the total duration of each kind of interval of
+    the orbit (empty without intervals)."""
+    total: dict[str, float] = {}
+    for t0, t1, kind in tr.intervals:
+        total[kind] = total.get(kind, 0.0) + (t1 - t0)
+    return "".join(f", {k} {v:.4g} ({100 * v / tr.period:.2g} % of T)"
+                   for k, v in total.items())
+
+
+def draw_strips(ax: Axes, items: list[tuple[Chosen, OrbitTrace]]) -> None:
+    """The intervals of each orbit (sticking phases, ...) as a strip along the bottom of
+    ``ax`` in the orbit's colour, one row per orbit: an interval shorter than
+    :data:`NARROWEST` of the period is widened to it and marked by a triangle, so the
+    shrinking of an interval from one orbit to the next is seen."""
+    for i, (_, tr) in enumerate(items):
+        col = palette_colour(i)
+        y0 = 0.01 + STRIP * i
+        for t0, t1, _kind in tr.intervals:
+            a, w = t0 / tr.period, (t1 - t0) / tr.period
+            ax.broken_barh([(a, max(w, NARROWEST))], (y0, 0.8 * STRIP), color=col,
+                           transform=ax.get_xaxis_transform(), zorder=6)
+            if w < NARROWEST:
+                ax.plot(a, y0 + 0.8 * STRIP, marker="v", color=col, ms=5, mec="k", mew=0.4,
+                        transform=ax.get_xaxis_transform(), zorder=7)
+
+
 def _finish_legend(ax: Axes, styles: dict[str, str], intervals: list[str],
                    notes: list[str]) -> None:
     handles, labels = ax.get_legend_handles_labels()
@@ -96,8 +145,8 @@ def _finish_legend(ax: Axes, styles: dict[str, str], intervals: list[str],
         handles.append(Line2D([], [], marker=m, color="0.3", ls="", ms=5))
         labels.append(kind)
     for kind in intervals:
-        handles.append(Rectangle((0, 0), 1, 1, color="0.5", alpha=0.2))
-        labels.append(f"{kind} (shaded)")
+        handles.append(Rectangle((0, 0), 1, 1, color="0.5", alpha=0.4))
+        labels.append(f"{kind}: shaded, and a strip per orbit along the bottom")
     if handles:
         ax.legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     if notes:
@@ -111,7 +160,7 @@ def draw_time(res: Any, items: list[tuple[Chosen, OrbitTrace]], log: Sequence[st
     """The ``time`` view: each of its signals against ``t / T`` (one panel each, on ``axes``
     or a new figure), one line per orbit; marks as dots, intervals shaded. None if no orbit
     has the view's signals."""
-    name = parameter_name(res)
+    shown = parameter_label(res)
     signals = list(dict.fromkeys(s for _, tr in items for s in tr.views.get("time", ())
                                  if s in tr.signals))
     if not signals:
@@ -123,22 +172,23 @@ def draw_time(res: Any, items: list[tuple[Chosen, OrbitTrace]], log: Sequence[st
     fig = axes[0].figure
     styles = _mark_styles(items)
     interval_kinds = list(dict.fromkeys(k for _, tr in items for *_, k in tr.intervals))
-    colors = colormap("tab10")
     for ax, sig in zip(axes, signals, strict=False):
         is_log = sig in log
         for i, (ch, tr) in enumerate(items):
             if sig not in tr.signals:
                 continue
-            col = colors(i % 10)
+            st = orbit_style(i)
             x = tr.t / tr.period
             val = np.abs(tr.signals[sig]) if is_log else tr.signals[sig]
-            ax.plot(x, val, color=col, lw=1.2, label=legend_text(ch, name))
+            ax.plot(x, val, **st, label=legend_text(ch, shown) + interval_text(tr))
             for t0, t1, _kind in tr.intervals:
-                ax.axvspan(t0 / tr.period, t1 / tr.period, color=col, alpha=0.15, lw=0)
+                ax.axvspan(t0 / tr.period, t1 / tr.period, color=st["color"], alpha=0.12, lw=0)
             for tm, kind in tr.marks:
                 vm = tr.at(sig, tm)
-                ax.plot(tm / tr.period, abs(vm) if is_log else vm, styles[kind], color=col,
-                        ms=4, mec="k", mew=0.4, zorder=5)
+                ax.plot(tm / tr.period, abs(vm) if is_log else vm, styles[kind],
+                        color=st["color"], ms=4, mec="k", mew=0.4, zorder=20)
+        if interval_kinds:
+            draw_strips(ax, items)
         if is_log:
             ax.set_yscale("log")
         label = tr_label(items, sig)
@@ -163,7 +213,7 @@ def draw_phase(res: Any, items: list[tuple[Chosen, OrbitTrace]], ax: Axes | None
                ) -> Figure | None:
     """The ``phase`` view: ``(x, y)`` of each orbit (a projected phase portrait), marks as
     dots. None if no orbit has a phase view with its signals."""
-    name = parameter_name(res)
+    shown = parameter_label(res)
     drawn = [(ch, tr) for ch, tr in items
              if len(tr.views.get("phase", ())) == 2
              and all(s in tr.signals for s in tr.views["phase"])]
@@ -173,14 +223,13 @@ def draw_phase(res: Any, items: list[tuple[Chosen, OrbitTrace]], ax: Axes | None
         fig, ax = subplots(figsize=(9.5, 5.6), dpi=DPI)
     fig = ax.figure
     styles = _mark_styles(drawn)
-    colors = colormap("tab10")
     for i, (ch, tr) in enumerate(drawn):
         xs, ys = tr.views["phase"]
-        col = colors(i % 10)
-        ax.plot(tr.signals[xs], tr.signals[ys], color=col, lw=1.2, label=legend_text(ch, name))
+        st = orbit_style(i)
+        ax.plot(tr.signals[xs], tr.signals[ys], **st, label=legend_text(ch, shown))
         for tm, kind in tr.marks:
-            ax.plot(tr.at(xs, tm), tr.at(ys, tm), styles[kind], color=col, ms=4, mec="k",
-                    mew=0.4, zorder=5)
+            ax.plot(tr.at(xs, tm), tr.at(ys, tm), styles[kind], color=st["color"], ms=4,
+                    mec="k", mew=0.4, zorder=20)
     xs, ys = drawn[0][1].views["phase"]
     ax.set_xlabel(drawn[0][1].label(xs))
     ax.set_ylabel(drawn[0][1].label(ys))
@@ -257,7 +306,7 @@ def draw_boundaries(res: Any, branch: Branch, periods: int, ax: Any, name: str,
         if max(np.ptp(a), np.ptp(b), np.ptp(c)) <= 1e-9 * extent:
             continue
         ax.plot(a, b, c, color="k", lw=1.4, ls="--",
-                label=f"{ch.tag} (boundary): {name} = {ch.value:.6g}")
+                label=f"{ch.tag} (boundary): {parameter_label(res)} = {ch.value:.6g}")
         drawn += 1
     return drawn
 
@@ -303,7 +352,7 @@ def draw_manifold(res: Any, periods: int = 1, ax: Any = None, spec: OrbitsSpec |
     ax.set_ylabel(items[0][1].label(b))
     ax.set_zlabel(items[0][1].label(c))
     sm = ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.12, label=colour_by)
+    fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.12, label=res.problem.presentation.label(colour_by))
     at = f", all at {name} = {constant:.6g}" if constant is not None else ""
     what = (f"invariant manifold: {len(items)} admissible periodic orbits{at}\nalong branch "
             f"{branch.id} ({branch.label})")

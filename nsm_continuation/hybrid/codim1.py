@@ -64,6 +64,7 @@ class GrazingCurvePresentation(Presentation):
     grazing margin."""
 
     diagram_title: ClassVar[str] = "Grazing curve"
+    two_parameter: ClassVar[bool] = True
 
     @property
     def fep_axes(self) -> tuple[str, str]:
@@ -71,7 +72,30 @@ class GrazingCurvePresentation(Presentation):
 
     @property
     def fep_labels(self) -> tuple[str, str]:
-        return (self.problem.parameter, f"{self.problem.free} at the grazing")
+        """The two parameters as the base family labels them."""
+        base = self.problem.base.presentation
+        return (base.label(self.problem.parameter),
+                f"{base.label(self.problem.free)} at the grazing")
+
+    def start_point(self, branch: Any) -> Any:
+        """The point of the curve at the base run's value of the continued parameter (the
+        codimension-one point it was started from; the curve's arclength starts at one of its
+        ends)."""
+        value = self.problem.base.values.get(self.problem.parameter)
+        if value is None or not branch.points:
+            return super().start_point(branch)
+        i = self.problem.variables.index(self.problem.parameter)
+        return min(branch.points, key=lambda p: abs(p.y[i] - value))
+
+    def branch_name(self, branch: Any) -> str:
+        return "grazing curve (computed)"
+
+    def closed_forms(self, x_range: tuple[float, float], branches: list[Any]
+                     ) -> list[tuple[np.ndarray, np.ndarray, str]]:
+        """The base family's closed form of its grazing curve, if it has one."""
+        pr = self.problem
+        return pr.base.presentation.curve_closed_forms("grazing", pr.parameter, pr.free,
+                                                       x_range)
 
     @property
     def csv_head(self) -> list[str]:

@@ -46,13 +46,18 @@ MARKED_EVENTS = {"chatter": "chattering completed", "release": "release"}
 
 
 class OrbitDeclarations:
-    """What a hybrid family's orbit figures show (declared in the family's problem module)."""
+    """What a hybrid family's figures show (declared in the family's problem module): the
+    views and labels of its orbits, the labels of its parameters."""
 
     #: the views of :class:`~nsm_continuation.core.records.OrbitTrace` (``time``, ``phase``,
     #: ``manifold``); None: the impacting coordinate against time and its phase portrait
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = None
     #: axis labels of the signals (state names and ``orbit_outputs``); default their names
     orbit_labels: ClassVar[dict[str, str]] = {}
+    #: axis labels of the parameters in the branch diagram and the multiplier figures (words
+    #: and the paper's symbol in mathtext); default the symbol the name spells, else its words
+    #: (:func:`~nsm_continuation.core.symbols.quantity_label`)
+    parameter_labels: ClassVar[dict[str, str]] = {}
 
     def orbit_outputs(self, states: np.ndarray, parameters: dict[str, float]
                       ) -> dict[str, np.ndarray]:

@@ -42,6 +42,7 @@ import numpy as np
 
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import OrbitTrace
+from nsm_continuation.core.symbols import math_symbol
 from nsm_continuation.hybrid.homoclinic import homoclinic_fit
 from nsm_continuation.hybrid.orbit_trace import orbit_trace, views_of
 from nsm_continuation.hybrid.return_map import PERIOD
@@ -79,13 +80,39 @@ class HybridPresentation(Presentation):
     @property
     def fep_labels(self) -> tuple[str, str]:
         """The forcing frequency / the continued parameter, and the response amplitude or the
-        period (return time to the section)."""
-        key, c = self.problem.response_key, self.problem.response_coordinate
-        if key is None:
-            return (self.problem.swept_parameter, "period (return time to the section)")
-        x = (f"forcing frequency {self.problem.parameter}" if self.problem.frequency_response
-             else self.problem.parameter)
-        return (x, f"response amplitude of {c}: (max {c} - min {c}) / 2")
+        period (return time to the section), labelled by :attr:`quantity_labels`."""
+        x, y = self.fep_axes
+        return (self.label(x), self.label(y))
+
+    @property
+    def quantity_labels(self) -> dict[str, str]:
+        """Labels of the quantities of the figures: the family's declared ``parameter_labels``
+        (:class:`~nsm_continuation.hybrid.orbit_trace.OrbitDeclarations`), the forcing
+        frequency, the restitution, the period, the response amplitude and extremes of the
+        impacting coordinate (its symbol), the impact velocity, the impact counts and the
+        sticking time."""
+        pr = self.problem
+        c = pr.response_coordinate
+        sym = math_symbol(c) or c if c is not None else None
+        out = {"period": "period (return time to the section)",
+               "restitution": "restitution $e$",
+               "sticking_time": r"sticking time $\tau$",
+               "min_impact_velocity": "smallest impact velocity $|v|$",
+               "min_impact_normal_velocity": r"smallest normal impact velocity "
+                                             r"$|N^T \dot q| / |N|$",
+               "n_impacts": "impacts per period",
+               "n_impacts_before_chatter": "impacts before the chatter map",
+               "n_sticking_phases": "sticking phases per period",
+               "grazing_margin": "grazing margin"}
+        if pr.hybrid.forcing_frequency is not None:
+            f = pr.hybrid.forcing_frequency
+            out[f] = f"forcing frequency ${math_symbol(f) or f}$"
+        if sym is not None:
+            out[f"amplitude_{c}"] = rf"response amplitude $(\max {sym} - \min {sym})/2$"
+            out[f"max_{c}"] = rf"$\max {sym}$"
+            out[f"min_{c}"] = rf"$\min {sym}$"
+        out.update(pr.parameter_labels)
+        return out
 
     @property
     def csv_head(self) -> list[str]:
@@ -102,24 +129,41 @@ class HybridPresentation(Presentation):
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
         """Forced systems: ``impacts_vs_<parameter>.png``, the extremes of the impacting
-        coordinate, the smallest impact velocity, the impacts per period and the sticking time
-        against the continued parameter (styled as the branch diagram)."""
-        if self.problem.response_key is None or not any(br.points for br in branches):
+        coordinate, the smallest normal impact velocity (log where it spans decades: it
+        vanishes at a grazing), the impacts per period and the sticking time against the continued
+        parameter. Autonomous systems whose orbits stick: ``sticking_vs_<parameter>.png``, the
+        sticking time (its vanishing is the loss of sticking, ``sticking_lost``), the impacts
+        before the chatter map and the period. Styled as the branch diagram, events marked."""
+        if not any(br.points for br in branches):
             return []
         from nsm_continuation.figures.kit import quantity_panels
 
-        c = self.problem.response_coordinate
-        name = f"impacts_vs_{self.problem.parameter}.png"
-        quantity_panels(
-            self.problem, branches, self.fep_labels[0],
-            [([f"max_{c}", f"min_{c}"], f"max and min of {c}"),
-             (["min_impact_normal_velocity"], "smallest normal impact velocity"),
-             (["n_impacts"], "impacts per period"),
-             (["sticking_time"], "sticking time")],
-            title=("Impacts along the frequency response" if self.problem.frequency_response
-                   else "Impacts along the branch"),
-            path=Path(out_dir) / name)
-        return [name]
+        x = self.problem.swept_parameter
+        if self.problem.response_key is not None:
+            c = self.problem.response_coordinate
+            name = f"impacts_vs_{x}.png"
+            ok = quantity_panels(
+                self.problem, branches, self.fep_labels[0],
+                [([f"max_{c}", f"min_{c}"], f"extremes of ${math_symbol(c) or c}$"),
+                 (["min_impact_normal_velocity"], self.label("min_impact_normal_velocity")),
+                 (["n_impacts"], self.label("n_impacts")),
+                 (["sticking_time"], self.label("sticking_time"))],
+                title=("Impacts along the frequency response" if self.problem.frequency_response
+                       else "Impacts along the branch"),
+                path=Path(out_dir) / name, log=("min_impact_normal_velocity",), x=x)
+            return [name] if ok else []
+        sticking = [p.derived.get("sticking_time", np.nan) for br in branches for p in br.points]
+        if not np.nanmax(np.asarray(sticking, dtype=float), initial=0.0) > 0:
+            return []
+        name = f"sticking_vs_{x}.png"
+        ok = quantity_panels(
+            self.problem, branches, self.label(x),
+            [(["sticking_time"], self.label("sticking_time")),
+             (["n_impacts_before_chatter"], self.label("n_impacts_before_chatter")),
+             (["period"], self.label("period"))],
+            title="Sticking along the branch (complete chattering while it lasts)",
+            path=Path(out_dir) / name, x=x)
+        return [name] if ok else []
 
     # ------------------------------------------------------------------ report
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:

@@ -25,7 +25,9 @@ from nsm_continuation.problems.bar.forced_steady_state import ForcedSweep
 Backbone = tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, str]
 #: a linear reference: ``(omega / omega_1, E / E_ref, end amplitude, label)``
 Reference = tuple[np.ndarray, np.ndarray, np.ndarray, str]
-COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
+#: colours of the sweeps of :func:`plot_forced_response` (the palette of the run's figures:
+#: neither the stability red nor the Neimark-Sacker green)
+COLORS = ("tab:blue", "tab:orange", "tab:purple", "tab:brown", "tab:pink")
 
 
 @dataclass
@@ -53,8 +55,8 @@ def draw_response(ax: Any, x: np.ndarray, y: np.ndarray, steady: np.ndarray, col
     """One response curve: steady points filled and joined by a thin line, points flagged
     not steady (quasi-periodic or chaotic within the time budget) hollow."""
     steady = np.asarray(steady, dtype=bool)
-    ax.plot(x, y, "-", color=color, lw=0.8, alpha=0.6)
-    ax.plot(x[steady], y[steady], "o", ms=3, color=color, label=label)
+    ax.plot(x, y, "-", color=color, lw=0.8, alpha=0.6, label=label)
+    ax.plot(x[steady], y[steady], "o", ms=3, color=color)
     ax.plot(x[~steady], y[~steady], "o", ms=3, mfc="none", color=color)
 
 
@@ -120,43 +122,37 @@ def response_curves(branches: Sequence[Any]) -> list[ResponseCurve]:
 
 
 def frequency_response_figure(curves: Sequence[ResponseCurve], references: Sequence[Reference],
-                              backbones: Sequence[Backbone], energy_label: str,
-                              reference_label: str, title: str = "") -> Any:
-    """Two panels against ``omega / omega_1``: the period-averaged energy (log scale, with
-    the backbones and the linear references) and the end amplitude ``(max u - min u) / 2``
-    (with the linear references); curves coloured by sweep, references dashed in the colour of
-    the sweep with the same index (one reference per damping ratio)."""
-    from nsm_continuation.figures.kit import subplots
+                              title: str = "") -> Any:
+    """The end amplitude ``(max u - min u) / 2`` against ``omega / omega_1``: one curve per
+    sweep (steady points filled, the others hollow, :func:`draw_response`), coloured by sweep
+    from the palette of :mod:`nsm_continuation.figures.styles`, the linear ``references``
+    dark, one dash pattern per damping ratio, over the sweeps. Log axis
+    where the amplitudes span more than a decade. (The period-averaged energy of the same
+    sweeps is the run's branch diagram.)"""
+    from nsm_continuation.figures.kit import (
+        new_figure,
+        outside_legend,
+        set_scale,
+        wants_log,
+    )
+    from nsm_continuation.figures.styles import palette_colour
 
-    fig, (ax_e, ax_a) = subplots(1, 2, figsize=(13, 5.2), constrained_layout=True)
+    fig, ax = new_figure(figsize=(11, 5.2))
     for i, c in enumerate(curves):
-        col = COLORS[i % len(COLORS)]
-        draw_response(ax_e, c.x, c.energy, c.steady, col, c.label)
-        draw_response(ax_a, c.x, c.amplitude, c.steady, col, c.label)
-    e_all = np.concatenate([c.energy for c in curves])
-    e_all = e_all[np.isfinite(e_all) & (e_all > 0)]
-    for i, (x, e, a, lab) in enumerate(references):
-        col = COLORS[i % len(COLORS)]
-        if np.isfinite(e).any():
-            ax_e.plot(x, e, "--", color=col, lw=0.9, alpha=0.8,
-                      label=f"{reference_label}, {lab}")
-            ax_a.plot(x, a, "--", color=col, lw=0.9, alpha=0.8,
-                      label=f"{reference_label}, {lab}")
-    if e_all.size:  # references and backbones (poles) must not hide the computed curves
-        ax_e.set_ylim(e_all.min() / 10.0, e_all.max() * 10.0)
-    draw_backbones(ax_e, backbones)
-    x_all = np.concatenate([c.x for c in curves])
-    for ax in (ax_e, ax_a):
-        draw_linear_resonances(ax, (float(x_all.min()), float(x_all.max())))
-        ax.set_xlabel(r"forcing frequency $\omega / \omega_1$")
-        ax.set_yscale("log")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-    ax_e.set_ylabel(energy_label)
-    ax_a.set_ylabel(r"end amplitude $(\max u(L) - \min u(L)) / 2$")
-    ax_e.set_title("frequency response: period-averaged energy (filled: steady, hollow: not)",
-                   fontsize=9)
-    ax_a.set_title("frequency response: end displacement amplitude", fontsize=9)
-    if title:
-        fig.suptitle(title)
+        draw_response(ax, c.x, c.amplitude, c.steady, palette_colour(i), c.label)
+    dashes = ((0, (4, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)))
+    for i, (x, _, a, lab) in enumerate(references):
+        if np.isfinite(a).any():
+            ax.plot(x, a, ls=dashes[i % len(dashes)], color="0.15", lw=0.9, zorder=4,
+                    label=lab)
+    amp = np.concatenate([c.amplitude for c in curves])
+    set_scale(ax, "y", wants_log(amp))
+    set_scale(ax, "x", False)
+    ax.set_xlabel(r"forcing frequency $\omega / \omega_1$ (eq. 13)")
+    ax.set_ylabel(r"end amplitude $(\max u(L) - \min u(L)) / 2$")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title("Frequency response: end displacement amplitude (filled: steady, hollow: "
+                 "not steady)" + (f"\n{title}" if title else ""), fontsize=10)
+    outside_legend(ax)
+    fig.tight_layout()
     return fig

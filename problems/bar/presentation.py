@@ -14,6 +14,7 @@ results and the parameters. Each class is its problem's ``presentation_class`` (
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, ClassVar
 
 import numpy as np
@@ -35,11 +36,34 @@ class BarFepPresentation(Presentation):
     continuum limit."""
 
     fep_axes = ("omega_ratio", "energy_ratio")
-    fep_labels = (r"$\omega/\omega_1$", r"energy $E/E_{ref}$ (eq. 14)")
+    fep_labels = (r"frequency $\omega/\omega_1$ (eq. 13)", r"energy $E/E_{ref}$ (eq. 14)")
     diagram_title: ClassVar[str] = "Frequency-energy plot"
     diagram_yscale: ClassVar[str] = "log"
     csv_head = ["T", "omega", "energy"]
     event_columns = ["omega", "T", "energy"]
+
+    @property
+    def quantity_labels(self) -> dict[str, str]:
+        return dict(zip(self.fep_axes, self.fep_labels, strict=True))
+
+    @staticmethod
+    def draw_frequencies(ax: Any, x_range: tuple[float, float], asymptotes: set[float],
+                         asymptote_label: str) -> None:
+        """The linear frequencies omega_k = (2k - 1) omega_1 (fixed-free, dotted blue) and
+        Omega_k = 2k omega_1 (fixed-fixed, dotted orange), and the ``asymptotes`` (dashed
+        grey) inside ``x_range``, the first of each kind labelled."""
+        lo, hi = x_range
+        names = {"ff": r"$\omega_k$ (linear, fixed-free)",
+                 "FF": r"$\Omega_k$ (linear, fixed-fixed)", "as": asymptote_label}
+        for k in range(1, 40):
+            for x, col, key in ((2 * k - 1, "tab:blue", "ff"), (2 * k, "tab:orange", "FF")):
+                if lo - 0.05 <= x <= hi + 0.05:
+                    ax.axvline(x, ls=":", color=col, lw=0.8, zorder=1,
+                               label=names.pop(key, "_nolegend_"))
+        for x in sorted(asymptotes):
+            if lo - 0.05 <= x <= hi + 0.05:
+                ax.axvline(x, ls="--", color="0.5", lw=0.8, zorder=1,
+                           label=names.pop("as", "_nolegend_"))
 
 
 class WfemBarPresentation(BarFepPresentation):
@@ -76,12 +100,28 @@ class WfemBarPresentation(BarFepPresentation):
     def plot_decorations(self, ax: Any, x_range: tuple[float, float],
                          branches: list[Any]) -> None:
         """omega_k (fixed-free), Omega_k (fixed-fixed) and the g0 = 0 asymptotes."""
-        lo, hi = x_range
+        self.draw_frequencies(ax, x_range, {main_asymptote(k) for k in range(1, 20)},
+                              r"$g_0=0$ asymptote (sec. 6.1)")
+
+    def closed_forms(self, x_range: tuple[float, float], branches: list[Any]
+                     ) -> list[tuple[np.ndarray, np.ndarray, str]]:
+        """The main backbones of the continuum limit in closed form (sec. 6.1,
+        :func:`~problems.bar.continuum_orbits.main_backbone`) for this gap's sign, those that
+        start inside ``x_range``: the curves the WFEM branches approach as the cells
+        shrink (Figs. 5-7). None for g0 = 0 (vertical: the asymptotes)."""
+        sign = float(np.sign(self.problem.model.g0))
+        if sign == 0.0:
+            return []
+        xs, ys = [], []
         for k in range(1, 20):
-            for x, ls, col in ((2 * k - 1, ":", "tab:blue"), (2 * k, ":", "tab:orange"),
-                               (main_asymptote(k), "--", "0.5")):
-                if lo - 0.05 <= x <= hi + 0.05:
-                    ax.axvline(x, ls=ls, color=col, lw=0.8, zorder=1)
+            x, y = main_backbone(k, sign)
+            if x.size and x_range[0] - 0.05 <= x.min() <= x_range[1] + 0.05:
+                xs += [x, [np.nan]]
+                ys += [y, [np.nan]]
+        if not xs:
+            return []
+        return [(np.concatenate(xs), np.concatenate(ys),
+                 "main backbones of the continuum (closed form, sec. 6.1)")]
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
@@ -89,12 +129,6 @@ class WfemBarPresentation(BarFepPresentation):
         from nsm_continuation.problems.bar import plots
 
         return plots.extra_plots(out_dir, branches, self.problem)
-
-    def legend_handles(self) -> list[Any]:
-        from matplotlib.lines import Line2D
-        return [Line2D([], [], ls=":", color="tab:blue", label=r"$\omega_k$ (fixed-free)"),
-                Line2D([], [], ls=":", color="tab:orange", label=r"$\Omega_k$ (fixed-fixed)"),
-                Line2D([], [], ls="--", color="0.5", label=r"$g_0=0$ asymptote (sec. 6.1)")]
 
 
 class BarContinuumPresentation(BarFepPresentation):
@@ -131,23 +165,15 @@ class BarContinuumPresentation(BarFepPresentation):
                          branches: list[Any]) -> None:
         """omega_k, Omega_k, and the asymptotes of the main backbones and of every backbone
         the run continued (its start's ``omega_ratio_asymptote``)."""
-        lo, hi = x_range
         asym = {main_signature(k).omega_ratio_asymptote for k in range(1, 20)}
         asym |= {br.info["omega_ratio_asymptote"] for br in branches
                  if br.info.get("omega_ratio_asymptote") is not None}
-        for k in range(1, 40):
-            for x, col in ((2 * k - 1, "tab:blue"), (2 * k, "tab:orange")):
-                if lo - 0.05 <= x <= hi + 0.05:
-                    ax.axvline(x, ls=":", color=col, lw=0.8, zorder=1)
-        for x in asym:
-            if lo - 0.05 <= x <= hi + 0.05:
-                ax.axvline(x, ls="--", color="0.5", lw=0.8, zorder=1)
+        self.draw_frequencies(ax, x_range, asym, r"asymptote ($g_0 = 0$ branch)")
 
-    def legend_handles(self) -> list[Any]:
-        from matplotlib.lines import Line2D
-        return [Line2D([], [], ls=":", color="tab:blue", label=r"$\omega_k$ (fixed-free)"),
-                Line2D([], [], ls=":", color="tab:orange", label=r"$\Omega_k$ (fixed-fixed)"),
-                Line2D([], [], ls="--", color="0.5", label=r"asymptote ($g_0 = 0$ branch)")]
+
+#: dash patterns of the linear references, one per damping ratio (drawn dark over the sweeps,
+#: which follow them where the contact is absent or permanent)
+REFERENCE_DASHES = ((0, (4, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)))
 
 
 class ForcedBarPresentation(Presentation):
@@ -198,38 +224,63 @@ class ForcedBarPresentation(Presentation):
                 out.append((x[keep], y[keep], f"NSM backbone, mode {k}"))
         return out
 
+    @property
+    def quantity_labels(self) -> dict[str, str]:
+        return {**dict(zip(self.fep_axes, self.fep_labels, strict=True)),
+                "amplitude": r"end amplitude $(\max u(L) - \min u(L))/2$"}
+
+    def event_styles(self) -> dict[str, tuple[str, str, str] | None]:
+        """``response_change`` is drawn as the change from filled to hollow points (or back),
+        not as a marker of its own (:meth:`point_fill`)."""
+        return {"response_change": None}
+
+    def branch_name(self, branch: Any) -> str:
+        """``zeta_1 = 0.02 (eta = 0.06283)`` in symbols (the damping ratio of the sweep)."""
+        pts = branch.points
+        if not pts or "damping_ratio" not in pts[0].derived:
+            return str(branch.label)
+        d = pts[0].derived
+        return (rf"damping $\zeta_1$ = {d['damping_ratio']:g} ($\eta$ = {d['eta']:.4g})"
+                if "eta" in d else rf"damping $\zeta_1$ = {d['damping_ratio']:g}")
+
+    def point_fill(self) -> tuple[str, str, str] | None:
+        """Steady responses filled, the others hollow."""
+        return ("steady", "steady response (periodic or subharmonic): filled",
+                "not steady within the time budget (quasi-periodic or chaotic): hollow")
+
+    def references(self, x_range: tuple[float, float]
+                   ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, str]]:
+        """The linear references with a value in ``x_range``, one per damping ratio in the
+        order of the sweeps: ``(x, E/E_ref, amplitude, label)``."""
+        out = []
+        for zeta in self.problem.params.damping_ratios:
+            x, e, a = self.reference_curve(self.problem.eta(zeta), x_range)
+            if np.isfinite(e).any():
+                out.append((x, e, a, f"{self.reference_label()}, " + rf"$\zeta_1$ = {zeta:g}"))
+        return out
+
     def plot_decorations(self, ax: Any, x_range: tuple[float, float],
                          branches: list[Any]) -> None:
-        """The linear references (dashed, one per damping ratio), the main NSM backbones and
-        the linear resonances omega_k (fixed-free) and Omega_k (fixed-fixed)."""
-        from nsm_continuation.problems.bar.plots_forced import (
-            draw_backbones,
-            draw_linear_resonances,
-        )
+        """The linear references where there are some (dashed, in the colour of the sweep of
+        their damping ratio), the main NSM backbones (closed form) and the linear resonances
+        omega_k (fixed-free) and Omega_k (fixed-fixed), each kind labelled once."""
+        from nsm_continuation.problems.bar.plots_forced import draw_backbones
 
-        for zeta in self.problem.params.damping_ratios:
-            x, e, _ = self.reference_curve(self.problem.eta(zeta), x_range)
-            ax.plot(x, e, "--", color="0.45", lw=0.9, zorder=1)
-        draw_backbones(ax, self.backbones(x_range), color="tab:blue")
-        draw_linear_resonances(ax, x_range)
 
-    def legend_handles(self) -> list[Any]:
-        """What :meth:`plot_decorations` draws (the reference only where there is one)."""
-        from matplotlib.lines import Line2D
-
-        p = self.problem.params
-        ref = ([Line2D([], [], ls="--", color="0.45", label=self.reference_label())]
-               if p.force_amplitude != 0.0 or self.problem.bar.g0 < 0.0 else [])
-        return ref + [Line2D([], [], color="tab:blue", lw=1.0, label="NSM backbones (modes 1, 2)"),
-                      Line2D([], [], ls=":", color="tab:blue", lw=0.8,
-                             label=r"$\omega_k$ (fixed-free)"),
-                      Line2D([], [], ls=":", color="tab:orange", lw=0.8,
-                             label=r"$\Omega_k$ (fixed-fixed)")]
+        for k, (x, e, _, label) in enumerate(self.references(x_range)):
+            ax.plot(x, e, ls=REFERENCE_DASHES[k % len(REFERENCE_DASHES)], color="0.15",
+                    lw=0.9, zorder=4, label=label)
+        draw_backbones(ax, [(x, y, "NSM backbones, modes 1-2 (closed form, sec. 6.1)"
+                             if k == 0 else "_nolegend_")
+                            for k, (x, y, _) in enumerate(self.backbones(x_range))],
+                       color="k")
+        BarFepPresentation.draw_frequencies(ax, x_range, set(), "")
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
-        """``frequency_response.png``: energy and end amplitude against the forcing frequency,
-        one curve per sweep (steady filled, not steady hollow), linear references, backbones."""
+        """``frequency_response.png``: the end amplitude against the forcing frequency, one
+        curve per sweep (steady filled, not steady hollow), with the linear references (the
+        energy is the branch diagram, ``fep.png``)."""
         from pathlib import Path
 
         from nsm_continuation.problems.bar.plots_forced import (
@@ -237,19 +288,20 @@ class ForcedBarPresentation(Presentation):
             response_curves,
         )
 
-        curves = response_curves(branches)
+        from nsm_continuation.figures.kit import outside_legend, save
+
+        curves = [dataclasses.replace(c, label=self.branch_name(b)) for c, b in zip(
+            response_curves(branches), [b for b in branches if b.points], strict=True)]
         if not curves:
             return []
         xs = np.concatenate([c.x for c in curves])
         x_range = (float(xs.min()), float(xs.max()))
-        refs = []
-        for zeta in self.problem.params.damping_ratios:
-            x, e, a = self.reference_curve(self.problem.eta(zeta), x_range)
-            refs.append((x, e, a, rf"$\zeta_1$ = {zeta:g}"))
-        fig = frequency_response_figure(curves, refs, self.backbones(x_range),
-                                        self.fep_labels[1], self.reference_label(),
+        fig = frequency_response_figure(curves, self.references(x_range),
                                         title=self.figure_title())
-        fig.savefig(Path(out_dir) / "frequency_response.png", dpi=130)
+        BarFepPresentation.draw_frequencies(fig.axes[0], x_range, set(), "")
+        outside_legend(fig.axes[0])
+        fig.tight_layout()
+        save(fig, Path(out_dir) / "frequency_response.png")
         return ["frequency_response.png"]
 
     def figure_title(self) -> str:

@@ -36,6 +36,11 @@ class ChainPresentation(Presentation):
     fep_labels = (r"frequency $\omega = 2\pi/T$ [rad/s]",
                   r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$")
     diagram_title: ClassVar[str] = "Frequency-energy plot"
+    #: labels of the chain's quantities and parameters in every figure
+    LABELS: ClassVar[dict[str, str]] = {
+        "omega": r"frequency $\omega = 2\pi/T$ [rad/s]", "T": "period $T$ [s]",
+        "energy": r"energy $E = \frac{1}{2}(\dot u^T M \dot u + u^T K u)$",
+        "stiffness": "stiffness $k$", "mass": "mass $m$", "gap": "gap $g$"}
     diagram_yscale: ClassVar[str] = "log"
     csv_head = ["T", "omega", "energy"]
     event_columns = ["omega", "T", "energy"]
@@ -47,6 +52,10 @@ class ChainPresentation(Presentation):
     #: ``ORBIT_SAMPLES_PER_OSCILLATION`` per period of the fastest mode
     ORBIT_SAMPLES: ClassVar[int] = 600
     ORBIT_SAMPLES_PER_OSCILLATION: ClassVar[int] = 40
+
+    @property
+    def quantity_labels(self) -> dict[str, str]:
+        return dict(self.LABELS)
 
     def orbit(self, y: np.ndarray, periods: int = 1) -> OrbitTrace:
         """The orbit at ``y`` in closed form: from the post-impact state ``(u(0), u'(0+))``
@@ -119,43 +128,40 @@ class ChainPresentation(Presentation):
     # ------------------------------------------------------------------ report and figure hooks
     def plot_decorations(self, ax: Any, x_range: tuple[float, float],
                          branches: list[Any]) -> None:
-        """Fig. 3.2 references: linear frequencies (thick) and subharmonics w_j / k (thin); for
-        g > 0 the flat (linear, contact-free) part of each mode up to its linear grazing energy
-        (for g < 0 there is none, Prop. 7.1); for g = 0 the
-        discrete spectrum (roots of w_N, Prop. 7.2) found on ``branches``."""
-        from nsm_continuation.figures.kit import colormap
+        """Fig. 3.2 references, each kind labelled once: linear frequencies (thick) and
+        subharmonics w_j / k (thin), coloured by mode from the palette that leaves out the
+        stability red and the Neimark-Sacker green (:mod:`nsm_continuation.figures.styles`);
+        for g > 0 the flat (linear, contact-free) part of each mode up to its linear grazing
+        energy (for g < 0 there is none, Prop. 7.1); for g = 0 the discrete spectrum (roots of
+        w_N, Prop. 7.2) found on ``branches``."""
+        from nsm_continuation.figures.styles import palette_colour
 
         lo, hi = x_range
         lo, hi = lo - 0.02 * (hi - lo), hi + 0.02 * (hi - lo)
-        colors = colormap("tab10")
         kmax = self.SUBHARMONIC_KMAX
+        names = {1: r"linear $\omega_j$ (colour = mode $j$)",
+                 2: r"subharmonics $\omega_j/k$, $k \leq$" + f" {kmax}",
+                 3: "linear (flat) part of a mode, up to its grazing energy"}
         for j, w in enumerate(self.problem.omega):
+            colour = palette_colour(j)
             for k in range(1, kmax + 1):
                 if lo <= w / k <= hi:
-                    ax.axvline(w / k, color=colors(j % 10), lw=1.6 if k == 1 else 0.5,
-                               alpha=0.8 if k == 1 else 0.5, zorder=1)
+                    ax.axvline(w / k, color=colour, lw=1.6 if k == 1 else 0.5,
+                               alpha=0.8 if k == 1 else 0.5, zorder=1,
+                               label=names.pop(min(k, 2), "_nolegend_"))
             # g < 0: no contact-free (linear) orbit exists, u_c = 0 is beyond the wall
             # (sec. 7.1: the spectrum is not connected to the linear one)
             if lo <= w <= hi and self.problem.g > 0.0:
-                ax.plot([w, w], [1e-300, self.problem.grazing_energy(j)],
-                        color=colors(j % 10), lw=3.2, solid_capstyle="butt", zorder=4)
+                ax.plot([w, w], [1e-300, self.problem.grazing_energy(j)], color=colour,
+                        lw=3.2, solid_capstyle="butt", zorder=4,
+                        label=names.pop(3, "_nolegend_"))
         if self.problem.g == 0.0:
+            label = r"roots of $w_N$ (g = 0 spectrum)"
             for T in [s["T"] for s in self.problem.static_grazing_spectrum(branches)]:
                 w = 2 * np.pi / T
                 if lo <= w <= hi:
-                    ax.axvline(w, color="tab:green", lw=1.8, ls="--", zorder=2)
-
-    def legend_handles(self) -> list[Any]:
-        from matplotlib.lines import Line2D
-
-        h = [Line2D([], [], color="tab:blue", lw=1.6, label=r"linear $\omega_j$ (colour = mode)"),
-             Line2D([], [], color="tab:blue", lw=0.5, label=r"subharmonics $\omega_j/k$")]
-        if self.problem.g > 0.0:
-            h.append(Line2D([], [], color="tab:blue", lw=3.2, label="linear (flat) part of a mode"))
-        elif self.problem.g == 0.0:
-            h.append(Line2D([], [], color="tab:green", lw=1.8, ls="--",
-                            label=r"roots of $w_N$ (g = 0 spectrum)"))
-        return h
+                    ax.axvline(w, color="tab:green", lw=1.8, ls="--", zorder=2, label=label)
+                    label = "_nolegend_"
 
     def report_extras(self, branches: list[Any]) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -178,32 +184,43 @@ class ChainPresentation(Presentation):
 
     def extra_plots(self, out_dir: Any, branches: list[Any],
                     window: tuple[float | None, float | None]) -> list[str]:
-        """Fig. 3.1: w_N(T) with its poles k T_j and zeros."""
-        from nsm_continuation.figures.kit import colormap, subplots
+        """Fig. 3.1: ``w_N(T)`` with its poles ``k T_j`` (vertical lines coloured by mode,
+        thick for ``k = 1``) and its zeros; the curve is broken at every pole (it goes to
+        +-infinity there: no segment joins the two sides)."""
+        from nsm_continuation.figures.kit import new_figure, save
+        from nsm_continuation.figures.styles import palette_colour
 
         lo, hi = window
         lo = lo if lo is not None else 0.05 * self.problem.T_lin[-1]
         hi = hi if hi is not None else 1.2 * self.problem.T_lin[0]
-        T = np.linspace(lo, hi, 20000)
-        wn = self.problem.w_N(T)
         kmax = self.SUBHARMONIC_KMAX
-        # created at the file's dpi: tight_layout and savefig lay the text out once
-        fig, ax = subplots(figsize=(9, 4.5), dpi=130)
         poles = self.problem.poles(lo, hi, kmax)
-        wn_plot = np.where(np.abs(wn) > 50 * np.median(np.abs(wn)), np.nan, wn)
-        ax.plot(T, wn_plot, color="k", lw=1.0)
-        cmap = colormap("tab10")
+        every = [t for t, _, _ in self.problem.poles(lo, hi, 10**6)]
+        T = np.union1d(np.linspace(lo, hi, 20000), every)
+        wn = self.problem.w_N(T)
+        wn[np.isin(T, every)] = np.nan  # the curve is broken at each pole
+        fig, ax = new_figure(figsize=(10, 4.8))
+        ax.plot(T, wn, color="k", lw=1.0, zorder=3, label=r"$w_N(T)$")
+        names = {1: r"pole $T_j$ (linear period; colour = mode $j$)",
+                 2: r"pole $k T_j$, $2 \leq k \leq$" + f" {kmax}"}
         for Tp, j, k in poles:
-            ax.axvline(Tp, color=cmap(j % 10), lw=1.4 if k == 1 else 0.6, alpha=0.8)
+            ax.axvline(Tp, color=palette_colour(j), lw=1.4 if k == 1 else 0.6, alpha=0.8,
+                       zorder=1, label=names.pop(min(k, 2), "_nolegend_"))
         zeros = self.problem.zeros_of_w_N(lo, hi)
-        ax.plot(zeros, np.zeros_like(zeros), "o", color="tab:green", ms=4, label=r"zeros of $w_N$")
+        if zeros.size:
+            ax.plot(zeros, np.zeros_like(zeros), "o", color="tab:green", ms=4, zorder=4,
+                    label=r"zeros of $w_N$")
         ax.axhline(0, color="0.5", lw=0.6)
-        ax.set_xlabel("period T [s]")
+        finite = np.abs(wn[np.isfinite(wn)])
+        top = 8.0 * float(np.median(finite)) if finite.size else 1.0
+        ax.set_ylim(-top, top)
+        ax.set_xlim(lo, hi)
+        ax.set_xlabel("period $T$ [s]")
         ax.set_ylabel(r"$w_N(T) = \sum_j a_j \cot(\omega_j T/2)/\omega_j$")
-        ax.set_title(r"Fig. 3.1: $w_N$; poles at $kT_j$ (coloured by mode, thick: k = 1)")
-        ax.legend(fontsize=8)
+        ax.set_title(r"$w_N$ against the period (Fig. 3.1); the curve leaves the axes at "
+                     r"its poles", fontsize=10)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         ax.grid(alpha=0.25)
         fig.tight_layout()
-        fig.savefig(Path(out_dir) / "w_N.png", dpi=130)
+        save(fig, Path(out_dir) / "w_N.png")
         return ["w_N.png"]
-

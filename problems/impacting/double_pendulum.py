@@ -157,6 +157,9 @@ class DoublePendulumProblem(CanonicalParameter, HybridCaseProblem):
     #: portrait (Y, dY/dt); the manifold view: the lower mass's path with its velocity
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
         "time": ("X", "dY"), "phase": ("Y", "dY"), "manifold": ("X", "Y", "dY")}
+    parameter_labels: ClassVar[dict[str, str]] = {
+        "restitution": "restitution $e$", "d": "wall position $d$", "torque": "torque $T$",
+        "D": "damping $D$"}
     orbit_labels: ClassVar[dict[str, str]] = {
         "X": r"lower mass $X = L_1 \sin q_1 + L_2 \sin q_2$",
         "Y": r"lower mass $Y = -(L_1 \cos q_1 + L_2 \cos q_2)$",

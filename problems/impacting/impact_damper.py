@@ -73,6 +73,9 @@ class ImpactDamperProblem(HybridCaseProblem):
     curve_preference: ClassVar[tuple[str, ...]] = ("clearance",)
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
         "time": ("x", "y"), "phase": ("x", "xdot"), "manifold": ("x", "y", "phase")}
+    parameter_labels: ClassVar[dict[str, str]] = {
+        "clearance": "clearance $d$", "mass_ratio": r"mass ratio $\mu$",
+        "zeta": r"damping ratio $\zeta$"}
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q", 2), ca.SX.sym("qd", 2), ca.SX.sym("phase")

@@ -20,6 +20,9 @@ from typing import ClassVar
 
 import casadi as ca
 import numpy as np
+from nsm_continuation.problems.impacting.impact_oscillator_closed_form import (
+    ImpactOscillatorPresentation,
+)
 from pydantic import BaseModel, Field
 
 from nsm_continuation.core.preflight import STRICT
@@ -54,6 +57,7 @@ class ImpactOscillatorProblem(CanonicalParameter, HybridCaseProblem):
     Its periodic orbits (sec. 2.2)."""
 
     name: ClassVar[str] = "impact_oscillator"
+    presentation_class = ImpactOscillatorPresentation
     #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
     figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = ImpactOscillatorParameters
@@ -64,6 +68,9 @@ class ImpactOscillatorProblem(CanonicalParameter, HybridCaseProblem):
         "time": ("q",), "phase": ("q", "qdot"), "manifold": ("q", "qdot", "phase")}
     orbit_labels: ClassVar[dict[str, str]] = {
         "q": r"$x_1 = q$", "qdot": r"$x_2 = \dot q$", "phase": r"$x_3 = \omega t$"}
+    parameter_labels: ClassVar[dict[str, str]] = {
+        "omega": r"forcing frequency $\omega$", "gap": r"stop position $\sigma$ (gap)",
+        "restitution": "restitution $e$", "zeta": r"damping ratio $\zeta$"}
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase")

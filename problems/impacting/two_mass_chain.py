@@ -60,6 +60,8 @@ class TwoMassChainProblem(CanonicalParameter, HybridCaseProblem):
     figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = TwoMassChainParameters
     default_parameter: ClassVar[str] = "omega"
+    parameter_labels: ClassVar[dict[str, str]] = {
+        "gap": "wall position (gap)", "c": "damping $c$", "F0": "forcing amplitude $F_0$"}
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q", 2), ca.SX.sym("qd", 2), ca.SX.sym("phase")

@@ -68,6 +68,8 @@ class TwoSidedOscillatorProblem(HybridCaseProblem):
     curve_preference: ClassVar[tuple[str, ...]] = ("clearance",)
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
         "time": ("q",), "phase": ("q", "qdot"), "manifold": ("q", "qdot", "phase")}
+    parameter_labels: ClassVar[dict[str, str]] = {
+        "clearance": "clearance $d$ (stops at $q = \\pm d$)", "zeta": r"damping ratio $\zeta$"}
 
     def system(self) -> HybridSystem:
         q, qd, ph = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase")

@@ -185,14 +185,17 @@ def test_resolve_point_grazing_bar_scales_to_energy() -> None:
 
 # -- forced response figures (section 7, Figs. 20-22) ---------------------------------------------
 def test_frequency_response_figure_draws_curves_references_and_backbones(tmp_path: Path) -> None:
-    """The figure of a ``wfem_forced_bar`` run: one energy and one amplitude curve per sweep,
-    steady points filled and the others hollow, the linear reference dashed, the backbones
-    (a vertical line at the asymptote for g0 = 0) and the problem's extra_plots file."""
+    """The figures of a ``wfem_forced_bar`` run: the amplitude response (one curve per sweep,
+    steady points filled and the others hollow, the linear reference dashed) and, on the
+    branch diagram of the energy, the references and the backbones (a vertical line at the
+    asymptote for g0 = 0); the problem's extra_plots file."""
     from nsm_continuation.problems.bar.forced_response import WfemForcedBarProblem
     from nsm_continuation.problems.bar.plots_forced import (
         frequency_response_figure,
         response_curves,
     )
+
+    from nsm_continuation.figures.kit import subplots
 
     pr = WfemForcedBarProblem({"cells": 20, "gap": 0.0, "force_amplitude": 4e-3,
                                "damping_ratio": 0.1})
@@ -207,16 +210,23 @@ def test_frequency_response_figure_draws_curves_references_and_backbones(tmp_pat
     assert np.isfinite(e).all() and np.isfinite(a).all()
     backbones = pr.presentation.backbones((0.5, 2.0))
     assert [b[2] for b in backbones] == ["NSM backbone, mode 1"]  # 4/3; mode 2's 16/5 is out
-    fig = frequency_response_figure(curves, [(xr, e, a, "zeta_1 = 0.1")], backbones,
-                                    pr.presentation.fep_labels[1],
-                                    pr.presentation.reference_label(), title="t")
-    ax_e, ax_a = fig.axes
-    assert ax_e.get_yscale() == "log" and "omega" in ax_e.get_xlabel()
-    assert any(ln.get_linestyle() == "--" for ln in ax_e.lines)  # the linear reference
-    assert any(np.allclose(ln.get_xdata(), 4 / 3) for ln in ax_e.lines)  # g0 = 0 backbone
+    fig = frequency_response_figure(curves, [(xr, e, a, "zeta_1 = 0.1")], title="t")
+    (ax_a,) = fig.axes
+    assert "omega" in ax_a.get_xlabel()
+    assert ax_a.get_yscale() == "linear"  # the amplitudes do not span a decade
+    ref = [ln for ln in ax_a.lines if ln.get_label() == "zeta_1 = 0.1"]
+    assert len(ref) == 1 and np.array_equal(ref[0].get_ydata(), a)  # the linear reference
     hollow = [ln for ln in ax_a.lines if ln.get_marker() == "o" and ln.get_markerfacecolor()
               == "none"]
     assert len(hollow) == 1 and len(hollow[0].get_xdata()) == 2
+    # the energy: the diagram's decorations, each kind labelled once
+    _, ax_e = subplots()
+    pr.presentation.plot_decorations(ax_e, (0.5, 2.0), [])
+    labels = [ln.get_label() for ln in ax_e.lines if not ln.get_label().startswith("_")]
+    assert len(labels) == len(set(labels))
+    assert any(np.allclose(ln.get_xdata(), 4 / 3) for ln in ax_e.lines)  # g0 = 0 backbone
+    e_fine = pr.presentation.reference_curve(pr.eta(0.1), (0.5, 2.0))[1]
+    assert any(np.array_equal(ln.get_ydata(), e_fine) for ln in ax_e.lines)  # the reference
     br = SimpleNamespace(points=pts, label="s")
     assert pr.presentation.extra_plots(tmp_path, [br], (0.5, 2.0)) == ["frequency_response.png"]
     assert (tmp_path / "frequency_response.png").stat().st_size > 10_000

@@ -69,7 +69,7 @@ def test_default_case_runs_and_writes_the_contract(tmp_path, capsys):
     for col in ("T", "omega", "energy", "admissible", "stable", "max_abs_multiplier"):
         assert col in rows[0]
     assert (out / "report.md").read_text().startswith("# Bifurcation report")
-    for fig in ("fep.png", "multipliers_vs_frequency.png", "multipliers_complex_plane.png",
+    for fig in ("fep.png", "multipliers_vs_omega.png", "multipliers_complex_plane.png",
                 "w_N.png"):
         assert (out / fig).stat().st_size > 10_000
 

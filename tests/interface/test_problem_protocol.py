@@ -163,8 +163,10 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
     assert ys[:, 1].max() == pytest.approx(0.95, abs=1e-12)
     assert np.all(ys[:, 0] > 0)
     assert all(p.multipliers is None for p in br.points)
-    # declared defaults: the parameter against the other unknown, linear scale
-    assert pr.presentation.fep_axes == ("p", "x") and pr.presentation.fep_labels == ("p", "x")
+    # declared defaults: the parameter against the other unknown, labelled by the symbols
+    # their names spell, linear scale
+    assert pr.presentation.fep_axes == ("p", "x")
+    assert pr.presentation.fep_labels == ("$p$", "$x$")
     assert pr.presentation.csv_head == ["p", "x"] and pr.presentation.event_columns == ["p", "x"]
     assert pr.algorithms == ("palc",) and pr.monitors.signature_kind is None
 
@@ -183,8 +185,8 @@ def test_required_members_only_run_with_honest_defaults(tmp_path: Path) -> None:
 
     fig = plots.diagram(res)
     ax = fig.axes[0]
-    assert (ax.get_xlabel(), ax.get_ylabel()) == ("p", "x")
-    assert ax.get_title() == "Branch diagram: toy"
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("$p$", "$x$")
+    assert ax.get_title() == "Branch diagram"
     assert ax.get_yscale() == "linear"
     drawn = np.concatenate([ln.get_xdata() for ln in ax.get_lines() if len(ln.get_xdata()) > 1])
     assert drawn.min() == pytest.approx(-0.95) and drawn.max() == pytest.approx(0.95)
@@ -212,7 +214,8 @@ def test_hybrid_problems_label_by_their_parameter_and_period() -> None:
     pr = DoublePendulumProblem({})
     pr.parameter_bounds("d", 0.4, 0.6)
     assert pr.presentation.fep_axes == ("d", "period")
-    assert pr.presentation.fep_labels == ("d", "period (return time to the section)")
+    assert pr.presentation.fep_labels == ("wall position $d$",
+                                          "period (return time to the section)")
     assert pr.presentation.csv_head[:2] == ["d", "period"]
     assert pr.presentation.diagram_title == "Bifurcation diagram"
     assert "sticking_lost" in pr.all_event_kinds()
@@ -414,7 +417,7 @@ def test_stability_false_never_calls_floquet(monkeypatch: pytest.MonkeyPatch) ->
     # the multiplier plots are labelled by the continued quantity, not "frequency"
     figures: list[Any] = []
     monkeypatch.setattr(kit.Figure, "savefig", lambda fig, *a, **k: figures.append(fig))
-    assert multipliers.multipliers_vs_frequency(res_on, Path("unused.png"))
+    assert multipliers.multipliers_along(res_on, Path("unused.png"))
     assert multipliers.multipliers_plane(res_on, Path("unused.png"))
-    assert figures[0].axes[2].get_xlabel() == "p"
-    assert figures[1].axes[-1].get_ylabel() == "p"  # the colour bar
+    assert figures[0].axes[2].get_xlabel() == "$p$"
+    assert figures[1].axes[-1].get_ylabel() == "$p$"  # the colour bar

@@ -66,8 +66,8 @@ def test_forced_oscillator_in_omega_is_a_frequency_response_curve() -> None:
     assert pr.response_coordinate == "q"          # H = q - gap depends on q
     assert pr.presentation.diagram_title == "Frequency-response curve"
     assert pr.presentation.fep_axes == ("omega", "amplitude_q")
-    assert pr.presentation.fep_labels == ("forcing frequency omega",
-                             "response amplitude of q: (max q - min q) / 2")
+    assert pr.presentation.fep_labels == (r"forcing frequency $\omega$",
+                                          r"response amplitude $(\max q - \min q)/2$")
     assert pr.presentation.diagram_yscale == "linear"
     assert pr.presentation.csv_head == ["omega", "amplitude_q", "max_q", "min_q",
                                         "min_impact_normal_velocity", "period",
@@ -85,7 +85,7 @@ def test_forced_oscillator_in_the_gap_is_a_bifurcation_diagram_of_the_amplitude(
     pr.parameter_bounds("gap", -1.0, 1.0)
     assert pr.presentation.diagram_title == "Bifurcation diagram"
     assert pr.presentation.fep_axes == ("gap", "amplitude_q")
-    assert pr.presentation.fep_labels[0] == "gap"              # not a frequency
+    assert pr.presentation.fep_labels[0] == r"stop position $\sigma$ (gap)"  # no frequency
     assert pr.presentation.csv_head[:2] == ["gap", "amplitude_q"]
 
 
@@ -130,7 +130,7 @@ def test_short_forced_run_writes_a_frequency_response(fig2_run) -> None:
     # the drawn diagram
     fig = plots.diagram(res.run_result)
     ax = fig.axes[0]
-    assert ax.get_title() == "Frequency-response curve: impact_oscillator_fig2_sticking"
+    assert ax.get_title() == "Frequency-response curve"
     assert (ax.get_xlabel(), ax.get_ylabel()) == pr.presentation.fep_labels
     assert ax.get_yscale() == "linear"
 
@@ -167,7 +167,8 @@ def test_pendulum_is_a_bifurcation_diagram_in_its_parameter(parameter: str,
     assert pr.hybrid.forcing_frequency is None and pr.response_key is None
     assert pr.presentation.diagram_title == "Bifurcation diagram"
     assert pr.presentation.fep_axes == (parameter, "period")
-    assert pr.presentation.fep_labels == (parameter, "period (return time to the section)")
+    assert pr.presentation.fep_labels == (pr.presentation.label(parameter),
+                                          "period (return time to the section)")
     assert pr.presentation.diagram_yscale == "log"
     assert pr.presentation.extra_plots(tmp_path, [], (None, None)) == []
     # drawn: titled and labelled by the parameter, nothing about frequencies
@@ -180,11 +181,12 @@ def test_pendulum_is_a_bifurcation_diagram_in_its_parameter(parameter: str,
     res = SimpleNamespace(problem=pr, branches=[Branch(0, "b", pts, [], {})],
                           case=SimpleNamespace(name="pendulum"))
     fig = plots.diagram(res)
-    assert fig.axes[0].get_title() == "Bifurcation diagram: pendulum"
-    assert fig.axes[0].get_xlabel() == parameter
+    assert fig.axes[0].get_title() == "Bifurcation diagram"
+    assert fig.axes[0].get_xlabel() == pr.presentation.label(parameter)
     assert "frequency" not in texts(fig).lower()
-    assert multipliers.multipliers_vs_frequency(res, tmp_path / "m.png")
-    # the multiplier figure's axis is the parameter too (its file keeps its historical name)
+    assert multipliers.multipliers_along(res, tmp_path / "m.png")
+    # the multiplier figure's axis is the parameter too, and its file is named for it
+    assert multipliers.along_name(res) == f"multipliers_vs_{parameter}.png"
     assert multipliers.multipliers_plane(res, tmp_path / "p.png")
 
 
