@@ -227,6 +227,19 @@ def test_a_tls_address_without_tls_settings_is_refused_in_one_line(tmp_path: Pat
 
 
 # ---------------------------------------------------------------------- lost workers
+def _wait_for_a_finished_task(client: Any, run: threading.Thread) -> None:
+    """Until the scheduler holds one finished task (or the run has ended)."""
+
+    def finished() -> int:
+        return int(client.run_on_scheduler(lambda dask_scheduler: sum(
+            ts.state == "memory" for ts in dask_scheduler.tasks.values())))
+
+    end = time.monotonic() + 120
+    while finished() < 1 and run.is_alive():
+        assert time.monotonic() < end, "no task finished"
+        time.sleep(0.05)
+
+
 def test_a_cluster_that_loses_every_worker_ends_the_waiting_branches(tmp_path: Path) -> None:
     """An existing cluster (a LocalCluster here) whose only worker is closed mid-run: after
     ``execution.no_workers_timeout`` (1 s here) the branches not computed end with a reason
@@ -247,14 +260,7 @@ def test_a_cluster_that_loses_every_worker_ends_the_waiting_branches(tmp_path: P
             nsm.run(case, scheduler=cluster.scheduler_address)), daemon=True)
         run.start()
 
-        def finished() -> int:
-            return int(client.run_on_scheduler(lambda dask_scheduler: sum(
-                ts.state == "memory" for ts in dask_scheduler.tasks.values())))
-
-        end = time.monotonic() + 120
-        while finished() < 1 and run.is_alive():
-            assert time.monotonic() < end, "no task finished"
-            time.sleep(0.05)
+        _wait_for_a_finished_task(client, run)
         assert run.is_alive(), "the run ended before its worker could be closed"
         cluster.scale(0)
         run.join(60)
@@ -286,14 +292,7 @@ def test_a_scheduler_lost_mid_run_ends_the_waiting_branches_at_once(tmp_path: Pa
     with Client(cluster) as client:
         run.start()
 
-        def finished() -> int:
-            return int(client.run_on_scheduler(lambda dask_scheduler: sum(
-                ts.state == "memory" for ts in dask_scheduler.tasks.values())))
-
-        end = time.monotonic() + 120
-        while finished() < 1 and run.is_alive():
-            assert time.monotonic() < end, "no task finished"
-            time.sleep(0.05)
+        _wait_for_a_finished_task(client, run)
         assert run.is_alive(), "the run ended before its scheduler could be closed"
     t0 = time.monotonic()
     cluster.close()
