@@ -9,6 +9,8 @@ momentum conservation and Newton's law for the impact law of eq. (58) with a mas
 
 from __future__ import annotations
 
+from typing import Any
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -148,28 +150,30 @@ def test_impact_law_conserves_momentum_and_reverses_the_relative_velocity() -> N
             assert np.array_equal(R[:2], X[:2])
 
 
-def test_simultaneous_impacts_are_refused_with_both_surfaces_named() -> None:
-    """Two uncoupled masses falling onto their own floors from the same height hit at the same
-    instant: no law is declared for that, so the simulation stops and names both."""
+def two_floors() -> Any:
+    """Two uncoupled unit masses under gravity ``g = 1``, each above its own floor
+    (surfaces ``floor_a``: ``q_1 >= 0``, ``floor_b``: ``q_2 >= 0``), compiled."""
     q, qd = ca.SX.sym("q", 2), ca.SX.sym("qd", 2)
     p = {"g": ca.SX.sym("g")}
     sys = HybridSystem.mechanical("pair", q, qd, p, ca.SX.eye(2), ca.vertcat(-p["g"], -p["g"]),
                                   [q[0], q[1]], 0.5, surfaces=["floor_a", "floor_b"])
+    return sys.compile({"g": 1.0})
+
+
+def test_simultaneous_impacts_are_refused_with_both_surfaces_named() -> None:
+    """Two uncoupled masses falling onto their own floors from the same height hit at the same
+    instant: no law is declared for that, so the simulation stops and names both."""
     with pytest.raises(SimulationError, match="simultaneous impacts on surface 'floor_a' and "
                                               "surface 'floor_b'"):
-        Simulator(sys.compile({"g": 1.0})).run(np.array([1.0, 1.0, 0.0, 0.0]), t_end=3.0)
+        Simulator(two_floors()).run(np.array([1.0, 1.0, 0.0, 0.0]), t_end=3.0)
 
 
 def test_impact_while_sticking_on_another_surface_is_refused() -> None:
     """Mass a rests on its floor (sticking) while mass b falls onto its own: a contact with
     two surfaces at once, refused with both named (not silently penetrated)."""
-    q, qd = ca.SX.sym("q", 2), ca.SX.sym("qd", 2)
-    p = {"g": ca.SX.sym("g")}
-    sys = HybridSystem.mechanical("pair", q, qd, p, ca.SX.eye(2), ca.vertcat(-p["g"], -p["g"]),
-                                  [q[0], q[1]], 0.5, surfaces=["floor_a", "floor_b"])
     with pytest.raises(SimulationError, match="surface 'floor_b' .* while sticking on "
                                               "surface 'floor_a'"):
-        Simulator(sys.compile({"g": 1.0})).run(np.array([0.0, 1.0, 0.0, 0.0]), t_end=3.0)
+        Simulator(two_floors()).run(np.array([0.0, 1.0, 0.0, 0.0]), t_end=3.0)
 
 
 def test_declarations_name_what_is_wrong() -> None:
