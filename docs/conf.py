@@ -47,7 +47,8 @@ html_theme = "furo"
 html_title = f"nsm-continuation {release}"
 
 # MyST-NB: a Markdown page with a ``kernelspec`` in its front matter is a notebook, executed at
-# every build in a temporary folder (the runs it writes go there); an error in a cell fails the build
+# every build in a temporary folder (the runs it writes go there); an error in a cell fails the
+# build
 nb_execution_mode = "force"
 nb_execution_raise_on_error = True
 nb_execution_timeout = 300
