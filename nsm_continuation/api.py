@@ -447,9 +447,9 @@ class Result:
     @_api_words
     def save(self, directory: str | Path, *, overwrite: bool = False,
              plots: bool = True) -> Path:
-        """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
-        folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
-        Returns the directory written."""
+        """Write the CLI's outputs into ``directory`` under the output policy (docs/runs.md,
+        "Runs: output folders, exit status, limits"): a new folder, or a previous run replaced
+        only with ``overwrite=True``. Returns the directory written."""
         from nsm_continuation.figures.make import make_all
 
         if not isinstance(directory, str | os.PathLike) or not os.fspath(directory):

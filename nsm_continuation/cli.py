@@ -3,7 +3,7 @@
 (:mod:`nsm_continuation.cases.bundled`); figures are drawn with matplotlib's Agg backend, which
 the command line chooses for itself (:func:`main`).
 
-Exit status (README, "Exit status"):
+Exit status (docs/runs.md, "Runs: output folders, exit status, limits"):
 
 * 0: every start gave a branch (``validate``: the case is valid);
 * 2: bad input: one line on stderr naming the key (or the output path), nothing written, found
