@@ -144,10 +144,17 @@ class Point:
     #: the chart of ``y`` when the problem moved to another one on the way
     #: (``Problem.rechart``; ``Problem.in_chart`` gives its problem); None: the problem's own
     chart: dict[str, float] | None = None
+    #: the admissibility tests this point lies on the zero of by construction (a point of a
+    #: two-parameter grazing curve is a located zero of its clearance test): their sign there
+    #: is rounding, and :attr:`admissible` disregards them
+    on_boundary: tuple[str, ...] = ()
 
     @property
     def admissible(self) -> bool:
-        return all(v >= 0.0 for v in self.tests.values())
+        """Whether every admissibility test is non-negative (Problem.tests: the orbit is
+        physical), those the point lies on the zero of by construction (:attr:`on_boundary`)
+        excepted."""
+        return all(v >= 0.0 for k, v in self.tests.items() if k not in self.on_boundary)
 
     @property
     def stable(self) -> bool | None:
