@@ -17,7 +17,8 @@
   ``branch`` and ``row``, the CSV row), the unknowns ``y(point, unknown)``, the Floquet
   multipliers ``multipliers(point, multiplier)`` as complex numbers (by decreasing modulus, as
   in the CSV; NaN where a point has fewer), the events along ``event`` (variables
-  ``event_*``); attributes name the problem, the case and the continued parameter, and each
+  ``event_*``); attributes name the problem, the case, the continued parameter and the fixed
+  parameters (``fixed_parameters``, JSON), and each
   quantity's ``long_name`` is its axis label (:meth:`Presentation.label
   <nsm_continuation.core.presentation.Presentation.label>`: words, symbol and units where
   the problem declares them).
@@ -305,12 +306,15 @@ def to_xarray(res: RunResult, source: str | None = None) -> Any:
     coords.update({"unknown": ("unknown", np.array(unknowns, dtype=object)),
                    "multiplier": ("multiplier", np.arange(1, n_mult + 1))})
     name = parameter_name(res)
+    # the problem's parameters but the continued one (it varies along ``point``)
+    fixed = {k: v for k, v in res.problem.params.model_dump(mode="json").items()
+             if k not in (name, res.problem.parameter)}
     attrs = {"title": f"nsm_continuation run of case {res.case.name}",
              "problem": res.problem.name, "case": res.case.name,
              "continued_parameter": name, "continued_parameter_long_name":
              res.problem.presentation.label(name),
              "parameter_unknown": res.problem.parameter,
-             "problem_parameters": json.dumps(res.problem.params.model_dump(mode="json")),
+             "fixed_parameters": json.dumps(fixed),
              "nsm_continuation_version": __version__}
     if source is not None:
         attrs["source"] = source

@@ -110,6 +110,10 @@ def test_load_to_xarray_to_netcdf_and_back(runs, engine: str, tmp_path: Path) ->
 
     fresh, loaded, folder = runs
     ds = loaded.to_xarray()
+    computed = fresh.to_xarray()
+    assert ds.attrs["source"] == str(folder) and "source" not in computed.attrs
+    computed.attrs["source"] = str(folder)
+    xr.testing.assert_identical(computed, ds)  # the run read back exports the run itself
     for br in fresh.branches:
         pts = br.raw.points
         variables = list(fresh.run_result.branch_problems.get(br.id, fresh.problem).variables)
