@@ -15,7 +15,7 @@ import pytest
 from helpers import PACKAGE, ROOT, run_fresh
 
 import nsm_continuation as nsm
-from nsm_continuation.runs import branches as run_branches
+from nsm_continuation.core.progress import progress_bar
 
 SMALL = {"name": "small", "problem": "ndof_impact",
          "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
@@ -71,7 +71,7 @@ print(json.dumps({{"before": before, "after": after, "drawn": len(fig.axes[0].ge
 def test_progress_shows_a_bar_without_a_terminal(capsys: pytest.CaptureFixture[str]) -> None:
     """Under pytest stderr is no terminal (as in a notebook): asked for, the bar is shown."""
     assert not sys.stderr.isatty()
-    bar = run_branches.progress_bar("shown", 10)
+    bar = progress_bar("shown", 10)
     assert not bar.disable and type(bar).__module__.startswith("tqdm")
     bar.update(10)
     bar.close()
@@ -82,7 +82,7 @@ def test_progress_shows_a_bar_without_a_terminal(capsys: pytest.CaptureFixture[s
 def test_without_tqdm_progress_is_a_plain_line(monkeypatch: pytest.MonkeyPatch,
                                                capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setitem(sys.modules, "tqdm.auto", None)  # `from tqdm.auto import` fails
-    bar = run_branches.progress_bar("plain", 7)
+    bar = progress_bar("plain", 7)
     bar.update(3)
     bar.update(4)
     bar.close()
