@@ -398,11 +398,18 @@ class Result:
         return list(self._warnings)
 
     def _logged(self) -> Result:
-        """This result, its :attr:`warnings` logged (each once, as a warning)."""
+        """This result, its :attr:`warnings` and its :attr:`failed_starts` (the command
+        line's ``n of m starts failed``) logged, each once, as warnings."""
         from nsm_continuation import logger
 
         for w in self.warnings:
             logger.warning("%s: %s", self.case.name, w)
+        failed = self.failed_starts
+        if failed:
+            logger.warning("%s: %d of %d starts failed: %s", self.case.name, len(failed),
+                           len(self.branches), "; ".join(
+                               f"branch {b.id} ({b.label}): {termination_text(b.raw)}"
+                               for b in failed))
         return self
 
     @property
@@ -478,17 +485,27 @@ class Result:
              plots: bool = True) -> Path:
         """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
         folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
-        Returns the directory written."""
+        Returns the directory written. What the command line would say on writing (a plugin's
+        figures that failed and were left out, what killed runs had left next to the folder)
+        is logged to the ``nsm_continuation`` logger as warnings."""
         from nsm_continuation.figures.make import make_all
 
         if not isinstance(directory, str | os.PathLike) or not os.fspath(directory):
             raise CaseError(f"directory: expected a folder path (str or pathlib.Path), got "
                             f"{_kind(directory)}")
+        from nsm_continuation import logger
+
         overwrite = _flag(overwrite, "overwrite")
         plots = _flag(plots, "plots")
-        return write_outputs(self.run_result, Path(os.fsdecode(directory)),
+        notes: list[str] = []
+        path = write_outputs(self.run_result, Path(os.fsdecode(directory)),
                              make_all if plots else None,
-                             if_exists="overwrite" if overwrite else "error")
+                             if_exists="overwrite" if overwrite else "error", notes=notes)
+        known = set(self.warnings)  # logged when the run ended
+        for line in notes:
+            if line not in known:
+                logger.warning("%s: %s", self.case.name, line)
+        return path
 
     @_api_words
     def restart(self, *, branch: int | None = None, event: Any = None, point: int | None = None,

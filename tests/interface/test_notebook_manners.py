@@ -93,7 +93,8 @@ def test_warnings_are_logged_and_returned(caplog: pytest.LogCaptureFixture,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     """A chain whose frequencies are in the ratio 3 (K = [[5, -4], [-4, 5]]: omega = 1, 3)
     violates the paper's Assumption 3.1: the run's warning is logged to ``nsm_continuation``
-    and listed in ``Result.warnings`` as in ``report.json``; nothing is printed on stdout."""
+    and listed in ``Result.warnings`` as in ``report.json``, its failed start logged too;
+    nothing is printed on stdout."""
     case = {**SMALL, "name": "resonant",
             "parameters": {"M": [[1, 0], [0, 1]], "K": [[5, -4], [-4, 5]], "gap": 1.0},
             "continuation": {"parameter": "omega", "min": 0.5, "max": 2.0, "max_points": 8},
@@ -103,7 +104,11 @@ def test_warnings_are_logged_and_returned(caplog: pytest.LogCaptureFixture,
     logged = [r.getMessage() for r in caplog.records if r.name == "nsm_continuation"]
     assert res.warnings == res.report()["warnings"]
     assert len(res.warnings) == 1 and "3 T_2 = 1 T_1" in res.warnings[0]
-    assert logged == [f"resonant: {res.warnings[0]}"]
+    # its start fails (a singular Jacobian at the resonance): said as the command line does
+    assert [b.id for b in res.failed_starts] == [0]
+    assert logged == [f"resonant: {res.warnings[0]}",
+                      f"resonant: 1 of 1 starts failed: branch 0 ({res.branches[0].label}): "
+                      f"start: {res.branches[0].raw.termination['start']}"]
     assert capsys.readouterr().out == ""
 
 
