@@ -56,6 +56,10 @@ FLAG_COLUMNS = ("admissible", "stable")
 #: the netCDF engines :func:`to_netcdf` may use, the preferred first
 ENGINES = ("h5netcdf", "scipy")
 
+#: the names of the Dataset's own coordinates and variables along ``point`` (a derived
+#: quantity of one of these names is ``<name>_value``)
+RESERVED = frozenset({"branch", "row", "unknown", "multiplier", "y", "multipliers"})
+
 #: the attribute naming the complex variable a real one is part of (netCDF-3 files)
 COMPLEX_PART = "complex_part_of"
 
@@ -244,7 +248,8 @@ def _point_variables(res: RunResult, unknowns: list[str], n_mult: int
         col = np.concatenate(parts) if parts else np.array([])
         if c in FLAG_COLUMNS and col.dtype != bool and not np.isnan(col.astype(float)).any():
             col = col.astype(bool)  # every value defined: booleans
-        variables_out[c] = ("point", col, _attrs(res, c))
+        # a derived quantity named as a coordinate or a variable of the Dataset's own
+        variables_out[f"{c}_value" if c in RESERVED else c] = ("point", col, _attrs(res, c))
     all_points = [p for b in res.branches for p in b.points]
     variables_out["y"] = (("point", "unknown"), np.concatenate(ys) if ys else
                           np.zeros((0, len(unknowns))), {"long_name": "the unknowns"})
@@ -299,9 +304,6 @@ def to_xarray(res: RunResult, source: str | None = None) -> Any:
     points += [ev.point for b in res.branches for ev in b.events]
     n_mult = max((p.multipliers.size for p in points if p.multipliers is not None), default=0)
     variables, coords = _point_variables(res, unknowns, n_mult)
-    clash = set(variables) & {"branch", "row"}
-    for c in clash:  # a derived quantity named as a coordinate
-        variables[f"{c}_value"] = variables.pop(c)
     variables.update(_event_variables(res, unknowns, n_mult))
     coords.update({"unknown": ("unknown", np.array(unknowns, dtype=object)),
                    "multiplier": ("multiplier", np.arange(1, n_mult + 1))})
