@@ -454,8 +454,9 @@ class Result:
         multipliers are written as real and imaginary parts); read it back with
         :func:`nsm_continuation.open_netcdf` (:func:`~nsm_continuation.output.datasets.to_netcdf`).
         Returns the path."""
-        from nsm_continuation.output.datasets import to_netcdf
+        from nsm_continuation.output.datasets import need, to_netcdf
 
+        need("xarray", "Result.to_netcdf")
         if not isinstance(path, str | os.PathLike) or not os.fspath(path):
             raise CaseError(f"path: expected a file path (str or pathlib.Path), got "
                             f"{_kind(path)}")

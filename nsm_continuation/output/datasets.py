@@ -112,10 +112,10 @@ def branch_columns(branch: Branch, problem: Problem) -> tuple[list[str], dict[st
     return cols, out
 
 
-def frame(columns: dict[str, np.ndarray]) -> Any:
+def frame(columns: dict[str, np.ndarray], what: str = "BranchData.to_frame") -> Any:
     """A pandas DataFrame of ``columns``, a flag column with missing values (:func:`flags`) as
-    pandas' nullable ``boolean``."""
-    pd = need("pandas", "a DataFrame")
+    pandas' nullable ``boolean``; ``what`` names the caller in the :class:`ImportError`."""
+    pd = need("pandas", what)
     df = pd.DataFrame({k: as_float(v) for k, v in columns.items()})
     for c, v in columns.items():
         if isinstance(v, np.ma.MaskedArray):

@@ -164,8 +164,11 @@ def test_without_the_extra_one_import_error_line(runs, monkeypatch) -> None:
     _, loaded, _ = runs
     for module in ("pandas", "xarray"):
         monkeypatch.setitem(sys.modules, module, None)
-    for call in (loaded.events_frame, loaded.to_xarray, loaded.branches[0].to_frame):
+    for call, name in ((loaded.events_frame, "Result.events_frame"),
+                       (loaded.to_xarray, "Result.to_xarray"),
+                       (lambda: loaded.to_netcdf("run.nc"), "Result.to_netcdf"),
+                       (loaded.branches[0].to_frame, "BranchData.to_frame")):
         with pytest.raises(ImportError) as err:
             call()
         msg = str(err.value)
-        assert "\n" not in msg and "nsm-continuation[xarray]" in msg
+        assert "\n" not in msg and msg.startswith(name) and "nsm-continuation[xarray]" in msg
