@@ -16,7 +16,8 @@
 * :func:`to_xarray`: every point of every branch along one dimension ``point`` (coordinates
   ``branch`` and ``row``, the CSV row), the unknowns ``y(point, unknown)``, the Floquet
   multipliers ``multipliers(point, multiplier)`` as complex numbers (by decreasing modulus, as
-  in the CSV; NaN where a point has fewer), the events along ``event`` (variables
+  in the CSV; NaN where a point has fewer; no such variable when no point has any: a
+  brute-force sweep, a run without stability), the events along ``event`` (variables
   ``event_*``); attributes name the problem, the case, the continued parameter and the fixed
   parameters (``fixed_parameters``, JSON), and each
   quantity's ``long_name`` is its axis label (:meth:`Presentation.label
@@ -305,8 +306,11 @@ def to_xarray(res: RunResult, source: str | None = None) -> Any:
     n_mult = max((p.multipliers.size for p in points if p.multipliers is not None), default=0)
     variables, coords = _point_variables(res, unknowns, n_mult)
     variables.update(_event_variables(res, unknowns, n_mult))
-    coords.update({"unknown": ("unknown", np.array(unknowns, dtype=object)),
-                   "multiplier": ("multiplier", np.arange(1, n_mult + 1))})
+    coords["unknown"] = ("unknown", np.array(unknowns, dtype=object))
+    if n_mult:
+        coords["multiplier"] = ("multiplier", np.arange(1, n_mult + 1))
+    else:  # no multipliers anywhere (a brute-force sweep, a run without stability)
+        del variables["multipliers"], variables["event_multipliers"]
     name = parameter_name(res)
     # the problem's parameters but the continued one (it varies along ``point``)
     fixed = {k: v for k, v in res.problem.params.model_dump(mode="json").items()
@@ -349,6 +353,10 @@ def to_netcdf(ds: Any, path: str | Path, engine: str | None = None) -> Path:
         need("h5py", "a netCDF-4 file")
     out = ds
     if engine == "scipy":
+        empty = [d for d, n in ds.sizes.items() if n == 0]
+        if empty:
+            raise ValueError(f"engine: netCDF-3 (scipy) cannot hold the empty dimension "
+                             f"{empty[0]!r}; write it with engine='h5netcdf' ({EXTRA})")
         out = ds.copy()
         for k in [k for k, v in ds.data_vars.items() if np.iscomplexobj(v.values)]:
             v = ds[k]

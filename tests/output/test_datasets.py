@@ -172,3 +172,36 @@ def test_without_the_extra_one_import_error_line(runs, monkeypatch) -> None:
             call()
         msg = str(err.value)
         assert "\n" not in msg and msg.startswith(name) and "nsm-continuation[xarray]" in msg
+
+
+@pytest.mark.skipif(NO_XARRAY or NO_H5, reason="xarray/h5netcdf not installed "
+                    "(pip install .[xarray])")
+def test_a_run_without_multipliers_or_points_round_trips(tmp_path: Path) -> None:
+    """Without stability no point has multipliers: no multiplier dimension (netCDF-3 cannot
+    hold an empty one), both engines round-trip. A run whose only start failed has no point:
+    netCDF-4 holds it, netCDF-3 is one line naming the empty dimension."""
+    import xarray as xr
+
+    small = {"name": "small", "problem": "ndof_impact",
+             "parameters": {"chain": {"dofs": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+             "start": {"mode": 1}, "output": {"plots": False, "progress": False},
+             "continuation": {"parameter": "omega", "min": 0.5, "max": 2.0, "max_points": 8},
+             "analysis": {"stability": False}}
+    res = nsm.run(small)
+    ds = res.to_xarray()
+    assert "multipliers" not in ds and "multiplier" not in ds.sizes
+    assert ds.sizes["point"] == len(res.branches[0]) > 0
+    assert np.isnan(ds["stable"].values).all()  # no multipliers: no stability
+    for engine in ("h5netcdf", "scipy"):
+        back = nsm.open_netcdf(res.to_netcdf(tmp_path / f"{engine}.nc", engine=engine))
+        xr.testing.assert_identical(back, ds)
+    # the chain with frequencies in the ratio 3: its start fails (a singular Jacobian)
+    failed = nsm.run({**small, "parameters": {"M": [[1, 0], [0, 1]], "K": [[5, -4], [-4, 5]],
+                                              "gap": 1.0}})
+    assert [len(b) for b in failed.branches] == [0]
+    ds = failed.to_xarray()
+    assert ds.sizes["point"] == 0
+    xr.testing.assert_identical(nsm.open_netcdf(failed.to_netcdf(tmp_path / "f.nc")), ds)
+    with pytest.raises(ValueError, match=r"^engine: netCDF-3 \(scipy\) cannot hold the empty "
+                                         r"dimension 'point'"):
+        failed.to_netcdf(tmp_path / "f3.nc", engine="scipy")
