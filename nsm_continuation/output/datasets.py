@@ -27,7 +27,9 @@
   With ``h5netcdf`` (netCDF-4, the ``xarray`` extra) complex numbers are stored as they are;
   SciPy's netCDF-3 writer (always installed with SciPy) cannot hold complex numbers, so
   there each complex variable is written as two real ones, ``<name>_real`` and
-  ``<name>_imag``, which :func:`open_netcdf` joins again.
+  ``<name>_imag``, which :func:`open_netcdf` joins again; nor an empty dimension (a run
+  without events or points), whose variables :func:`open_netcdf` restores from an
+  attribute.
 
 pandas, xarray and h5netcdf are optional (``pip install "nsm-continuation[xarray]"``): without
 them each function here raises one :class:`ImportError` line naming what to install.
@@ -63,6 +65,9 @@ RESERVED = frozenset({"branch", "row", "unknown", "multiplier", "y", "multiplier
 
 #: the attribute naming the complex variable a real one is part of (netCDF-3 files)
 COMPLEX_PART = "complex_part_of"
+
+#: the Dataset's attribute describing the variables along an empty dimension (netCDF-3 files)
+EMPTY = "variables_along_empty_dimensions"
 
 
 def need(module: str, what: str) -> Any:
@@ -274,7 +279,7 @@ def _event_variables(res: RunResult, unknowns: list[str], n_mult: int) -> dict[s
             continue
         if k in ("stable", "admissible"):
             col = as_float(flags(values))
-        elif k == "row":
+        elif k in ("row", "branch"):
             col = np.array([-1 if v is None else v for v in values], dtype=int)
         elif k in ("kind", "detail") or any(isinstance(v, str) for v in values):
             col = np.array(["" if v is None else str(v) for v in values], dtype=object)
@@ -298,7 +303,7 @@ def to_xarray(res: RunResult, source: str | None = None) -> Any:
     from nsm_continuation import __version__
 
     xr = need("xarray", "Result.to_xarray")
-    unknowns: list[str] = []
+    unknowns = list(res.problem.variables)
     for b in res.branches:
         unknowns += [v for v in _problem_of(res, b).variables if v not in unknowns]
     points = [p for b in res.branches for p in b.points]
@@ -341,37 +346,45 @@ def _engine(engine: str | None) -> str:
     return "h5netcdf"
 
 
+def _netcdf3(ds: Any) -> Any:
+    """``ds`` as netCDF-3 can hold it: each complex variable as its parts ``<name>_real`` and
+    ``<name>_imag`` (attribute :data:`COMPLEX_PART`), the variables along an empty dimension
+    (no point, no event: SciPy cannot read a fixed dimension of size 0 back) left out and
+    described in the attribute :data:`EMPTY` (JSON) for :func:`open_netcdf`."""
+    empty = {d for d, n in ds.sizes.items() if n == 0}
+    gone = {k: {"dims": list(v.dims), "shape": list(v.shape), "dtype": v.dtype.str,
+                "attrs": dict(v.attrs), "coord": k in ds.coords}
+            for k, v in ds.variables.items() if set(v.dims) & empty}
+    out = ds.drop_vars(list(gone))
+    if gone:
+        out.attrs[EMPTY] = json.dumps(gone)
+    for k in [k for k, v in out.data_vars.items() if np.iscomplexobj(v.values)]:
+        v = out[k]
+        out = out.drop_vars(k)
+        for part in ("real", "imag"):
+            out[f"{k}_{part}"] = (v.dims, getattr(v.values, part), {**v.attrs, COMPLEX_PART: k})
+    return out
+
+
 def to_netcdf(ds: Any, path: str | Path, engine: str | None = None) -> Path:
     """Write the Dataset ``ds`` (:func:`to_xarray`) to the netCDF file ``path`` with
     ``engine`` (default: ``h5netcdf`` where it is installed, else ``scipy``); returns the path.
-    netCDF-3 (``scipy``) holds no complex numbers: each complex variable is written as its
-    real and imaginary parts (module docstring)."""
+    netCDF-3 (``scipy``) holds no complex numbers and no empty dimension: :func:`_netcdf3`
+    (module docstring)."""
     need("xarray", "Result.to_netcdf")
     engine = _engine(engine)
     if engine == "h5netcdf":
         need("h5netcdf", "a netCDF-4 file")
         need("h5py", "a netCDF-4 file")
-    out = ds
-    if engine == "scipy":
-        empty = [d for d, n in ds.sizes.items() if n == 0]
-        if empty:
-            raise ValueError(f"engine: netCDF-3 (scipy) cannot hold the empty dimension "
-                             f"{empty[0]!r}; write it with engine='h5netcdf' ({EXTRA})")
-        out = ds.copy()
-        for k in [k for k, v in ds.data_vars.items() if np.iscomplexobj(v.values)]:
-            v = ds[k]
-            out = out.drop_vars(k)
-            for part in ("real", "imag"):
-                out[f"{k}_{part}"] = (v.dims, getattr(v.values, part),
-                                      {**v.attrs, COMPLEX_PART: k})
     path = Path(path)
-    out.to_netcdf(path, engine=engine)
+    (_netcdf3(ds) if engine == "scipy" else ds).to_netcdf(path, engine=engine)
     return path
 
 
 def open_netcdf(path: str | Path) -> Any:
-    """The Dataset written by :func:`to_netcdf` at ``path``, read into memory, its complex
-    variables whole again."""
+    """The Dataset written by :func:`to_netcdf` at ``path``, read into memory, as it was
+    written: complex variables whole again, variables along an empty dimension back
+    (netCDF-3, :func:`_netcdf3`)."""
     xr = need("xarray", "open_netcdf")
     with xr.open_dataset(path) as opened:
         ds = opened.load()
@@ -383,7 +396,11 @@ def open_netcdf(path: str | Path) -> Any:
         whole = np.empty(re_.shape, dtype=complex)
         whole.real, whole.imag = re_.values, im.values
         ds[name] = (re_.dims, whole, attrs)
-    return ds
+    gone = json.loads(ds.attrs.pop(EMPTY, "{}"))
+    for k, spec in gone.items():
+        ds[k] = (spec["dims"], np.empty(spec["shape"], dtype=np.dtype(spec["dtype"])),
+                 spec["attrs"])
+    return ds.set_coords([k for k, spec in gone.items() if spec["coord"]])
 
 
 __all__ = ["as_float", "branch_columns", "event_columns", "events_frame", "flags", "frame",

@@ -177,9 +177,10 @@ def test_without_the_extra_one_import_error_line(runs, monkeypatch) -> None:
 @pytest.mark.skipif(NO_XARRAY or NO_H5, reason="xarray/h5netcdf not installed "
                     "(pip install .[xarray])")
 def test_a_run_without_multipliers_or_points_round_trips(tmp_path: Path) -> None:
-    """Without stability no point has multipliers: no multiplier dimension (netCDF-3 cannot
-    hold an empty one), both engines round-trip. A run whose only start failed has no point:
-    netCDF-4 holds it, netCDF-3 is one line naming the empty dimension."""
+    """Without stability no point has multipliers: no multiplier dimension, both engines
+    round-trip. A run whose only start failed has no point and no event: both engines
+    round-trip it too (netCDF-3 cannot hold an empty dimension: its variables are described
+    in an attribute and restored)."""
     import xarray as xr
 
     small = {"name": "small", "problem": "ndof_impact",
@@ -200,8 +201,8 @@ def test_a_run_without_multipliers_or_points_round_trips(tmp_path: Path) -> None
                                               "gap": 1.0}})
     assert [len(b) for b in failed.branches] == [0]
     ds = failed.to_xarray()
-    assert ds.sizes["point"] == 0
-    xr.testing.assert_identical(nsm.open_netcdf(failed.to_netcdf(tmp_path / "f.nc")), ds)
-    with pytest.raises(ValueError, match=r"^engine: netCDF-3 \(scipy\) cannot hold the empty "
-                                         r"dimension 'point'"):
-        failed.to_netcdf(tmp_path / "f3.nc", engine="scipy")
+    assert ds.sizes["point"] == 0 == ds.sizes["event"]
+    assert list(ds["unknown"].values) == failed.problem.variables
+    for engine in ("h5netcdf", "scipy"):
+        back = nsm.open_netcdf(failed.to_netcdf(tmp_path / f"f_{engine}.nc", engine=engine))
+        xr.testing.assert_identical(back, ds)
