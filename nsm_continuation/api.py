@@ -439,11 +439,11 @@ class Result:
         (coordinates ``branch`` and ``row``), each CSV column a variable (``admissible`` and
         ``stable`` booleans), the unknowns ``y(point, unknown)``, the Floquet multipliers
         ``multipliers(point, multiplier)`` as complex numbers, the events along ``event``
-        (variables ``event_*``); the problem, the case and the continued parameter as
-        attributes, each quantity's axis label as its ``long_name``
-        (:func:`~nsm_continuation.output.datasets.to_xarray`). Select a branch with
-        ``ds.where(ds.branch == 1, drop=True)``. Needs xarray (``pip install
-        "nsm-continuation[xarray]"``)."""
+        (variables ``event_*``); the continued parameter a coordinate (``ds.omega``); the
+        problem, the case and the continued parameter as attributes, each quantity's axis
+        label as its ``long_name`` (:func:`~nsm_continuation.output.datasets.to_xarray`).
+        Select a branch with ``ds.where(ds.branch == 1, drop=True)``. Needs xarray (``pip
+        install "nsm-continuation[xarray]"``)."""
         from nsm_continuation.output.datasets import to_xarray
 
         return to_xarray(self.run_result, self._source_text())

@@ -18,11 +18,11 @@
   multipliers ``multipliers(point, multiplier)`` as complex numbers (by decreasing modulus, as
   in the CSV; NaN where a point has fewer; no such variable when no point has any: a
   brute-force sweep, a run without stability), the events along ``event`` (variables
-  ``event_*``); attributes name the problem, the case, the continued parameter and the fixed
-  parameters (``fixed_parameters``, JSON), and each
-  quantity's ``long_name`` is its axis label (:meth:`Presentation.label
-  <nsm_continuation.core.presentation.Presentation.label>`: words, symbol and units where
-  the problem declares them).
+  ``event_*``); the continued parameter (``<name>`` and ``event_<name>``) is a coordinate;
+  attributes name the problem, the case, the continued parameter and the fixed parameters
+  (``fixed_parameters``, JSON), and each quantity's ``long_name`` is its axis label
+  (:meth:`Presentation.label <nsm_continuation.core.presentation.Presentation.label>`:
+  words, symbol and units where the problem declares them).
 * :func:`to_netcdf` / :func:`open_netcdf`: the Dataset in a netCDF file and back, equal.
   With ``h5netcdf`` (netCDF-4, the ``xarray`` extra) complex numbers are stored as they are;
   SciPy's netCDF-3 writer (always installed with SciPy) cannot hold complex numbers, so
@@ -329,7 +329,9 @@ def to_xarray(res: RunResult, source: str | None = None) -> Any:
              "nsm_continuation_version": __version__}
     if source is not None:
         attrs["source"] = source
-    return xr.Dataset(variables, coords=coords, attrs=attrs)
+    ds = xr.Dataset(variables, coords=coords, attrs=attrs)
+    # the continued parameter as a coordinate (``ds.multipliers.plot.scatter(x="omega")``)
+    return ds.set_coords([k for k in (name, f"event_{name}") if k in ds.data_vars])
 
 
 def _engine(engine: str | None) -> str:

@@ -146,6 +146,7 @@ def test_load_to_xarray_to_netcdf_and_back(runs, engine: str, tmp_path: Path) ->
     name = fresh.case.continuation.parameter or fresh.problem.parameter
     assert ds.attrs["continued_parameter"] == name and ds.attrs["problem"] == fresh.problem.name
     assert ds[name].attrs["long_name"] == fresh.problem.presentation.label(name)
+    assert name in ds.coords and f"event_{name}" in ds.coords
 
     path = loaded.to_netcdf(tmp_path / "run.nc", engine=engine)
     back = nsm.open_netcdf(path)
