@@ -38,13 +38,15 @@ if TYPE_CHECKING:
 # (:mod:`nsm_continuation.figures.branches`, from ``results.write_files``) or distributes
 # (:mod:`nsm_continuation.runs.execution`); ``tests/interface/test_startup_imports.py`` checks it.
 
-DEFAULT_CASE = "default_case.yaml"
+#: the bundled case ``run`` runs when given no file (``yaml_cases/ndof_default.yaml``, the
+#: package data of ``nsm_continuation.yaml_cases``: :mod:`nsm_continuation.cases.bundled`)
+DEFAULT_CASE = "ndof_default.yaml"
 
 
 def _default_case_path() -> Path:
     from importlib import resources
 
-    return Path(str(resources.files("nsm_continuation").joinpath(DEFAULT_CASE)))
+    return Path(str(resources.files("nsm_continuation.yaml_cases").joinpath(DEFAULT_CASE)))
 
 
 class _Parser(argparse.ArgumentParser):

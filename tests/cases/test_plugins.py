@@ -399,3 +399,29 @@ def test_a_plugin_failing_during_the_run_is_named_and_the_results_written(
     assert line in err, err
     assert (out / "branch_0.csv").is_file() and (out / "report.md").is_file()
     assert line in (out / "report.md").read_text() or status == 3
+
+
+@pytest.mark.parametrize(("fault", "line"), [
+    ("start_exit", "toy: 1 of 1 starts failed: branch 0 (start): start: no start point: "
+                   "problem 'toy' raised SystemExit(7) in a hook (sys.exit)"),
+    ("figure", "toy: problem 'toy' ({module}): the figures failed in its code (RuntimeError: "
+               "no colour map); they are left out"),
+])
+def test_what_the_command_line_says_an_api_user_is_told(
+        plugin: Callable[..., str], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        caplog: pytest.LogCaptureFixture, fault: str, line: str) -> None:
+    """The failed start (the command line's exit 3 and its line) is logged when ``nsm.run``
+    returns; the figures a plugin failed to draw are logged by ``Result.save`` (the command
+    line's warning), each once, to the ``nsm_continuation`` logger; nothing on stdout."""
+    import logging
+
+    target = plugin(source=RUNNING.replace("{fault!r}", repr(fault)))
+    line = line.format(module=target.partition(":")[0])
+    path = case_file(tmp_path, output={"progress": False, "plots": True})
+    with caplog.at_level(logging.WARNING, logger="nsm_continuation"):
+        res = api.run(str(path))
+        res.save(tmp_path / "out")
+    logged = [r.getMessage() for r in caplog.records if r.name == "nsm_continuation"]
+    assert sum(m.startswith(line) for m in logged) == 1, logged
+    assert capsys.readouterr().out == ""
+    assert (tmp_path / "out" / "branch_0.csv").is_file()
