@@ -36,7 +36,13 @@ from matplotlib.figure import Figure
 
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch
-from nsm_continuation.figures.events import Located, cluster_window, draw_located, drawable
+from nsm_continuation.figures.events import (
+    Located,
+    cluster_window,
+    declutter,
+    draw_located,
+    drawable,
+)
 from nsm_continuation.figures.events import located as located_events
 from nsm_continuation.figures.kit import (
     DIAGRAM_SIZE,
@@ -234,6 +240,15 @@ def _inset(zoom: Axes, res: Any, xk: str, yk: str, log: bool, events: list[Locat
     zoom.indicate_inset_zoom(ins, edgecolor="goldenrod")
 
 
+def _crowded_zoom(res: Any, xk: str, yk: str, log: bool, window: tuple[float, float],
+                  events: list[Located]) -> bool:
+    """Whether markers still overlap in the zoom over ``window`` (a crowd wider than one zoom
+    parts, as in Legrand et al. 2017, Fig. 3.2 below omega = 3)."""
+    inside = [e for e in events if window[0] <= e.x <= window[1]]
+    lim = _window_limits(res, xk, yk, window, inside, log)
+    return lim is not None and cluster_window(inside, window, lim, log) is not None
+
+
 def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure:
     """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
     frequency-energy plot of Fig. 3.2), styled as the module docstring says, located events
@@ -257,6 +272,13 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
     y_range = (float(finite_y.min()), float(finite_y.max())) if finite_y.size else (0.0, 1.0)
     window = (cluster_window(events, x_range, y_range, log)
               if ax is None and not show.two_parameter else None)
+    unmarked: dict[str, int] = {}
+    if window is not None and _crowded_zoom(res, xk, yk, log, window, events):
+        # too crowded for a zoom: the events on phantom orbits and doubled rings left out
+        events, unmarked = declutter(events)
+        window = cluster_window(events, x_range, y_range, log)
+        if window is not None:
+            window = (max(window[0], x_range[0]), min(window[1], x_range[1]))
     extra = {"dpi": 130} if dpi else {}
     zoom = None
     if ax is None and window is not None:
@@ -276,9 +298,11 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
     ax.set_xlabel(xl)
     ax.set_ylabel(yl)
     ax.set_title(show.diagram_title)
-    if left:
-        ax.text(0.005, 0.005, f"{len(left)} event(s) outside the drawn range: see report.md",
-                transform=ax.transAxes, fontsize=7, color="0.35", va="bottom")
+    notes = [f"{len(left)} outside the drawn range"] if left else []
+    notes += [f"{n} {what}" for what, n in unmarked.items()]
+    if notes:  # under the legend, off the data
+        ax.text(1.01, 0.0, "events not marked\n(all in report.md):\n" + "\n".join(notes),
+                transform=ax.transAxes, fontsize=7, color="0.35", va="bottom", ha="left")
     if zoom is not None and window is not None:
         ax.axvspan(*window, facecolor="none", edgecolor="goldenrod", lw=1.4, ls="--",
                    zorder=1, label="window zoomed below")

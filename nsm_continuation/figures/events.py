@@ -36,6 +36,23 @@ class Located:
     style: EventStyle
     x: float
     y: float
+    #: on a phantom (not admissible) stretch of its branch: the branch's points on both sides
+    #: of the event (on its one side at an end of the branch) are not admissible
+    phantom: bool = False
+
+
+def on_phantom(br: Branch, s: float) -> bool:
+    """Whether the branch ``br`` is phantom on both sides of arclength ``s`` (on its one side
+    at an end): the nearest points before and after ``s`` are not admissible. The event's own
+    point is not asked (at a grazing its test is zero, to rounding either side)."""
+    ss = np.array([p.s for p in br.points], dtype=float)
+    tol = 1e-9 * (1.0 + float(np.max(np.abs(ss)))) if ss.size else 0.0
+    near = [int(np.argmax(np.where(ss < s - tol, ss, -np.inf))) if (ss < s - tol).any()
+            else None,
+            int(np.argmin(np.where(ss > s + tol, ss, np.inf))) if (ss > s + tol).any()
+            else None]
+    sides = [br.points[i] for i in near if i is not None]
+    return bool(sides) and not any(p.admissible for p in sides)
 
 
 def declared_styles(problem: Problem) -> dict[str, EventStyle | None]:
@@ -59,8 +76,26 @@ def located(problem: Problem, branches: Sequence[Branch], xk: str, yk: str,
             st = event_style(ev.kind, styles)
             if st is not None:
                 out.append(Located(ev.kind, st, float(ev.point.value(xk, pr.variables)),
-                                   float(ev.point.value(yk, pr.variables))))
+                                   float(ev.point.value(yk, pr.variables)),
+                                   on_phantom(br, ev.point.s)))
     return out
+
+
+def declutter(events: Sequence[Located]) -> tuple[list[Located], dict[str, int]]:
+    """The events a crowded diagram marks, and the counts of those it does not: the events on
+    phantom stretches of their branches (:attr:`Located.phantom`; Legrand et al. 2017,
+    Fig. 3.2, marks none there), and the hollow rings (stability changes) around a filled
+    marker at their point (the branch's line changes style there)."""
+    kept = [e for e in events if not e.phantom]
+    filled = [e for e in kept if e.style.filled]
+    ringed = [e for e in kept if not e.style.filled and any(
+        np.isclose(f.x, e.x, rtol=1e-9, atol=0.0) and np.isclose(f.y, e.y, rtol=1e-9, atol=0.0)
+        for f in filled)]
+    counts = {"on phantom orbits": len(events) - len(kept)}
+    for e in ringed:
+        name = f"{e.style.name}s at a marker\nof another kind"
+        counts[name] = counts.get(name, 0) + 1
+    return [e for e in kept if e not in ringed], {k: v for k, v in counts.items() if v}
 
 
 def drawable(events: Sequence[Located], y_max: float = np.inf, log: bool = False
@@ -158,5 +193,5 @@ def values_in(xs: Any, ys: Any, window: tuple[float, float]) -> np.ndarray:
     return ys[keep]
 
 
-__all__ = ["Located", "cluster_window", "declared_styles", "draw_events", "draw_located",
-           "drawable", "located", "values_in"]
+__all__ = ["Located", "cluster_window", "declared_styles", "declutter", "draw_events",
+           "draw_located", "drawable", "located", "on_phantom", "values_in"]
