@@ -158,12 +158,12 @@ class CodimOneCurve(Problem):
 BASE_SETTINGS = ("newton_tol", "derived_bounds", "step_initial")
 
 
-def _flat(values: dict[str, Any]) -> dict[str, Any]:
+def flat_parameters(values: dict[str, Any]) -> dict[str, Any]:
     """A nested mapping of parameters flattened to its leaves, each under its own key
     (``{"chain": {"stiffness": 4}}`` -> ``{"stiffness": 4}``)."""
     out: dict[str, Any] = {}
     for k, v in values.items():
-        out.update(_flat(v) if isinstance(v, dict) else {k: v})
+        out.update(flat_parameters(v) if isinstance(v, dict) else {k: v})
     return out
 
 
@@ -194,7 +194,7 @@ class LocatedCurvePresentation(Presentation):
         """The point of the curve at the base run's value of the continued parameter (the
         codimension-one point it was started from; the curve's arclength starts at one of its
         ends)."""
-        value = _flat(self.problem.base.params.model_dump()).get(self.problem.parameter)
+        value = getattr(self.problem, "start_value", None)
         if value is None or not branch.points:
             return super().start_point(branch)
         i = self.problem.variables.index(self.problem.parameter)
@@ -250,6 +250,8 @@ class LocatedCurve(CodimOneCurve):
         # to the case's continued parameter, ``q``)
         probe.parameter_bounds(free, None, None)
         self.base = probe
+        #: the value of ``parameter`` the curve was started at (that of the base run)
+        self.start_value: float | None = flat_parameters(base.params.model_dump()).get(parameter)
         self.curve_kind = kind
         self.free = free
         self.parameter = parameter
@@ -702,4 +704,4 @@ class CurveTracer:
 
 __all__ = ["MULTIPLIER_KINDS", "CodimOneCurve", "CurveTracer",
            "LocatedCurve", "condition_meaning", "curve_kind_refusal", "curve_kinds",
-           "monitor_kinds"]
+           "flat_parameters", "monitor_kinds"]
