@@ -146,6 +146,29 @@ def _fractions(v: np.ndarray, lo: float, hi: float, log: bool) -> np.ndarray:
     return (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
 
 
+def _overlapping(pts: Sequence[Located], x_range: tuple[float, float],
+                 y_range: tuple[float, float], ylog: bool) -> np.ndarray:
+    """For each of ``pts``, whether its marker overlaps another's (:data:`OVERLAP`, axes
+    fractions; two at one point, :data:`COINCIDE`, do not count: events located at one point
+    stay together in any zoom, the markers of the second kind drawn smaller instead)."""
+    if len(pts) < 2 or not x_range[1] > x_range[0]:
+        return np.zeros(len(pts), dtype=bool)
+    fx = _fractions(np.array([e.x for e in pts]), *x_range, False)
+    fy = _fractions(np.array([e.y for e in pts]), *y_range, ylog)
+    dx, dy = np.abs(fx[:, None] - fx[None, :]), np.abs(fy[:, None] - fy[None, :])
+    same = (dx < COINCIDE) & (dy < COINCIDE)
+    close = (dx < OVERLAP[0]) & (dy < OVERLAP[1]) & ~same
+    np.fill_diagonal(close, False)
+    return close.any(axis=1)
+
+
+def markers_overlap(events: Sequence[Located], x_range: tuple[float, float],
+                    y_range: tuple[float, float], ylog: bool = False) -> bool:
+    """Whether two filled markers of ``events`` overlap on axes over these ranges."""
+    return bool(_overlapping([e for e in events if e.style.filled], x_range, y_range,
+                             ylog).any())
+
+
 def cluster_window(events: Sequence[Located], x_range: tuple[float, float],
                    y_range: tuple[float, float], ylog: bool = False
                    ) -> tuple[float, float] | None:
@@ -156,20 +179,11 @@ def cluster_window(events: Sequence[Located], x_range: tuple[float, float],
     spans at most :data:`CROWD_SPAN` of the axis, padded by a third of its span (at least
     1 % of the axis). None when no markers overlap."""
     pts = [e for e in events if e.style.filled]
-    if len(pts) < 2 or not x_range[1] > x_range[0]:
+    overlapping = _overlapping(pts, x_range, y_range, ylog)
+    if not overlapping.any():
         return None
     x = np.array([e.x for e in pts])
     fx = _fractions(x, *x_range, False)
-    fy = _fractions(np.array([e.y for e in pts]), *y_range, ylog)
-    dx, dy = np.abs(fx[:, None] - fx[None, :]), np.abs(fy[:, None] - fy[None, :])
-    # events at one point (branches meeting there, two kinds located at one point) stay
-    # together in any zoom: the markers of the second kind are drawn smaller instead
-    same = (dx < COINCIDE) & (dy < COINCIDE)
-    close = (dx < OVERLAP[0]) & (dy < OVERLAP[1]) & ~same
-    np.fill_diagonal(close, False)
-    overlapping = close.any(axis=1)
-    if not overlapping.any():
-        return None
     order = np.argsort(fx)
     crowds: list[list[int]] = [[int(order[0])]]
     for a, b in zip(order, order[1:], strict=False):
@@ -194,4 +208,5 @@ def values_in(xs: Any, ys: Any, window: tuple[float, float]) -> np.ndarray:
 
 
 __all__ = ["Located", "cluster_window", "declared_styles", "declutter", "draw_events",
-           "draw_located", "drawable", "located", "on_phantom", "values_in"]
+           "draw_located", "drawable", "located", "markers_overlap", "on_phantom",
+           "values_in"]
