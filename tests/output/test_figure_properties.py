@@ -311,7 +311,10 @@ def test_orbits_that_nearly_coincide_are_told_apart() -> None:
 
 # ---------------------------------------------------------------------- bundled cases
 @pytest.mark.parametrize("case", ["ndof_default", "bar_continuum_subharmonics",
-                                  "ndof_fig7_4_static_grazing_manifolds"])
+                                  "ndof_fig7_4_static_grazing_manifolds",
+                                  "ndof_fig7_3_static_grazing",
+                                  "impact_oscillator_period_doubling",
+                                  "wfem_fig18_two_contact_phases"])
 def test_bundled_case_draws_without_warnings_and_lists_only_drawn_artists(
         case: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Every figure of a bundled case drawn (in this process) with warnings as errors; in
