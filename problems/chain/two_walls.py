@@ -8,9 +8,9 @@ and ``e = 1`` (eq. 2.5e at both walls), declared through the hybrid layer
 (:meth:`~nsm_continuation.hybrid.system.HybridSystem.mechanical` with two surfaces) and continued
 as a conservative family (:class:`~nsm_continuation.hybrid.conservative_family.
 ConservativeFamilyProblem`: the unfolding ``M u'' + K u = beta M u'`` that vanishes on every
-orbit, shooting on the section ``u_c = section_value`` crossed falling, the energy
-``E = (u'^T M u' + u^T K u) / 2``). Paper 000 names this configuration beyond its reach: one
-impact per period on one wall is its assumption throughout.
+orbit, shooting on the section ``u_c = section_value`` crossed falling (default ``gap / 2``),
+the energy ``E = (u'^T M u' + u^T K u) / 2``). Paper 000 names this configuration beyond its
+reach: one impact per period on one wall is its assumption throughout.
 
 **Why this configuration.** A mass moving in a clearance (a loose support, a rattling gear, a
 tube in its baffle) is the two-contact setting met first in practice, and it keeps paper 000's
@@ -78,8 +78,10 @@ class TwoWallChainParameters(BaseModel):
     lower_gap: Positive | None = None
     #: the dof between the walls (1-based; null: the last)
     impacting_dof: Annotated[int, Field(ge=1)] | None = None
-    #: the section ``u_c = section_value`` (crossed falling), between the walls
-    section_value: float = Field(0.0, allow_inf_nan=False)
+    #: the section ``u_c = section_value`` (crossed falling), between the walls (null: halfway
+    #: to the upper wall, ``gap / 2``; on a symmetric orbit ``u_c = 0`` is crossed at ``T / 4``,
+    #: and that crossing turns tangent where ``u_c`` has an inflection there)
+    section_value: float | None = Field(None, allow_inf_nan=False)
     #: the impacts per period of the orbits continued (2: one on each wall; a branch ends
     #: where its impact sequence changes); null: any
     impacts: Annotated[int, Field(ge=1)] | None = 2
@@ -93,6 +95,8 @@ class TwoWallChainParameters(BaseModel):
                              f"1..{self.chain.dofs}")
         if self.lower_gap is None:
             self.lower_gap = self.gap
+        if self.section_value is None:
+            self.section_value = 0.5 * self.gap
         if not -self.lower_gap < self.section_value < self.gap:
             raise ValueError(f"section_value = {self.section_value} must lie between the walls "
                              f"(-lower_gap = {-self.lower_gap}, gap = {self.gap})")

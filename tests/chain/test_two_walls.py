@@ -9,7 +9,7 @@ section), the unfolding vanishes to rounding, the oracle's simulation from the r
 state closes after the impacts in the reported order with the energy conserved, and the
 multipliers agree with the saltation monodromy's (itself checked against finite differences of
 the oracle's return map). Mode 1 ends where a third impact appears (``u5`` grazes a wall inside
-a half period): located on the oracle's margin, the hybrid model refuses the orbits beyond.
+a half period), where the hybrid model's grazing margin, equal to the oracle's, vanishes.
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ from oracles.chain_two_walls import TwoWallChain
 from scipy.optimize import brentq, minimize_scalar
 
 from nsm_continuation import cases
-from nsm_continuation.core.problem import EvaluationError
 
 CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 #: the agreement of the orbits (the hybrid model integrates at rtol 1e-12)
 AGREE = 1e-9
-#: orbits of mode 1 (stable and unstable ones) and mode 2
-OMEGAS = [1.45, 1.5, 1.6, 4.3, 4.7]
+#: orbits of mode 1 (stable and unstable ones) and mode 2, two of them (1.666, 5.75) beyond
+#: the inflection of u5 at T/4 that makes the crossing of u5 = 0 tangent
+OMEGAS = [1.45, 1.5, 1.6, 1.666, 4.3, 4.7, 5.75]
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +66,7 @@ def interior_margin(oracle: TwoWallChain, omega: float) -> float:
 
 @pytest.mark.parametrize("omega", OMEGAS)
 def test_orbits_match_the_closed_form(problem, oracle, orbits, omega) -> None:
-    """Energy and state on the section ``u5 = 0`` (falling) equal the closed form's at the same
+    """Energy and state on the section ``u5 = 1/2`` (falling) equal the closed form's at the same
     frequency to 1e-9; the unfolding beta vanishes to rounding."""
     y, _, _ = orbits[omega]
     T = 2 * np.pi / omega
@@ -74,7 +74,7 @@ def test_orbits_match_the_closed_form(problem, oracle, orbits, omega) -> None:
     assert X0[oracle.N + oracle.c] < 0  # an admissible start: it leaves the upper wall
     d = problem.derived(y)
     assert abs(d["energy"] - oracle.energy(X0)) <= AGREE * oracle.energy(X0)
-    Xs = oracle.section_state(X0, 0.0, T)
+    Xs = oracle.section_state(X0, problem.params.section_value, T)
     X = problem.shooting.x0(y)[: 2 * oracle.N]
     assert np.max(np.abs(X - Xs)) <= AGREE * (1 + np.max(np.abs(Xs)))
     assert d["unfolding"] <= problem.unfolding_tolerance()
@@ -134,21 +134,17 @@ def test_saltation_monodromy_matches_finite_differences(oracle) -> None:
 
 
 def test_mode_1_ends_where_a_third_impact_appears(problem, oracle) -> None:
-    """Mode 1's nearest interior approach to a wall (the hybrid model's grazing margin) is the
-    closed form's to 1e-8; it vanishes at ``omega_B`` (located on the oracle's margin), beyond
-    which the closed-form orbit crosses a wall: from its section state the hybrid model meets
-    more than two impacts and the family refuses it, named."""
-    below = 1.664
-    y, _, _ = family_orbit(problem, below)
-    d = problem.derived(y)
-    assert d["n_impacts"] == 2
-    assert abs(d["grazing_margin"] - interior_margin(oracle, below)) <= 1e-8
-    wB = brentq(lambda w: interior_margin(oracle, w), below, 1.672, xtol=1e-12)
-    T = 2 * np.pi / (wB + 2e-3)
-    X = oracle.section_state(oracle.symmetric_orbit(T), 0.0, T)
-    y_beyond = np.concatenate([X[problem.shooting.free_idx], [0.0, wB + 2e-3]])
-    with pytest.raises(EvaluationError, match="impact sequence"):
-        problem.evaluate_with_jacobian(y_beyond)
+    """Mode 1's nearest interior approach to a wall (the hybrid model's grazing margin, the
+    event function that locates a grazing) is the closed form's to 1e-8, up to 1e-4 before
+    ``omega_B``: the zero of the closed form's margin, beyond which the orbit of (W1) crosses a
+    wall (a third impact)."""
+    wB = brentq(lambda w: interior_margin(oracle, w), 1.664, 1.672, xtol=1e-12)
+    assert interior_margin(oracle, wB + 1e-3) < 0  # beyond omega_B (W1) crosses a wall
+    for w in (1.664, wB - 1e-4):
+        y, _, _ = family_orbit(problem, w)
+        d = problem.derived(y)
+        assert d["n_impacts"] == 2
+        assert abs(d["grazing_margin"] - interior_margin(oracle, w)) <= 1e-8
 
 
 def test_bundled_case_and_bad_input() -> None:
