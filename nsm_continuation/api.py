@@ -433,8 +433,10 @@ class Result:
 
     @property
     def failed_starts(self) -> list[BranchData]:
-        """Branches whose start could not be corrected (no points; the termination says why)."""
-        return [b for b in self.branches if len(b) == 0]
+        """Branches whose start failed (no point, or a start outside the parameter window;
+        the termination says why: :attr:`Branch.failed_start
+        <nsm_continuation.core.records.Branch.failed_start>`)."""
+        return [b for b in self.branches if b.raw.failed_start]
 
     def report(self) -> dict[str, Any]:
         """The content of ``report.json`` (of a result read back: the file itself)."""

@@ -251,7 +251,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
     if _received:  # arrived during the final move, held until it was complete
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
-    failed = [b for b in res.branches if not b.points]
+    failed = [b for b in res.branches if b.failed_start]
     if case.output.orbits is not None:
         from nsm_continuation.figures.orbit_selection import spec_warnings
 
