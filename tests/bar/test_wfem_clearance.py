@@ -56,6 +56,21 @@ def test_lattice_orbits_are_the_direct_simulation(orbits) -> None:
         assert abs(u.min() + G0) <= 1e-12 * G0 and abs(u[-1] - G0) <= 1e-12 * G0
 
 
+def test_unequal_gaps_are_the_direct_simulation() -> None:
+    """A non-symmetric node with the lower wall twice as far (``g1 = 2 g0``, N = 20): the orbit
+    the lattice returns is the direct simulation's (pattern, periodicity, both walls)."""
+    model, g1 = BarModel(1.0, 1.0, 1.0, 20, G0), 2 * G0
+    status, sol = solve_clearance_node(model, (2, 13, 14, 13), g1)
+    assert status == "admissible" and classify(sol, g1) == "physical"
+    m, p, k, l_ = sol.counts
+    w, states, u, energy = simulate_clearance(sol.w0, sol.M, model.E, model.rho, model.dx,
+                                              G0, g1)
+    assert states == ["free"] * m + ["lower"] * p + ["free"] * k + ["upper"] * l_
+    assert np.max(np.abs(w - sol.w0)) <= 1e-12 * np.max(np.abs(sol.w0))
+    assert np.ptp(energy) <= 1e-12 * sol.energy
+    assert abs(u.min() + g1) <= 1e-12 * g1 and abs(u[-1] - G0) <= 1e-12 * G0
+
+
 def test_main_backbone_hardens_from_omega_1(orbits) -> None:
     """On the main backbone (``m + 2p = 2N``: each free phase lasts ``2L/c - 2 tau_c``, the
     period ``4L/c - 2 tau_c``) the frequency rises above omega_1 with the contact time
