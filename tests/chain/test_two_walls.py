@@ -147,6 +147,32 @@ def test_mode_1_ends_where_a_third_impact_appears(problem, oracle) -> None:
         assert abs(d["grazing_margin"] - interior_margin(oracle, w)) <= 1e-8
 
 
+def test_pitchfork_is_where_the_one_wall_mode_grazes_the_other_wall(problem, oracle) -> None:
+    """Paper 000's one-wall mode (its closed form (4.2), ``ndof_impact``) is an orbit of the
+    clearance as long as ``u5 >= -1``; at the frequency ``omega_G`` where it grazes the lower
+    wall, the symmetric family of the hybrid two-wall model has its first pitchfork: a
+    multiplier pair crosses +1 there (2 multipliers outside just below, 1 just above; the
+    closed form's monodromy agrees)."""
+    from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+
+    one_wall = NDofImpactProblem(CHAIN)
+
+    def lowest(w: float) -> float:
+        T = 2 * np.pi / w
+        X = np.concatenate(one_wall.closed_form(T))
+        t = np.linspace(0.0, T, 4001)
+        k = int(np.argmin(oracle.u_c(X, t)))
+        r = minimize_scalar(lambda s: oracle.u_c(X, np.array([s]))[0], method="bounded",
+                            bounds=(t[k - 1], t[k + 1]), options={"xatol": 1e-13})
+        return float(r.fun) + oracle.g
+
+    wG = brentq(lowest, 1.43, 1.45, xtol=1e-14)
+    for w, n in ((wG - 1e-6, 2), (wG + 1e-6, 1)):
+        _, _, fl = family_orbit(problem, w)
+        assert int(np.sum(np.abs(fl.multipliers) > 1 + 1e-6)) == n
+        assert int(np.sum(np.abs(oracle.multipliers(2 * np.pi / w)) > 1 + 1e-6)) == n
+
+
 def test_bundled_case_and_bad_input() -> None:
     """The bundled case loads; bad parameters and starts are one line naming the field."""
     case, pb = cases.load(CASES / "ndof_two_walls_modes.yaml")
