@@ -403,7 +403,7 @@ def chain_auto_measure(ref: dict[str, Any], pts: list[Any], config: str, wall: f
         "finite": finite, "auto_time": t_auto, "ended": ended(pts, 0, T1),
         "match_flag": match_changes(ref["changes"], flag),
         "match_modulus": match_changes(ref["changes"], modulus),
-        "labels": label_counts(pts, T1)})
+        "labels": label_counts(pts, T1) + f", stable {sum(f for _, f in flag)}/{len(flag)}"})
 
 
 def match_changes(exact: list[tuple[float, str]], stable: list[tuple[float, bool]]
