@@ -324,8 +324,12 @@ def chain_exact() -> tuple[Any, dict[str, Any], Row]:
         tangent = y_at(T + h) - y_at(T - h)
         fd = p.floquet_dense(y_at(T), tangent / np.linalg.norm(tangent))
         ref["multipliers"][r] = np.asarray(fd.multipliers, dtype=complex)
+    kinds: dict[str, int] = {}
+    for ev in br.events:
+        kinds[ev.kind] = kinds.get(ev.kind, 0) + 1
     row = Row("chain", "ours (closed form + engine)", "tol 1e-10", wall, cpu, err,
-              len(br.points), {"changes": len(changes), "ended": br.termination})
+              len(br.points), {"changes": len(changes), "ended": br.termination,
+                               "kinds": ", ".join(f"{k} {v}" for k, v in kinds.items())})
     return br, ref, row
 
 
@@ -449,7 +453,7 @@ def section_chain(args: argparse.Namespace) -> list[Row]:
     print(f"\n2. The 5-dof chain, branch 1, T from {CHAIN_WINDOW[1]} to {CHAIN_WINDOW[0]} T_1 "
           f"(T_1 = {T1:.6f}); exact: {len(ref['changes'])} stability changes")
     print(f"   ours: {ours.points} points, wall {ours.wall:.2f} s, CPU {ours.cpu:.2f} s, energy "
-          f"error vs closed form {ours.error:.1e}, stability changes {ours.extra['changes']}, "
+          f"error vs closed form {ours.error:.1e}, events: {ours.extra['kinds']}; "
           f"{termination_text(ours.extra['ended'])}")
     print("   AUTO on the penalty model (energy: relative error at T = "
           + ", ".join(f"{r}" for r in CHAIN_CHECK) + " T_1; mult: largest distance of the 8 "
