@@ -710,8 +710,8 @@ def main(argv: list[str] | None = None) -> list[Row]:
         print(f"bench_auto07p: skipped: {why}")
         return []
     warnings.filterwarnings("ignore", category=RuntimeWarning)
-    import bifpy
-    print(f"bifpy {getattr(bifpy, '__version__', '?')}, Python {sys.version.split()[0]}, "
+    from importlib.metadata import version
+    print(f"bifpy {version('bifpy')}, Python {sys.version.split()[0]}, "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     rows: list[Row] = []
     sections = {1: section_stuart_landau, 2: section_chain, 3: section_oscillator}
