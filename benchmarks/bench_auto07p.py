@@ -28,7 +28,8 @@ Sections (``--sections``; each prints a table, all feed one chart):
    the mesh points away from the wall) against the closed form, ``|beta|``, the multipliers at
    the same periods against the exact ones, and how many of the exact branch's 12 stability
    changes AUTO reproduces (a change of AUTO's own stability flag, or of ``max |mu| > 1 +
-   1e-3``, within ``2e-3 T_1`` and in the same direction).
+   1e-3``, within ``2e-3 T_1`` and in the same direction). ``--hybrid-chain`` adds the same
+   branch through our hybrid layer (problem ``ndof_impact_hybrid``, continued in ``omega``).
 3. **The forced impact oscillator** ``q'' + q = cos(omega t)``, ``q >= -0.5``, ``e = 0.8`` (the
    bundled ``impact_oscillator_grazing.yaml`` and ``impact_oscillator_period_doubling.yaml``).
    Ours: both cases as bundled (exact hybrid). AUTO: the stop as a Kelvin-Voigt penalty
@@ -333,6 +334,42 @@ def chain_exact() -> tuple[Any, dict[str, Any], Row]:
     return br, ref, row
 
 
+def chain_hybrid(ref: dict[str, Any]) -> Row:
+    """The same branch through our hybrid layer (problem ``ndof_impact_hybrid``: event-driven
+    shooting, the family unfolded by ``beta``), continued in ``omega`` over the same window."""
+    import nsm_continuation as nsm
+    p, T1 = ref["problem"], ref["T1"]
+    hybrid = nsm.problem("ndof_impact_hybrid", PAPER_CHAIN)
+    w_lo, w_hi = (2 * np.pi / (r * T1) for r in (CHAIN_WINDOW[1], CHAIN_WINDOW[0]))
+
+    def go() -> Any:
+        return nsm.continuation(hybrid, {"omega": float(w_lo * (1 + 1e-4))}, parameter="omega",
+                                min=float(w_lo), max=float(w_hi), max_points=2000,
+                                step={"initial": 0.01, "min": 1e-9, "max": 0.05},
+                                analysis={"stability": True, "bifurcations": True})
+
+    res, wall, cpu = timed(go)
+    b = res.branches[0]
+    T = 2 * np.pi / np.asarray(b["omega"], dtype=float)
+    E = np.asarray(b["energy"], dtype=float)
+    exact = np.array([p.energy(p.y_from_state(*p.closed_form(t), t)) for t in T])
+    # by location only: the branch is followed both ways from its start, and each half words
+    # its changes in its own direction
+    found = sorted(((2 * np.pi / ev.parameter / T1, ev.detail) for ev in res.events
+                    if ev.kind == "stability_change"), reverse=True)
+    hits = sum(any(abs(t - f) <= MATCH_TOL for f, _ in found) for t, _ in ref["changes"])
+    kinds: dict[str, int] = {}
+    for ev in res.events:
+        kinds[ev.kind] = kinds.get(ev.kind, 0) + 1
+    worst = max((min(abs(t - f) for f, _ in found) for t, _ in ref["changes"]),
+                default=float("nan")) if found else float("nan")
+    return Row("chain", "ours (hybrid layer)", "rtol 1e-10", wall, cpu,
+               float(np.max(np.abs(E - exact) / exact)), len(T),
+               {"hits": hits, "found": len(found), "worst_change": worst,
+                "kinds": ", ".join(f"{k} {v}" for k, v in kinds.items()),
+                "ended": termination_text(b.termination)})
+
+
 def chain_auto(ref: dict[str, Any], kc: float, ntst: int) -> Row:
     from bifpy import auto
     p = ref["problem"]
@@ -449,6 +486,8 @@ def section_chain(args: argparse.Namespace) -> list[Row]:
         pairs = [(k, max(args.ntst)) for k in args.kc]
         pairs += [(mid, n) for n in args.ntst if n != max(args.ntst)]
     rows = [ours] + [chain_auto(ref, k, n) for k, n in pairs]
+    if args.hybrid_chain:
+        rows.append(chain_hybrid(ref))
     T1 = ref["T1"]
     print(f"\n2. The 5-dof chain, branch 1, T from {CHAIN_WINDOW[1]} to {CHAIN_WINDOW[0]} T_1 "
           f"(T_1 = {T1:.6f}); exact: {len(ref['changes'])} stability changes")
@@ -464,6 +503,12 @@ def section_chain(args: argparse.Namespace) -> list[Row]:
     print(head)
     for r in rows[1:]:
         e = r.extra
+        if r.method == "ours (hybrid layer)":
+            print(f"   ours, hybrid layer: {r.points} points, wall {r.wall:.1f} s, CPU "
+                  f"{r.cpu:.1f} s, energy error {r.error:.1e}, stability changes {e['hits']}/"
+                  f"{e['found']} (farthest {e['worst_change']:.1e} T_1), events: {e['kinds']}; "
+                  f"{e['ended']}")
+            continue
         if "failure" in e:
             print(f"   {e['kc']:>7.0e}{e['ntst']:>6d}  failed: {e['failure']}")
             continue
@@ -472,7 +517,7 @@ def section_chain(args: argparse.Namespace) -> list[Row]:
               f"{e['auto_time']:>9.2f}{r.error:>9.1e}{mult:>9.1e}{e['beta_T']:>9.1e}"
               f"{'{}/{}'.format(*e['match_flag']):>8}{'{}/{}'.format(*e['match_modulus']):>8}  "
               f"{e['labels']}; {e['ended']}{'' if e['finite'] else '; NaN'}")
-    print_kc_slope(rows[1:])
+    print_kc_slope([r for r in rows[1:] if r.method.startswith("AUTO")])
     return rows
 
 
@@ -703,6 +748,8 @@ def main(argv: list[str] | None = None) -> list[Row]:
     ap.add_argument("--ntst", type=int, nargs="+", default=[50, 100, 200],
                     help="AUTO mesh intervals (sections 2, 3)")
     ap.add_argument("--full", action="store_true", help="every k_c x NTST pair")
+    ap.add_argument("--hybrid-chain", action="store_true",
+                    help="section 2 also through our hybrid layer (~75 s of CPU)")
     ap.add_argument("--out", type=Path, default=OUT, help="chart file")
     args = ap.parse_args(argv)
     why = missing_tools()
