@@ -60,7 +60,9 @@ def follow(w: float, k: int, m: int, points: int) -> dict:
     except ValueError as exc:
         return {"outcome": str(exc), "time": time.perf_counter() - t0}
     run = res.run_result
-    out = {"outcome": "switched", "time": time.perf_counter() - t0, "branches": []}
+    ok = any(br.points for br in run.branches)
+    out = {"outcome": "switched" if ok else "not switched", "time": time.perf_counter() - t0,
+           "branches": []}
     for br in run.branches:
         pts = br.points
         ws = [float(p.y[-1]) for p in pts]
