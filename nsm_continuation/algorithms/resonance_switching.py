@@ -22,8 +22,9 @@ of :data:`ANGLES` (a half turn: ``phi + pi`` is the point of amplitude ``-eps``)
 orbit of the base family (``|G_base(y)| > 1e3 newton_tol (1 + |y|)``: a period-``k`` orbit
 that is not ``k`` copies of one period). The first new solution is the start, and where the
 amplitude ``-eps`` at the same angle gives another one on the other side of the resonance
-(parameter offset of the other sign: ``k = 3``) that is a second start. Each start is continued
-away from the resonance, along the secant from ``y_b``.
+(parameter offset of the other sign: ``k = 3``) that is a second start. Each start carries
+``+-d_phi`` as its tangent: the run corrects it again on the row it was found with, and
+continues it away from the resonance (along ``+-d_phi``).
 """
 
 from __future__ import annotations
@@ -105,7 +106,7 @@ def resonance_starts(base: Problem, problem: Problem, yb: np.ndarray, settings: 
             return None
         return y
 
-    found: list[np.ndarray] = []
+    found: list[tuple[np.ndarray, np.ndarray]] = []
     used: tuple[float, float] | None = None
     for a in amplitudes:
         eps = a * scale
@@ -114,11 +115,11 @@ def resonance_starts(base: Problem, problem: Problem, yb: np.ndarray, settings: 
             y = solve(d, eps)
             if y is None:
                 continue
-            found.append(y)
+            found.append((y, d))
             used = (eps, float(phi))
             y2 = solve(d, -eps)
             if y2 is not None and (y2[ip] - yb[ip]) * (y[ip] - yb[ip]) < 0:
-                found.append(y2)
+                found.append((y2, -d))
             break
         if found:
             break
@@ -129,10 +130,11 @@ def resonance_starts(base: Problem, problem: Problem, yb: np.ndarray, settings: 
     rec = {**(info or {}), "switch_amplitude": used[0], "switch_angle": used[1],
            "switch_kernel_gap": gap, "period_multiple": int(problem.period_multiple())}
     starts = []
-    for i, y in enumerate(found):
-        secant = (y - yb) / np.linalg.norm(y - yb)
+    for i, (y, d) in enumerate(found):
         side = "" if len(found) == 1 else (" (above)" if y[ip] > yb[ip] else " (below)")
-        starts.append(TangentStart(y, f"{label}{side}", 1, {**rec, "side": i}, tangent=secant,
+        # the start is corrected again on the row it was found with (d . y fixed), and the
+        # branch leaves along +d: away from the resonance
+        starts.append(TangentStart(y, f"{label}{side}", 1, {**rec, "side": i}, tangent=d,
                                    forward_only=True))
     return starts, {"switch_residual_evaluations": engine.n_evaluations}
 
