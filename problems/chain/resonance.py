@@ -3,7 +3,8 @@ first return map (A.8) is a ``k``-th root of unity ``exp(+-2 pi i m / k)``.
 
 **Why only there.** The one-impact orbits of period ``T`` with the impact at ``t = 0`` are the
 solutions of a *linear* system: with ``q, p`` the modal displacement and velocity after the
-impact, ``b = P^-1 e_c`` and ``beta = u_c'(0+)``, periodicity (2.28), linear at fixed ``T``, reads, mode by mode,
+impact, ``b = P^-1 e_c`` and ``beta = u_c'(0+)``, periodicity (2.28), linear at fixed ``T``,
+reads, mode by mode,
 
     ``[[cos w_j T - 1, sin(w_j T) / w_j], [-w_j sin w_j T, cos w_j T - 1]] (q_j, p_j) =
     (0, -2 beta b_j)``,
