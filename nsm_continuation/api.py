@@ -433,8 +433,10 @@ class Result:
 
     @property
     def failed_starts(self) -> list[BranchData]:
-        """Branches whose start could not be corrected (no points; the termination says why)."""
-        return [b for b in self.branches if len(b) == 0]
+        """Branches whose start failed (no point, or a start outside the parameter window;
+        the termination says why: :attr:`Branch.failed_start
+        <nsm_continuation.core.records.Branch.failed_start>`)."""
+        return [b for b in self.branches if b.raw.failed_start]
 
     def report(self) -> dict[str, Any]:
         """The content of ``report.json`` (of a result read back: the file itself)."""
@@ -445,9 +447,9 @@ class Result:
     @_api_words
     def save(self, directory: str | Path, *, overwrite: bool = False,
              plots: bool = True) -> Path:
-        """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
-        folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
-        Returns the directory written."""
+        """Write the CLI's outputs into ``directory`` under the output policy (docs/runs.md,
+        "Runs: output folders, exit status, limits"): a new folder, or a previous run replaced
+        only with ``overwrite=True``. Returns the directory written."""
         from nsm_continuation.figures.make import make_all
 
         if not isinstance(directory, str | os.PathLike) or not os.fspath(directory):

@@ -3,7 +3,7 @@
 (:mod:`nsm_continuation.cases.bundled`); figures are drawn with matplotlib's Agg backend, which
 the command line chooses for itself (:func:`main`).
 
-Exit status (README, "Exit status"):
+Exit status (docs/runs.md, "Runs: output folders, exit status, limits"):
 
 * 0: every start gave a branch (``validate``: the case is valid);
 * 2: bad input: one line on stderr naming the key (or the output path), nothing written, found
@@ -251,7 +251,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
     if _received:  # arrived during the final move, held until it was complete
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
-    failed = [b for b in res.branches if not b.points]
+    failed = [b for b in res.branches if b.failed_start]
     if case.output.orbits is not None:
         from nsm_continuation.figures.orbit_selection import spec_warnings
 

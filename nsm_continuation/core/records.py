@@ -99,6 +99,9 @@ def register_event_kinds(kinds: dict[str, str], owner: str) -> None:
         _FAMILY_KINDS.setdefault(kind, owner)
 
 
+#: the termination reason of a direction whose start lies outside the parameter window
+START_OUTSIDE = "start outside parameter bounds"
+
 @dataclass
 class Event:
     """A located event. ``point`` is the branch point (a ``continuation.Point``) where it sits."""
@@ -183,6 +186,13 @@ class Branch:
     @property
     def n_points(self) -> int:
         return len(self.points)
+
+    @property
+    def failed_start(self) -> bool:
+        """Whether the start failed: no point (its correction failed), or a start outside the
+        parameter window that no direction could leave (:data:`START_OUTSIDE`)."""
+        return not self.points or (bool(self.termination) and all(
+            str(v).startswith(START_OUTSIDE) for v in self.termination.values()))
 
 
 @dataclass(frozen=True)
