@@ -219,7 +219,10 @@ class NDofImpactHybridProblem(ConservativeFamilyProblem):
         """Locate the resonance on the closed form (R1), correct the one-impact orbit there in
         this model, switch onto the period-``k`` family (in the ``k``-iterated problem)."""
         k, m = s.resonance.order, s.resonance.rotation
-        w_star = nearest_resonance(self.chain_problem, k, m, s.resonance.omega)
+        try:
+            w_star = nearest_resonance(self.chain_problem, k, m, s.resonance.omega)
+        except ValueError as exc:
+            raise ValueError(f"start.resonance.omega: {exc}") from None
         base = type(self)(self.params)
         base.set_parameter(self.parameter, 1)
         (sp,) = base.start_points({"omega": w_star})

@@ -169,5 +169,5 @@ def test_resonance_start_bad_input():
     pb = NDofImpactHybridProblem(CHAIN)
     with pytest.raises(ValueError, match="rotation"):
         pb.start_points({"resonance": {"order": 4, "rotation": 2, "omega": 1.5}})
-    with pytest.raises(ValueError, match="no 1/3 resonance"):
+    with pytest.raises(ValueError, match="start.resonance.omega: no 1/3 resonance"):
         pb.start_points({"resonance": {"order": 3, "rotation": 1, "omega": 1.47}})
