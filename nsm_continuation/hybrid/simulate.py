@@ -393,10 +393,9 @@ class Simulator(Transitions, SurfaceContacts):
         value: the extremes are exact to about the integration tolerance."""
         exact = self._exact.get(w.key)
         if exact is not None:
-            # the exact flow's own, on a grid as fine as these interpolants need
-            lo, hi = exact.extremes(Y0, dt)
-            np.minimum(w.lo, lo, out=w.lo)
-            np.maximum(w.hi, hi, out=w.hi)
+            # the exact flow's own, on a grid as fine as these interpolants need, found when
+            # the result's extremes are first asked for (SimResult.extremes)
+            w.deferred_extremes.append((exact.extremes, Y0, dt))
             return
         n = self.c.n
         a, b = Y0[:n], Y1[:n]
@@ -546,7 +545,8 @@ class Simulator(Transitions, SurfaceContacts):
             sticking_intervals=w.stick_iv, chatter_counts=w.chatter_counts, n_impacts=w.n_imp,
             min_impact_velocity=float(w.vmin), grazing_margin=float(w.graze),
             chatter_errors=w.chatter_errors, trajectory=w.traj, n_steps=w.n_steps,
-            ended_by=ended_by, extremes=np.column_stack([w.lo, w.hi]),
+            ended_by=ended_by, bounds=np.column_stack([w.lo, w.hi]),
+            deferred_extremes=w.deferred_extremes,
             grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
             surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
 
