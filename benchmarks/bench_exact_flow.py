@@ -141,16 +141,17 @@ def continue_chain(n: int, method: str, omega0: float, y: np.ndarray, points: in
     t0 = time.perf_counter()
     pb = ForcedChain({"n": n, "omega": omega0, "integrator": {"method": method}})
     build = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     res = nsm.continuation(pb, y.copy(), parameter="omega", min=omega0 - 1e-9,
                            max=omega0 + WINDOW, max_points=points,
                            step={"initial": WINDOW / points, "max": 2 * WINDOW / points},
                            newton_tol=1e-9)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     br = res.branches[0]
     Y = np.column_stack([br[f"y_{v}"] for v in pb.variables]) if len(br["omega"]) else None
     return {"flow": pb.shooting.c.flow, "build": build, "wall": wall,
             "points": len(br["omega"]), "per_point": wall / max(1, len(br["omega"])),
+            "cpu_per_point": cpu / max(1, len(br["omega"])),
             "y": Y, "events": [(e.kind, e.parameter) for e in res.events]}
 
 
@@ -238,7 +239,8 @@ def main() -> None:
             row[method] = continue_chain(n, method, omega0, y, args.points)
             r = row[method]
             print(f"N = {n:4d} {method:7s} omega0 {omega0:.2f}: {r['points']} points, "
-                  f"{r['per_point']:.4f} s/point (build {r['build']:.1f} s), "
+                  f"{r['per_point']:.4f} s/point (CPU {r['cpu_per_point']:.4f} s; build "
+                  f"{r['build']:.1f} s), "
                   f"events {[k for k, _ in r['events']]}")
         if n in args.accuracy:
             ea, eb = accuracy(n, omega0, y)

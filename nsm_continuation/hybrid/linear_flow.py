@@ -257,6 +257,9 @@ class ModalFlow:
         self._forced4 = np.zeros(nd)
         self._size = self._size0
         #: position of each component of ``X`` among the dynamic ones
+        #: the dynamic components are the first ones (a mechanical system: ``q, qdot``, then
+        #: the clock): the state-transition block is a slice of the Jacobian
+        self._dyn_first = bool(np.array_equal(fld.dyn, np.arange(fld.dyn.size)))
         self.pos = np.full(fld.N, -1)
         self.pos[fld.dyn] = np.arange(nd)
         #: the last :meth:`modal` (the simulator asks it several times of one state)
@@ -448,7 +451,11 @@ class ModalFlow:
         if not jac:
             return Yn, None
         J = np.eye(fld.N)
-        J[np.ix_(dyn, dyn)] = self.phi(dt)
+        nd = dyn.size
+        if self._dyn_first:
+            J[:nd, :nd] = self.phi(dt)
+        else:
+            J[np.ix_(dyn, dyn)] = self.phi(dt)
         if ck is not None and self._k.size:
             we = self._w * e
             dxp0, dxp1 = self._xp_rate(phase), self._xp_rate(phase1)
@@ -480,6 +487,9 @@ class ExactStep:
         self._probe_field, self._probe = probe_field, probe
         self._q_key: tuple[float, ...] | None = None
         self._q: Any = None
+        #: the probe at the columns of a matrix of ``Q_SAMPLES + 2`` states (one CasADi call,
+        #: :func:`.modal_sums.clock_sum`), built on first use
+        self._probe_many: BufferedFunction | None = None
 
     def flat(self, Y: Any, dt: Any) -> np.ndarray:
         Y = np.asarray(Y, dtype=float).ravel()
@@ -491,6 +501,11 @@ class ExactStep:
         if J is not None:
             parts.append(J.ravel(order="F"))
         return np.concatenate(parts)
+
+    def jacobian(self, Y: np.ndarray, dt: float) -> np.ndarray:
+        """``dY(dt)/dY`` of the step of length ``dt`` from ``Y`` alone (the deferred
+        sensitivity product of :meth:`.simulate.Simulator._deferred`)."""
+        return self.flow.step(np.asarray(Y, dtype=float).ravel(), float(dt), True)[1]
 
     def max_step(self, Y: np.ndarray, watched: list[int],
                  section: tuple[int, float, int] | None = None,
@@ -511,7 +526,10 @@ class ExactStep:
             sec = (section[0], section[1])
         key = tuple(Y[self.n:].tolist())
         if key != self._q_key:
-            self._q = modal_sums.clock_sum(flow, Y, self._probe.flat)
+            if self._probe_many is None:
+                self._probe_many = BufferedFunction(
+                    self._probe.function.map(modal_sums.Q_SAMPLES + 2))
+            self._q = modal_sums.clock_sum(flow, Y, self._probe_many)
             self._q_key = key
         if self._q is None:
             return cell

@@ -461,7 +461,14 @@ class Simulator(Transitions, SurfaceContacts):
                 name, idx, surface = "section", k, -1
                 tau, Ye, pre, Fe, Jstep = self._refine(key, Y, tau, tau * a0 / (a0 - a1),
                                                        name, idx, section)
-        if w.J is not None:
+        if w.J is not None and key in self._exact and name == "v" and self.c.m == 1 \
+                and w.modes[surface] == S1:
+            # transition I (a maximum of H): no jump, the same field on: the flow composes
+            # through it and the next event's time alone fixes the end (its event-time
+            # correction would cancel there), so the deferred product runs on
+            _key, Y0, T = w.defer if w.defer is not None else (key, Y, 0.0)
+            w.defer = (key, Y0, T + tau)
+        elif w.J is not None:
             if key in self._exact:
                 Jstep = self._deferred(w, tau)
             Je = Jstep @ w.J
@@ -557,7 +564,7 @@ class Simulator(Transitions, SurfaceContacts):
         :mod:`.linear_flow`). Clears the deferral."""
         key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
         w.defer = None
-        return self._step(key, Y0, T + tau, True)[5]
+        return self._exact[key].jacobian(Y0, T + tau)
 
     def _gx(self, name: str, idx: int, Y: np.ndarray, surface: int) -> np.ndarray:
         """Gradient of the event function ``name`` of ``surface`` with respect to the

@@ -246,6 +246,8 @@ class HybridSystem:
                   clock_index=2 * nq if clock is not None else None,
                   surface_names=list(surfaces) if surfaces is not None else None)
         sys._mass = ca.Function("M", [q, *params.values()], [M])  # type: ignore[attr-defined]
+        #: the inputs ``M`` depends on: a constant mass matrix is checked once per parameter set
+        sys._mass_uses_q = bool(ca.depends_on(ca.SX(M), q))  # type: ignore[attr-defined]
         sys._nq = nq  # type: ignore[attr-defined]
         return sys
 
@@ -565,6 +567,9 @@ class CompiledHybrid:
     #: the closed-form flow of the free flight (:class:`.linear_flow.ModalFlow`), if it runs
     modal: linear_flow.ModalFlow | None = None
     _calls: HybridCalls | None = field(default=None, init=False, repr=False, compare=False)
+    #: parameter sets at which a mass matrix independent of ``q`` passed :meth:`mass_check`
+    _mass_checked: set[tuple[float, ...]] = field(default_factory=set, init=False, repr=False,
+                                                  compare=False)
 
     # the first surface's Functions (the only surface of a one-surface system)
     @property
@@ -677,6 +682,12 @@ class CompiledHybrid:
                 pars.append(values[k])
             else:
                 pars.append(float(X[self.n + self.free.index(k)]))
+        key = None
+        if not getattr(sys, "_mass_uses_q", True):
+            # M does not depend on q: the check at these parameters holds at every state
+            key = tuple(pars)
+            if key in self._mass_checked:
+                return
         Mq = np.asarray(sys._mass(X[: sys._nq], *pars), dtype=float)
         if not np.allclose(Mq, Mq.T, rtol=1e-12, atol=1e-12):
             raise HybridDeclarationError(f"{sys.name}: mass matrix M(q) is not symmetric")
@@ -686,3 +697,5 @@ class CompiledHybrid:
             raise HybridDeclarationError(
                 f"{sys.name}: mass matrix M(q) is not positive definite at q = "
                 f"{X[: sys._nq].tolist()}") from None
+        if key is not None:
+            self._mass_checked.add(key)
