@@ -194,6 +194,19 @@ def grid_extremes(flow: ModalFlow, Y0: np.ndarray, dt: float, cell: float, n: in
     c2 = -3 * a - 2 * m0 + 3 * b - m1
     c3 = 2 * a + m0 - 2 * b + m1
     s = _slope_zero(m0, c2, c3)
+    # only the turns that may hold a component's extreme are evaluated on the true flow: the
+    # interpolant is within delta = w^4 / 384 max |x^(4)| of the component on every cell, so
+    # a turn (a maximum where the slope falls, a minimum where it rises) whose interpolated
+    # value is more than 2 delta short of the best turn or grid value of its component
+    # cannot hold the extreme
+    delta = w ** 4 / 384.0 * flow.fourth_bounds(Y0)[comps] * (1.0 + 1e-12)
+    up = m0 > 0
+    score = np.where(up, 1.0, -1.0) * (a + s * (m0 + s * (c2 + s * c3)))
+    best = np.column_stack([-vals.min(axis=0), vals.max(axis=0)])    # components x (min, max)
+    np.maximum.at(best, (comps, up.astype(int)), score)
+    keep = score >= best[comps, up.astype(int)] - 2.0 * delta - 1e-15 * np.abs(score)
+    cells, comps, a, b, m0, m1, c2, c3, s = (v[keep] for v in (cells, comps, a, b, m0, m1, c2,
+                                                               c3, s))
     curv = 2 * c2 + 6 * c3 * s
     times = t[cells] + s * w
     v, r = flow.components(Y0, times, dyn[comps])

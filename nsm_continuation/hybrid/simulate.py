@@ -394,8 +394,14 @@ class Simulator(Transitions, SurfaceContacts):
         exact = self._exact.get(w.key)
         if exact is not None:
             # the exact flow's own, on a grid as fine as these interpolants need, found when
-            # the result's extremes are first asked for (SimResult.extremes)
-            w.deferred_extremes.append((exact.extremes, Y0, dt))
+            # the result's extremes are first asked for (SimResult.extremes); a step that goes
+            # on from the end of the last one (no jump between: the flow composes) extends it
+            runs = w.deferred_extremes
+            if runs and w.extremes_end is Y0 and runs[-1][0] == exact.extremes:
+                runs[-1] = (exact.extremes, runs[-1][1], runs[-1][2] + dt)
+            else:
+                runs.append((exact.extremes, Y0, dt))
+            w.extremes_end = Y1
             return
         n = self.c.n
         a, b = Y0[:n], Y1[:n]
@@ -580,6 +586,34 @@ class Simulator(Transitions, SurfaceContacts):
             g[:N] = self.calls.surfaces[surface].grads(Y[:N])[row]
         return g
 
+    def _event_function(self, key: str, Y: np.ndarray, tau0: float, name: str, idx: int,
+                        section: tuple[int, float, int] | None) -> Any:
+        """``tau -> (g, g')``: the event function ``name`` (probe entry ``idx``, or the
+        section's coordinate minus its value) and its time derivative after a step of length
+        ``tau`` from ``Y`` of the field ``key``. Along an exact flow a probe entry is its
+        modal sum (:meth:`.linear_flow.ExactStep.watched`: the same closed form, without the
+        state and the probe's CasADi call) where there is one."""
+        exact = self._exact.get(key)
+        if exact is not None and name != "section" and exact.watched(Y, tau0, idx) is not None:
+            return lambda tau: exact.watched(Y, tau, idx)
+        if name == "section":
+            # the state and the field after the step
+            state = self.calls.steps[key][0].flat
+            idg = 3 * Y.size + self._npr(key) + idx
+            off = section[1] if section is not None else 0.0
+
+            def at_section(tau: float) -> tuple[float, float]:
+                flat = state(Y, tau)
+                return flat[idx] - off, flat[idg]
+            return at_section
+        # the probe after the step: the watched function and its time derivative
+        probe = self.calls.steps[key][2].flat
+
+        def watched(tau: float) -> tuple[float, float]:
+            flat = probe(Y, tau)
+            return flat[idx], flat[idx + 1]
+        return watched
+
     def _refine(self, key: str, Y: np.ndarray, dt: float, tau0: float, name: str, idx: int,
                 section: tuple[int, float, int] | None) -> tuple[Any, ...]:
         """Event time on the true flow: safeguarded Newton from the Hermite root ``tau0``.
@@ -589,17 +623,7 @@ class Simulator(Transitions, SurfaceContacts):
         derivative there. The Jacobian of an exact flow's step is left to the caller
         (:meth:`_deferred`)."""
         sens = self.o.sensitivities and key not in self._exact
-        m = Y.size
-        off = 0.0
-        if name == "section":
-            # the state and the field after the step
-            step = self.calls.steps[key][0].flat
-            ig, idg = idx, 3 * m + self._npr(key) + idx
-            off = section[1]
-        else:
-            # the probe after the step: the watched function and its time derivative
-            step = self.calls.steps[key][2].flat
-            ig, idg = idx, idx + 1
+        sample = self._event_function(key, Y, tau0, name, idx, section)
         lo, hi = 0.0, dt
         tau = tau0
         # the iteration is a function of tau alone: once an iterate repeats (Newton jittering
@@ -613,8 +637,7 @@ class Simulator(Transitions, SurfaceContacts):
                 break
             seen[tau] = k
             taus.append(tau)
-            flat = step(Y, tau)
-            g, dg = (flat[ig] - off if name == "section" else flat[ig]), flat[idg]
+            g, dg = sample(tau)
             if g == 0.0:
                 break
             step_ = -g / dg if dg != 0.0 else 0.0

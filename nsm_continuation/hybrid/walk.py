@@ -64,6 +64,8 @@ class _Walk:
     #: exact steps whose interior extremes are left to the result (:attr:`.sim_data.SimResult.
     #: extremes`): ``(extremes, Y0, dt)``
     deferred_extremes: list[tuple[Any, np.ndarray, float]] = field(default_factory=list)
+    #: the state the last of them ended at (the next step from it extends it)
+    extremes_end: np.ndarray | None = None
 
     @property
     def mode(self) -> str:
