@@ -134,24 +134,38 @@ def start_orbit(n: int) -> tuple[float, np.ndarray] | None:
     return None
 
 
-def continue_chain(n: int, method: str, omega0: float, y: np.ndarray, points: int
-                   ) -> dict[str, Any]:
-    """One continuation by ``method``: wall time (build excluded), points, section states,
-    events."""
-    t0 = time.perf_counter()
-    pb = ForcedChain({"n": n, "omega": omega0, "integrator": {"method": method}})
-    build = time.perf_counter() - t0
+def _continue(pb: ForcedChain, y: np.ndarray, omega0: float, points: int
+              ) -> tuple[float, float, Any]:
+    """Wall and CPU time of one continuation of ``pb`` from ``y`` over the window, and its
+    result."""
     t0, c0 = time.perf_counter(), time.process_time()
     res = nsm.continuation(pb, y.copy(), parameter="omega", min=omega0 - 1e-9,
                            max=omega0 + WINDOW, max_points=points,
                            step={"initial": WINDOW / points, "max": 2 * WINDOW / points},
                            newton_tol=1e-9)
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return time.perf_counter() - t0, time.process_time() - c0, res
+
+
+def continue_chain(n: int, method: str, omega0: float, y: np.ndarray, points: int
+                   ) -> dict[str, Any]:
+    """One continuation by ``method``: wall time (build excluded), points, section states,
+    events; and the marginal cost of a point (``marginal``, ``cpu_marginal``): the difference
+    to a two-point continuation of the same start, per extra point (what a point costs
+    without the run's fixed setup: case validation, the problem registry, the first
+    simulations)."""
+    t0 = time.perf_counter()
+    pb = ForcedChain({"n": n, "omega": omega0, "integrator": {"method": method}})
+    build = time.perf_counter() - t0
+    wall2, cpu2, res2 = _continue(pb, y, omega0, 2)
+    wall, cpu, res = _continue(pb, y, omega0, points)
     br = res.branches[0]
-    Y = np.column_stack([br[f"y_{v}"] for v in pb.variables]) if len(br["omega"]) else None
+    npts, npts2 = len(br["omega"]), len(res2.branches[0]["omega"])
+    extra = max(1, npts - npts2)
+    Y = np.column_stack([br[f"y_{v}"] for v in pb.variables]) if npts else None
     return {"flow": pb.shooting.c.flow, "build": build, "wall": wall,
-            "points": len(br["omega"]), "per_point": wall / max(1, len(br["omega"])),
-            "cpu_per_point": cpu / max(1, len(br["omega"])),
+            "points": npts, "per_point": wall / max(1, npts),
+            "cpu_per_point": cpu / max(1, npts),
+            "marginal": (wall - wall2) / extra, "cpu_marginal": (cpu - cpu2) / extra,
             "y": Y, "events": [(e.kind, e.parameter) for e in res.events]}
 
 
@@ -239,8 +253,8 @@ def main() -> None:
             row[method] = continue_chain(n, method, omega0, y, args.points)
             r = row[method]
             print(f"N = {n:4d} {method:7s} omega0 {omega0:.2f}: {r['points']} points, "
-                  f"{r['per_point']:.4f} s/point (CPU {r['cpu_per_point']:.4f} s; build "
-                  f"{r['build']:.1f} s), "
+                  f"{r['per_point']:.4f} s/point (CPU {r['cpu_per_point']:.4f}; marginal "
+                  f"{r['marginal']:.4f}, CPU {r['cpu_marginal']:.4f}; build {r['build']:.1f} s), "
                   f"events {[k for k, _ in r['events']]}")
         if n in args.accuracy:
             ea, eb = accuracy(n, omega0, y)
@@ -250,7 +264,10 @@ def main() -> None:
             a, b = row["exact"], row["dop853"]
             same = a["y"] is not None and b["y"] is not None and a["y"].shape == b["y"].shape
             diff = float(np.max(np.abs(a["y"] - b["y"]))) if same else float("nan")
-            print(f"           ratio RK / exact {b['per_point'] / a['per_point']:.1f}x; "
+            print(f"           ratio RK / exact {b['per_point'] / a['per_point']:.1f}x "
+                  f"(CPU {b['cpu_per_point'] / a['cpu_per_point']:.1f}x; marginal "
+                  f"{b['marginal'] / a['marginal']:.1f}x, CPU "
+                  f"{b['cpu_marginal'] / a['cpu_marginal']:.1f}x); "
                   f"section states: max difference {diff:.1e}; "
                   f"same events: {[k for k, _ in a['events']] == [k for k, _ in b['events']]}")
         rows.append(row)
