@@ -53,6 +53,11 @@ class SimOptions:
     record: bool = False
     #: validate r and W at every impact (sec. 2.3-2.4)
     validate: bool = True
+    #: chain the Runge-Kutta steps' sensitivities ``J <- J_step J`` by a sparse product
+    #: (True), a dense one (False), or by the rule of :mod:`.sparse_steps` (None: sparse for
+    #: large systems whose step Jacobian is sparse, dense below, so that small systems'
+    #: numbers stay those of the dense product)
+    sparse_products: bool | None = None
 
 
 @dataclass

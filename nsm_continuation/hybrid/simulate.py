@@ -64,6 +64,7 @@ are called through buffers bound once (:mod:`nsm_continuation.core.casadi_buffer
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from typing import Any
@@ -85,6 +86,7 @@ from nsm_continuation.hybrid.modes import (
     watches,
 )
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
+from nsm_continuation.hybrid.sparse_steps import SparseStep, sparse_steps
 from nsm_continuation.hybrid.surfaces import SurfaceContacts
 from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
@@ -118,6 +120,10 @@ class Simulator(Transitions, SurfaceContacts):
         #: length, extremes of their own, sensitivity products deferred to the next event
         self._exact = {k: fs[0] for k, fs in self.calls.steps.items()
                        if getattr(fs[0], "exact", False)}
+        #: the Runge-Kutta fields whose step sensitivities are chained by sparse products
+        #: (:mod:`.sparse_steps`), for the choice ``o.sparse_products`` they were found for
+        self._sparse: dict[str, SparseStep] = {}
+        self._sparse_choice: Any = "unset"
 
     # ------------------------------------------------------------------ helpers
     def _key(self, modes: list[str], active: int | None) -> str:
@@ -375,7 +381,7 @@ class Simulator(Transitions, SurfaceContacts):
             w.defer = (w.key, Y0, T + dt)
         elif w.J is not None:
             Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
-            w.J = Jstep @ w.J
+            w.J = self._chain(w.key, Jstep, w.J)
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
         w.Y, w.pr, w.F = Yn, prn, Fn
         w.t += dt
@@ -415,6 +421,20 @@ class Simulator(Transitions, SurfaceContacts):
                    if (f0 * fdt) * (f1 * fdt) < 0]
         if not turning:
             return
+        # the values at the turns need steps on the true flow: found when the result's
+        # extremes are first asked for (SimResult.extremes), not in every Newton iteration
+        w.deferred_extremes.append(
+            (functools.partial(self._turn_extremes, w.key, F0, Y1, F1, turning), Y0, dt))
+
+    def _turn_extremes(self, key: str, F0: np.ndarray, Y1: np.ndarray, F1: np.ndarray,
+                       turning: list[int], Y0: np.ndarray, dt: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """The extremes of the components ``turning`` inside the Runge-Kutta step of the field
+        ``key`` from ``Y0`` to ``Y1`` (:meth:`_extend_extremes`): ``(lo, hi)`` over the system's
+        components, infinite for the others."""
+        n = self.c.n
+        lo, hi = np.full(n, np.inf), np.full(n, -np.inf)
+        a, b = Y0[:n], Y1[:n]
         m0, m1 = F0[:n] * dt, F1[:n] * dt
         for i in turning:
             # p(s) = a + m0 s + c2 s^2 + c3 s^3 on [0, 1]; p'(s) = 0 between the ends
@@ -425,17 +445,18 @@ class Simulator(Transitions, SurfaceContacts):
             for r in roots:
                 if abs(r.imag) < 1e-14 and 0.0 < r.real < 1.0:
                     sr = r.real
-                    out = self._step(w.key, Y0, sr * dt, False)
+                    out = self._step(key, Y0, sr * dt, False)
                     curv = 2 * c2 + 6 * c3 * sr
                     if curv != 0.0:
                         # one Newton step on the true slope: the value is then exact to
                         # O(ds^4) instead of O(ds^2)
                         s1 = sr - float(out[4][i]) * dt / curv
                         if 0.0 < s1 < 1.0:
-                            out = self._step(w.key, Y0, s1 * dt, False)
+                            out = self._step(key, Y0, s1 * dt, False)
                     v = float(out[0][i])
-                    w.lo[i] = min(w.lo[i], v)
-                    w.hi[i] = max(w.hi[i], v)
+                    lo[i] = min(lo[i], v)
+                    hi[i] = max(hi[i], v)
+        return lo, hi
 
     def _fire(self, w: _Walk, dt: float, hit: tuple[float, str, int, int, int],
               section: tuple[int, float, int] | None) -> bool:
@@ -477,7 +498,7 @@ class Simulator(Transitions, SurfaceContacts):
         elif w.J is not None:
             if key in self._exact:
                 Jstep = self._deferred(w, tau)
-            Je = Jstep @ w.J
+            Je = Jstep @ w.J if key in self._exact else self._chain(key, Jstep, w.J)
             gx = self._gx(name, idx, Ye, surface)
             dtau = -(gx @ Je) / (gx @ Fe)
             w.J = Je + np.outer(Fe, dtau)
@@ -562,6 +583,21 @@ class Simulator(Transitions, SurfaceContacts):
             deferred_extremes=w.deferred_extremes,
             grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
             surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
+
+    def _chain(self, key: str, Jstep: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """``J_step J``: the sensitivities chained through one step of the field ``key``, by a
+        sparse product for the fields of :mod:`.sparse_steps`, else dense."""
+        if self._sparse_choice != self.o.sparse_products:
+            self._sparse_choice = self.o.sparse_products
+            c = self.c
+            keys = [k for k in c.steps if k not in self._exact]
+            self._sparse = sparse_steps(
+                {k: c.steps[k] for k in keys},
+                {k: c.N + (2 if k.startswith("ext") else 0) for k in keys},
+                {k: 4 * (c.N + (2 if k.startswith("ext") else 0)) + self._npr(k)
+                 for k in keys}, self.o.sparse_products)
+        sparse = self._sparse.get(key)
+        return Jstep @ J if sparse is None else sparse.chain(Jstep, J)
 
     def _deferred(self, w: _Walk, tau: float) -> np.ndarray:
         """The Jacobian of an exact flow from the start of the steps deferred since the last
