@@ -49,8 +49,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_exact_flow import START_FREQUENCIES, TRANSIENT, ChainParameters  # noqa: E402
-from bench_exact_flow import ForcedChain, _continue  # noqa: E402
+from bench_exact_flow import (  # noqa: E402
+    START_FREQUENCIES,
+    TRANSIENT,
+    ChainParameters,
+    ForcedChain,
+    _continue,
+)
 
 from nsm_continuation.hybrid.simulate import Simulator  # noqa: E402
 from nsm_continuation.hybrid.system import HybridSystem  # noqa: E402
@@ -73,7 +78,7 @@ class CubicChain(ForcedChain):
 
     def set_parameter(self, name: str, returns: int | None = None) -> None:
         super().set_parameter(name, returns)
-        # dense (the rule's choice below 24 state components) or sparse products, as asked
+        # dense (the rule's choice below 250 state components) or sparse products, as asked
         self.shooting.sim.o.sparse_products = self.params.sparse_products  # type: ignore
 
     def system(self) -> HybridSystem:
@@ -164,7 +169,8 @@ def parts(n: int, sparse: bool, omega0: float, y: np.ndarray, repeat: int = 5
                                     _Timed(fs[2], "other steps and probes", clock))
         chain = sim._chain
 
-        def timed_chain(key: str, Jstep: Any, J: np.ndarray) -> np.ndarray:
+        def timed_chain(key: str, Jstep: Any, J: np.ndarray, chain: Any = chain,
+                        clock: dict[str, float] = clock) -> np.ndarray:
             t0 = time.process_time()
             out = chain(key, Jstep, J)
             clock["products"] += time.process_time() - t0

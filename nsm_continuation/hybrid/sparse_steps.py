@@ -24,8 +24,12 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-#: the sparse product is used from this many components of the (extended) state on
-MIN_DIMENSION = 24
+#: the sparse product is used from this many components of the (extended) state on: measured
+#: against numpy's dense product (OpenBLAS, one thread) for banded step Jacobians with 24
+#: nonzeros per column (the cubic chain's DOP853 step), the sparse one is 4x slower at 82
+#: components, even at about 200 and 1.6-1.7x faster at 300-400 (a compressed-column times
+#: dense product has a fixed cost of tens of microseconds and no blocking)
+MIN_DIMENSION = 250
 #: and when the step Jacobian has at most this fraction of nonzeros
 MAX_DENSITY = 0.5
 

@@ -196,17 +196,20 @@ def orbit_pair(problem, params: dict, transient: int) -> tuple:
     (TwoMassChainProblem, {"omega": 0.6}),
 ])
 def test_return_map_of_both_paths_agree(problem, params: dict) -> None:
-    """Residual, exact Jacobian and events of one return to the section, on orbits with
-    impacts, chattering and sticking (whose fields keep their Runge-Kutta steps)."""
+    """Residual, exact Jacobian, events and extremes of one return to the section, on orbits
+    with impacts, chattering and sticking (whose fields keep their Runge-Kutta steps)."""
     rk, ex, y = orbit_pair(problem, params, 40)
     assert ex.shooting.c.flow == "exact"
     ra, Ja = rk.shooting.residual_jacobian(y)
     rb, Jb = ex.shooting.residual_jacobian(y)
     assert np.max(np.abs(ra - rb)) <= 1e-9
     assert np.max(np.abs(Ja - Jb)) <= 1e-7 * np.max(np.abs(Ja))
-    ea, eb = rk.shooting.simulate(y).events, ex.shooting.simulate(y).events
+    sa, sb = rk.shooting.simulate(y), ex.shooting.simulate(y)
+    ea, eb = sa.events, sb.events
     assert [e.kind for e in ea] == [e.kind for e in eb]
     assert np.allclose([e.t for e in ea], [e.t for e in eb], rtol=0, atol=1e-9)
+    # the extremes over the return (the exact flow's found when first asked for)
+    assert np.max(np.abs(sa.extremes - sb.extremes)) <= 1e-8
 
 
 @pytest.mark.parametrize(("problem", "params", "window"), [
