@@ -194,20 +194,36 @@ def parts(n: int, sparse: bool, omega0: float, y: np.ndarray, repeat: int = 5
     return best
 
 
+#: the parts of a simulation drawn on the chart, in stacking order
+PARTS = ("variational step", "products", "other steps and probes", "rest")
+
+
 def chart(rows: list[dict[str, Any]], out: Path) -> None:
-    """Marginal CPU time per point against N, log-log, dense and sparse products."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    for key, style, label in (("dense", "o-", "dense products (before)"),
-                              ("sparse", "s-", "sparse step Jacobians")):
+    """Left: CPU time per point (marginal) against N, log-log, dense and sparse products.
+    Right: one simulation's CPU time and its parts against N (dense products)."""
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11.0, 4.4))
+    for key, style, label in (("dense", "o-", "dense products (the rule below 250 components)"),
+                              ("sparse", "s--", "sparse products (forced)")):
         pts = [(r["N"], r[key]["cpu_marginal"]) for r in rows if key in r]
         if pts:
             x, yv = zip(*pts, strict=True)
             ax.loglog(x, yv, style, label=label)
     ax.set_xlabel("N (masses)")
     ax.set_ylabel("CPU time per continuation point [s]")
-    ax.set_title("Cubic N-mass chain with a wall (DOP853): cost per point")
+    ax.set_title("Cubic N-mass chain with a wall (DOP853)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
+    ax.legend(fontsize=8)
+    sizes = [r["N"] for r in rows if "dense" in r]
+    for part, style in zip(PARTS, ("o-", "s-", "^-", "v-"), strict=True):
+        vals = [r["dense"]["parts"][part] * 1e3 for r in rows if "dense" in r]
+        bx.loglog(sizes, np.maximum(vals, 1e-2), style, label=part)
+    bx.loglog(sizes, [r["dense"]["parts"]["total"] * 1e3 for r in rows if "dense" in r], "k:",
+              label="whole simulation")
+    bx.set_xlabel("N (masses)")
+    bx.set_ylabel("CPU time of one simulation [ms]")
+    bx.set_title("Where a simulation's time goes")
+    bx.grid(True, which="both", alpha=0.3)
+    bx.legend(fontsize=8)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=120)

@@ -256,10 +256,10 @@ class ModalFlow:
         self._Zs = self._dZs = np.zeros((0, nd))
         self._forced4 = np.zeros(nd)
         self._size = self._size0
-        #: position of each component of ``X`` among the dynamic ones
         #: the dynamic components are the first ones (a mechanical system: ``q, qdot``, then
         #: the clock): the state-transition block is a slice of the Jacobian
         self._dyn_first = bool(np.array_equal(fld.dyn, np.arange(fld.dyn.size)))
+        #: position of each component of ``X`` among the dynamic ones
         self.pos = np.full(fld.N, -1)
         self.pos[fld.dyn] = np.arange(nd)
         #: the last :meth:`modal` (the simulator asks it several times of one state)

@@ -42,10 +42,17 @@ error to control: it gives the length of its next step itself (as long as the wa
 and a section on a dynamic coordinate, are certified clear of zero, else one cell over which the
 cubic Hermite interpolants are accurate, :func:`.modal_sums.certified_length`), so its steps are
 not checked at the midpoint; it gives the extremes of the state over a step
-(:func:`.modal_sums.grid_extremes`); and since its steps compose exactly, the sensitivity product
-``J <- J_step J`` of its steps is deferred to the next event, where the Jacobian of the flow over
-their total time is one evaluation (:meth:`Simulator._deferred`). Runge-Kutta fields run as
-before, to the bit.
+(:func:`.modal_sums.grid_extremes`); its event iterations run on the watched function's modal
+sum (:meth:`.linear_flow.ExactStep.watched`); and since its steps compose exactly, the
+sensitivity product ``J <- J_step J`` of its steps is deferred to the next event, where the
+Jacobian of the flow over their total time is one evaluation (:meth:`Simulator._deferred`),
+and runs on through a maximum of ``H`` (transition I: no jump, the same field; the next event's
+time alone fixes the end). Runge-Kutta fields run as before, to the bit.
+
+**Extremes when asked for.** The values of the state at the turns inside a step (steps on the
+true flow, the exact flow's grid) are what the extremes of a result cost; they are left to
+:attr:`.sim_data.SimResult.extremes`, computed on first use (the reported orbit), not in the
+Newton iterations whose simulations nobody reports. The same values.
 
 **Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
 tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
