@@ -43,6 +43,20 @@ then a corrector with a step condition) and BifurcationKit's branch switching at
 points of periodic orbits. The family is continued away from the period doubling, along the
 secant from it (its other half is the same orbits shifted by ``k`` periods), unless
 ``start.direction`` says otherwise.
+
+**The start must be one the engine can correct.** The switched branch's first point is
+corrected once more by the engine on its own condition (:class:`~.base.TangentStart`: the
+secant ``s`` from the bifurcation point, ``s . (y - y0) = 0``). Near the bifurcation
+``[G_y; s^T]`` is nearly singular (both branches' directions are nearly in the kernel of
+``G_y``: its smallest singular value grows like the distance), so the Newton step made of the
+residual's noise (rounding, an integrator's tolerance) is that noise over the distance, and
+within some distance it exceeds the corrector's step tolerance at any residual: the 5-dof
+chain's period-2 families, flat in the frequency (no amplitude resolves their parameter
+offset), were started at the smallest amplitude, ``2.5e-6`` from the flip at ``omega =
+1.5386``, where ``sigma_min = 1.3e-6`` and the steps were ``1e-10 .. 1e-9`` against the
+tolerance ``2.5e-11`` at a residual of ``1.6e-14``. The scan therefore keeps only solutions whose
+start correction converges (:func:`start_converges`, the engine's own computation: the same
+point, condition and corrector) and goes on to the next amplitude otherwise.
 """
 
 from __future__ import annotations
@@ -126,6 +140,17 @@ def family_direction(J: np.ndarray, w: np.ndarray, ip: int) -> tuple[float, np.n
     return 1.0 / abs(wu), u / wu
 
 
+def start_converges(engine: ContinuationEngine, y: np.ndarray, yb: np.ndarray) -> str:
+    """Why the switched branch's start at ``y`` cannot be corrected on its own condition (the
+    secant from the bifurcation point ``yb``: :meth:`~.base.StartTangentEngine.correct_start`
+    runs the same Newton from the same point), or ``""`` where it converges (module
+    docstring: near the bifurcation the bordered Jacobian amplifies the residual's noise past
+    the step tolerance)."""
+    d = np.asarray(y, dtype=float) - yb
+    secant = d / np.linalg.norm(d)
+    return engine.correct(y, secant, y, 0.0)[2]
+
+
 @dataclass
 class Switch:
     """A switch at a located event: the event's unknowns ``y`` on the problem ``base`` it was
@@ -192,6 +217,10 @@ def switch_start(r: Switch, problem: Problem, settings: Any
             if abs(float(t1 @ d)) > 0.999 * dist / np.linalg.norm(t1):
                 tried.append(f"{eps:.2g}: the corrector fell back onto the arriving branch")
                 continue
+            why = start_converges(engine, y, yb)
+            if why:
+                tried.append(f"{eps:.2g}: too near the branch point to start from ({why})")
+                continue
             found = (y, eps, it)
             break
         try:
@@ -203,13 +232,18 @@ def switch_start(r: Switch, problem: Problem, settings: Any
             tried.append(f"{eps:.2g}: the solution is a period-{int(r.base.period_multiple())} "
                          "orbit again")
             continue
-        if found is None:
-            found = (y, eps, it)
         # the family is flat in the parameter at a period doubling (p - p_b ~ eps^2): go on
         # to an amplitude whose parameter offset the corrector resolves, so that the start's
         # tangent has the sign of the family's (else a fold is seen at the start)
-        if abs(y[ip] - yb[ip]) >= PARAMETER_RESOLUTION * tol * (1.0 + abs(yb[ip])):
+        resolved = abs(y[ip] - yb[ip]) >= PARAMETER_RESOLUTION * tol * (1.0 + abs(yb[ip]))
+        if found is None or resolved:  # a candidate start: one the engine can correct?
+            why = start_converges(engine, y, yb)
+            if why:
+                tried.append(f"{eps:.2g}: too near the period doubling to start from ({why})")
+                continue
+        if found is None or resolved:
             found = (y, eps, it)
+        if resolved:
             break
     if found is None:
         what = (f"period-{2 * int(r.base.period_multiple())} orbit" if pd else "other branch")
@@ -230,4 +264,4 @@ def switch_start(r: Switch, problem: Problem, settings: Any
 
 
 __all__ = ["AMPLITUDES", "Switch", "family_reach", "null_vector", "other_direction",
-           "switch_start"]
+           "start_converges", "switch_start"]
