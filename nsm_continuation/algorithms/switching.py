@@ -50,13 +50,15 @@ secant ``s`` from the bifurcation point, ``s . (y - y0) = 0``). Near the bifurca
 ``[G_y; s^T]`` is nearly singular (both branches' directions are nearly in the kernel of
 ``G_y``: its smallest singular value grows like the distance), so the Newton step made of the
 residual's noise (rounding, an integrator's tolerance) is that noise over the distance, and
-within some distance it exceeds the corrector's step tolerance at any residual: the 5-dof
-chain's period-2 families, flat in the frequency (no amplitude resolves their parameter
-offset), were started at the smallest amplitude, ``2.5e-6`` from the flip at ``omega =
-1.5386``, where ``sigma_min = 1.3e-6`` and the steps were ``1e-10 .. 1e-9`` against the
-tolerance ``2.5e-11`` at a residual of ``1.6e-14``. The scan therefore keeps only solutions whose
-start correction converges (:func:`start_converges`, the engine's own computation: the same
-point, condition and corrector) and goes on to the next amplitude otherwise.
+within some distance it exceeds the corrector's step tolerance at any residual. The 5-dof
+chain's period-2 families born at ``omega = 1.5386`` and ``1.4884`` are flat in the frequency
+(no amplitude resolves their parameter offset, so the scan falls back to a small amplitude):
+``2.5e-6`` from the flip at ``1.5386``, ``sigma_min = 1.3e-6`` and the steps are ``1e-10 ..
+1e-9`` against the tolerance ``2.5e-11`` at a residual of ``1.6e-14``. The scan therefore
+keeps only solutions whose start correction converges (:func:`start_converges`, the engine's
+own computation: the same point, condition and corrector) with a margin (one more step at most
+:data:`START_MARGIN` of the tolerance: where the noise's step is about the tolerance the
+correction converges by chance) and goes on to the next amplitude otherwise.
 """
 
 from __future__ import annotations
@@ -79,6 +81,9 @@ SINGULAR_RATIO = 1e-5
 #: amplitude whose parameter offset is this many times ``newton_tol (1 + |p|)``: below it the
 #: parameter along the flat family is corrector noise (measured: 3e-10 on the two-mass chain)
 PARAMETER_RESOLUTION = 1e2
+#: a switched branch's start is taken where one corrector step at the converged start is at
+#: most this fraction of the corrector's step tolerance (:func:`start_converges`)
+START_MARGIN = 0.1
 
 
 def null_vector(J: np.ndarray) -> np.ndarray:
@@ -148,7 +153,23 @@ def start_converges(engine: ContinuationEngine, y: np.ndarray, yb: np.ndarray) -
     the step tolerance)."""
     d = np.asarray(y, dtype=float) - yb
     secant = d / np.linalg.norm(d)
-    return engine.correct(y, secant, y, 0.0)[2]
+    y1, _, why = engine.correct(y, secant, y, 0.0)
+    if y1 is None:
+        return why
+    # converged with a margin: one more step from the converged point (the residual's noise
+    # over the bordered Jacobian's smallest singular value) is within START_MARGIN of the
+    # tolerance, so that the convergence is not by chance where that noise is the tolerance
+    try:
+        g, factor = engine.problem.residual_and_factor(y1, secant)
+        step = factor.solve(-np.append(g, secant @ (y1 - y)))
+    except (*NUMERICAL_ERRORS, np.linalg.LinAlgError) as exc:
+        return describe_error(exc)
+    size = float(np.linalg.norm(step, np.inf))
+    bound = START_MARGIN * engine.settings.newton_tol * (1.0 + float(np.linalg.norm(y1, np.inf)))
+    if not size <= bound:
+        return (f"the corrector's step at the converged start, {size:.2g}, is its noise over a "
+                f"nearly singular Jacobian (above {bound:.2g})")
+    return ""
 
 
 @dataclass

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 
 def chain_energy(M: np.ndarray, K: np.ndarray, z: np.ndarray) -> float:
@@ -20,7 +21,13 @@ def chain_energy(M: np.ndarray, K: np.ndarray, z: np.ndarray) -> float:
 def direct_period(M: np.ndarray, K: np.ndarray, c: int, g: float, x0: np.ndarray, T: float
                   ) -> tuple[np.ndarray, list[float], list[float]]:
     """The chain from ``x0`` over ``T``: the end state, the impact times (in time order) and the
-    energy at the start and after each impact."""
+    energy at the start and after each impact.
+
+    The wall is found two ways: a crossing ``u_c = g`` seen between two steps (a terminal
+    event), and at each maximum of ``u_c`` (``u_c' = 0`` falling, recorded): a maximum above
+    the wall means a crossing in and out within one step (an impact of small velocity ``v``
+    lasts ``~2 v / |u_c''|`` inside the wall), found by a root-finder (``brentq``) on the dense
+    output between that maximum and a point before it below the wall."""
     n = M.shape[0]
     A = np.linalg.solve(M, K)
 
@@ -30,19 +37,36 @@ def direct_period(M: np.ndarray, K: np.ndarray, c: int, g: float, x0: np.ndarray
     def wall(_t: float, z: np.ndarray) -> float:
         return z[c] - g
 
+    def apex(_t: float, z: np.ndarray) -> float:
+        return z[n + c]
+
     wall.terminal = True  # type: ignore[attr-defined]
     wall.direction = 1.0  # type: ignore[attr-defined]
+    apex.direction = -1.0  # type: ignore[attr-defined]
 
     t, z = 0.0, np.asarray(x0, dtype=float)
     impacts: list[float] = []
     energies = [chain_energy(M, K, z)]
     while True:
-        sol = solve_ivp(rhs, (t, T), z, method="DOP853", rtol=1e-13, atol=1e-15, events=wall,
-                        max_step=0.01)
-        if sol.status != 1:
+        sol = solve_ivp(rhs, (t, T), z, method="DOP853", rtol=1e-13, atol=1e-15,
+                        events=[wall, apex], max_step=0.01, dense_output=True)
+        end = float(sol.t_events[0][0]) if sol.status == 1 else T
+        inside = [float(ta) for ta, za in zip(sol.t_events[1], sol.y_events[1], strict=True)
+                  if ta < end and za[c] > g]
+        if inside:  # a crossing in and out within one step, before the maximum
+            top = inside[0]
+            h = 1e-9
+            while float(sol.sol(max(top - h, t))[c]) >= g and top - h > t:
+                h *= 2.0
+            lo = max(top - h, t)
+            end = float(brentq(lambda s, f=sol.sol: float(f(s)[c]) - g, lo, top, xtol=1e-15,
+                               rtol=4 * np.finfo(float).eps))
+            z = sol.sol(end)
+        elif sol.status != 1:
             return sol.y[:, -1], impacts, energies
-        t = float(sol.t_events[0][0])
-        z = sol.y_events[0][0].copy()
-        z[c], z[n + c] = g, -z[n + c]
+        else:
+            z = sol.y_events[0][0].copy()
+        t = end
+        z[c], z[n + c] = g, -abs(z[n + c])
         impacts.append(t)
         energies.append(chain_energy(M, K, z))
