@@ -46,7 +46,7 @@ def main() -> None:
     from nsm_continuation.runs.execution import Execution, start_client
 
     fep = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
-    default = ROOT / "nsm_continuation" / "default_case.yaml"
+    default = ROOT / "yaml_cases" / "ndof_default.yaml"
     over = {"output.plots": False}
     t_ser, r_ser = timed(nsm.load_case(fep, over))
     t_loc, r_loc = timed(nsm.load_case(fep, over), workers=2)

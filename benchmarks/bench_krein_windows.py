@@ -134,7 +134,7 @@ def main() -> None:
     ap.add_argument("--n200", action="store_true", help="also the 200-dof branch (~2 min)")
     a = ap.parse_args()
     measure("default case (5-dof chain, branch 1)",
-            yaml_case(ROOT / "nsm_continuation" / "default_case.yaml"))
+            yaml_case(ROOT / "yaml_cases" / "ndof_default.yaml"))
     measure("Fig. 3.2 (23 branches)", yaml_case(ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"))
     if a.n200:
         measure("200-dof chain, mode 1", chain_200, warm=False)

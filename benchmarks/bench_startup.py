@@ -39,7 +39,7 @@ from pathlib import Path
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT = ROOT / "nsm_continuation" / "default_case.yaml"
+DEFAULT = ROOT / "yaml_cases" / "ndof_default.yaml"
 FEP = ROOT / "yaml_cases" / "ndof_fig3_2_fep.yaml"
 HEAVY = ("matplotlib", "dask", "distributed", "casadi", "pydantic", "scipy", "numpy", "tqdm")
 MAIN = "import sys; from nsm_continuation.cli import main; sys.exit(main())"

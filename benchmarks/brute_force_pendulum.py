@@ -49,6 +49,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import logging  # noqa: E402
 import time  # noqa: E402
 from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -485,6 +486,8 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", choices=sorted(SCENARIOS), default=None)
     ap.add_argument("--out", type=Path, default=OUT, help="output directory")
     a = ap.parse_args()
+    # the per-value lines of a full run (logged by nsm_continuation.hybrid.brute_force)
+    logging.basicConfig(level=logging.INFO, format="  %(message)s")
     if a.workers < 1:
         ap.error("--workers: at least 1")
     a.out.mkdir(parents=True, exist_ok=True)

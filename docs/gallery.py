@@ -116,7 +116,8 @@ PAPER: dict[str, tuple[str, str]] = {
     "pendulum_sec6_1_sticking_lost_curve": (f"{NP}, sec. 6.1 (two parameters)",
                                             "the loss of sticking in (torque, e)"),
     "pendulum_sec6_2_cascade": (f"{NP}, Fig. 9, sec. 6.2",
-                                "the doublings 2 -> 4 -> 8 -> 16 continued (ratios in README)"),
+                                "the doublings 2 -> 4 -> 8 -> 16 continued (ratios in "
+                                "[Restart and branch switching](restart_and_switching.md))"),
     "pendulum_sec6_2_period_doubling": (f"{NP}, Figs. 9(a), 9(d)",
                                         "a multiplier through -1"),
     "pendulum_sec6_2_period_doubling_curve": (f"{NP}, sec. 6.2 (two parameters)",

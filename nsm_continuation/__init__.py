@@ -1,7 +1,9 @@
 """nsm_continuation: continuation of nonsmooth modes of vibration of impacting systems.
 
 The Python API (:mod:`nsm_continuation.api`): :func:`load_case`, :func:`run`, :func:`problem`,
-:func:`continuation`, :func:`load` (a saved run read back) and the :class:`Result` they return;
+:func:`continuation`, :func:`load` (a saved run read back) and the :class:`Result` they return
+(its data as a pandas DataFrame, an xarray Dataset and a netCDF file read back by
+:func:`open_netcdf`: :mod:`nsm_continuation.output.datasets`);
 the problem protocol
 (:mod:`nsm_continuation.core.problem`): :class:`Problem`, :class:`StartPoint`, :class:`FloquetData`,
 :class:`EvaluationError`. Imported lazily, so the command line starts without loading CasADi
@@ -31,6 +33,7 @@ logger = logging.getLogger("nsm_continuation")
 _LAZY = {
     "load_case": "api", "run": "api", "problem": "api", "continuation": "api",
     "Result": "api", "BranchData": "api", "EventRecord": "api", "load": "api",
+    "open_netcdf": "output.datasets",
     "CaseError": "core.errors",
     "Problem": "core.problem", "StartPoint": "core.problem", "FloquetData": "core.problem",
     "EvaluationError": "core.problem",

@@ -46,9 +46,8 @@ from nsm_continuation.cases.schema import Case
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.problem import Problem, StartPoint
 from nsm_continuation.core.records import Branch, OrbitTrace, Point
+from nsm_continuation.output.datasets import branch_columns, frame
 from nsm_continuation.output.files import (
-    SIGNATURE_COLUMN,
-    branch_rows,
     build_report,
     event_record,
     termination_text,
@@ -324,23 +323,19 @@ class EventRecord:
 
 
 class BranchData:
-    """One branch as columns (the CSV columns, as numpy arrays) and as records."""
+    """One branch as columns (the CSV columns, as numpy arrays: ``branch["omega"]``) and as
+    records (:attr:`raw`, the :class:`~nsm_continuation.core.records.Branch`). ``admissible``
+    and ``stable`` are numpy booleans (:func:`~nsm_continuation.output.datasets.flags`:
+    ``stable`` is a masked array where some points have no multipliers, its masked entries
+    False, so ``branch["omega"][branch["stable"]]`` are the points known to be stable), the
+    ``signature`` text, the rest floats (NaN: not defined at that point)."""
 
     def __init__(self, branch: Branch, problem: Problem) -> None:
         self.raw = branch
         self.id = branch.id
         self.label = branch.label
         self.termination = dict(branch.termination)
-        cols, rows = branch_rows(branch, problem.variables, problem.presentation.csv_head)
-        self.column_names = cols
-        self._columns: dict[str, np.ndarray] = {}
-        for j, c in enumerate(cols):
-            values = [r[j] for r in rows]
-            if c == SIGNATURE_COLUMN:  # text: the family of each point
-                self._columns[c] = np.array([str(v) for v in values], dtype=object)
-                continue
-            self._columns[c] = np.array([np.nan if v == "" or v is None else v
-                                         for v in values], dtype=float)
+        self.column_names, self._columns = branch_columns(branch, problem)
         self.parameter = np.array([p.y[problem.parameter_index] for p in branch.points])
         self.y = np.array([p.y for p in branch.points]).reshape(len(branch.points),
                                                                problem.dim)
@@ -362,14 +357,10 @@ class BranchData:
         return dict(self._columns)
 
     def to_frame(self) -> Any:
-        """The branch as a pandas DataFrame (needs pandas)."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise ImportError("BranchData.to_frame needs pandas (pip install pandas); "
-                              "BranchData.columns() gives the same data as numpy arrays"
-                              ) from None
-        return pd.DataFrame(self._columns)
+        """The branch as a pandas DataFrame, one row per point (needs pandas: ``pip install
+        "nsm-continuation[xarray]"``): the columns of :meth:`columns`, ``stable`` a nullable
+        boolean where some points have no multipliers."""
+        return frame(self._columns)
 
     def __repr__(self) -> str:
         return (f"BranchData(id={self.id}, label={self.label!r}, points={len(self)}, "
@@ -407,11 +398,18 @@ class Result:
         return list(self._warnings)
 
     def _logged(self) -> Result:
-        """This result, its :attr:`warnings` logged (each once, as a warning)."""
+        """This result, its :attr:`warnings` and its :attr:`failed_starts` (the command
+        line's ``n of m starts failed``) logged, each once, as warnings."""
         from nsm_continuation import logger
 
         for w in self.warnings:
             logger.warning("%s: %s", self.case.name, w)
+        failed = self.failed_starts
+        if failed:
+            logger.warning("%s: %d of %d starts failed: %s", self.case.name, len(failed),
+                           len(self.branches), "; ".join(
+                               f"branch {b.id} ({b.label}): {termination_text(b.raw)}"
+                               for b in failed))
         return self
 
     @property
@@ -423,6 +421,47 @@ class Result:
                             ev.point)
                 for b in self.run_result.branches for ev in b.events]
 
+    def events_frame(self) -> Any:
+        """:attr:`events` as a pandas DataFrame, one row per event: ``branch``, ``kind``, the
+        continued parameter (named as the case names it: ``omega`` for the chain), ``stable``
+        (nullable boolean: missing without multipliers), ``admissible``, ``detail``, ``s``,
+        ``row`` (the event's row in ``branch_<id>.csv``; missing when it was located between
+        rows), ``location_bracket``, ``max_abs_multiplier``, ``multipliers`` (complex, by
+        decreasing modulus), then the events' derived quantities and data
+        (:func:`~nsm_continuation.output.datasets.events_frame`). Needs pandas (``pip install
+        "nsm-continuation[xarray]"``; without it, an ``ImportError`` saying so)."""
+        from nsm_continuation.output.datasets import events_frame
+
+        return events_frame(self.run_result)
+
+    def to_xarray(self) -> Any:
+        """The run as an xarray Dataset: every point of every branch along ``point``
+        (coordinates ``branch`` and ``row``), each CSV column a variable (``admissible`` and
+        ``stable`` booleans), the unknowns ``y(point, unknown)``, the Floquet multipliers
+        ``multipliers(point, multiplier)`` as complex numbers, the events along ``event``
+        (variables ``event_*``); the continued parameter a coordinate (``ds.omega``); the
+        problem, the case and the continued parameter as attributes, each quantity's axis
+        label as its ``long_name`` (:func:`~nsm_continuation.output.datasets.to_xarray`).
+        Select a branch with ``ds.where(ds.branch == 1, drop=True)``. Needs xarray (``pip
+        install "nsm-continuation[xarray]"``)."""
+        from nsm_continuation.output.datasets import to_xarray
+
+        return to_xarray(self.run_result, self._source_text())
+
+    def to_netcdf(self, path: str | Path, engine: str | None = None) -> Path:
+        """:meth:`to_xarray` written to the netCDF file ``path`` (``engine``: ``"h5netcdf"``,
+        netCDF-4, the default where installed, or ``"scipy"``, netCDF-3, whose complex
+        multipliers are written as real and imaginary parts); read it back with
+        :func:`nsm_continuation.open_netcdf` (:func:`~nsm_continuation.output.datasets.to_netcdf`).
+        Returns the path."""
+        from nsm_continuation.output.datasets import need, to_netcdf
+
+        need("xarray", "Result.to_netcdf")
+        if not isinstance(path, str | os.PathLike) or not os.fspath(path):
+            raise CaseError(f"path: expected a file path (str or pathlib.Path), got "
+                            f"{_kind(path)}")
+        return to_netcdf(self.to_xarray(), Path(os.fsdecode(path)), engine)
+
     @property
     def tree(self) -> list[dict[str, Any]]:
         """The tree of a bifurcation diagram (``analysis.branch_switching``,
@@ -433,8 +472,10 @@ class Result:
 
     @property
     def failed_starts(self) -> list[BranchData]:
-        """Branches whose start could not be corrected (no points; the termination says why)."""
-        return [b for b in self.branches if len(b) == 0]
+        """Branches whose start failed (no point, or a start outside the parameter window;
+        the termination says why: :attr:`Branch.failed_start
+        <nsm_continuation.core.records.Branch.failed_start>`)."""
+        return [b for b in self.branches if b.raw.failed_start]
 
     def report(self) -> dict[str, Any]:
         """The content of ``report.json`` (of a result read back: the file itself)."""
@@ -445,19 +486,30 @@ class Result:
     @_api_words
     def save(self, directory: str | Path, *, overwrite: bool = False,
              plots: bool = True) -> Path:
-        """Write the CLI's outputs into ``directory`` under the output policy (README, "Output
-        folders"): a new folder, or a previous run replaced only with ``overwrite=True``.
-        Returns the directory written."""
+        """Write the CLI's outputs into ``directory`` under the output policy (docs/runs.md,
+        "Runs: output folders, exit status, limits"): a new folder, or a previous run replaced
+        only with ``overwrite=True``. Returns the directory written. What the command line
+        would say on writing (a plugin's figures that failed and were left out, what killed
+        runs had left next to the folder) is logged to the ``nsm_continuation`` logger as
+        warnings."""
         from nsm_continuation.figures.make import make_all
 
         if not isinstance(directory, str | os.PathLike) or not os.fspath(directory):
             raise CaseError(f"directory: expected a folder path (str or pathlib.Path), got "
                             f"{_kind(directory)}")
+        from nsm_continuation import logger
+
         overwrite = _flag(overwrite, "overwrite")
         plots = _flag(plots, "plots")
-        return write_outputs(self.run_result, Path(os.fsdecode(directory)),
+        notes: list[str] = []
+        path = write_outputs(self.run_result, Path(os.fsdecode(directory)),
                              make_all if plots else None,
-                             if_exists="overwrite" if overwrite else "error")
+                             if_exists="overwrite" if overwrite else "error", notes=notes)
+        known = set(self.warnings)  # logged when the run ended
+        for line in notes:
+            if line not in known:
+                logger.warning("%s: %s", self.case.name, line)
+        return path
 
     @_api_words
     def restart(self, *, branch: int | None = None, event: Any = None, point: int | None = None,

@@ -3,7 +3,7 @@
 (:mod:`nsm_continuation.cases.bundled`); figures are drawn with matplotlib's Agg backend, which
 the command line chooses for itself (:func:`main`).
 
-Exit status (README, "Exit status"):
+Exit status (docs/runs.md, "Runs: output folders, exit status, limits"):
 
 * 0: every start gave a branch (``validate``: the case is valid);
 * 2: bad input: one line on stderr naming the key (or the output path), nothing written, found
@@ -38,13 +38,15 @@ if TYPE_CHECKING:
 # (:mod:`nsm_continuation.figures.branches`, from ``results.write_files``) or distributes
 # (:mod:`nsm_continuation.runs.execution`); ``tests/interface/test_startup_imports.py`` checks it.
 
-DEFAULT_CASE = "default_case.yaml"
+#: the bundled case ``run`` runs when given no file (``yaml_cases/ndof_default.yaml``, the
+#: package data of ``nsm_continuation.yaml_cases``: :mod:`nsm_continuation.cases.bundled`)
+DEFAULT_CASE = "ndof_default.yaml"
 
 
 def _default_case_path() -> Path:
     from importlib import resources
 
-    return Path(str(resources.files("nsm_continuation").joinpath(DEFAULT_CASE)))
+    return Path(str(resources.files("nsm_continuation.yaml_cases").joinpath(DEFAULT_CASE)))
 
 
 class _Parser(argparse.ArgumentParser):
@@ -251,7 +253,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
     if _received:  # arrived during the final move, held until it was complete
         print(f"interrupted: the results were complete and are in {out}", file=sys.stderr)
         return 130 if _received[0] == signal.SIGINT else 143
-    failed = [b for b in res.branches if not b.points]
+    failed = [b for b in res.branches if b.failed_start]
     if case.output.orbits is not None:
         from nsm_continuation.figures.orbit_selection import spec_warnings
 

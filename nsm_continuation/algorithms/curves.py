@@ -637,6 +637,15 @@ class CurveTracer:
         return Branch(branch_id, seed.label, points, events, termination,
                       {**dict(seed.info), "base_runs": runs, "base_points": points_})
 
+    def _defining_tests(self, point: Point) -> tuple[str, ...]:
+        """The admissibility test whose zero a curve point is (of the curve's kind, the least
+        in modulus: the one :meth:`LocatedCurve.condition` reads); none for a curve of
+        multiplier events."""
+        own = {name: abs(v) for name, v in point.tests.items()
+               if self.curve.base.monitors.kind("test", name) == self.curve.curve_kind
+               and np.isfinite(v)}
+        return (min(own, key=own.__getitem__),) if own else ()
+
     def _points(self, located: list[_Located]) -> list[Point]:
         """The curve's points: unknowns ``(z, p, q)``, arclength in ``(z, p, q)``, the secant
         tangent, the located point's multipliers and tests, and the condition (L1)."""
@@ -652,8 +661,9 @@ class CurveTracer:
             derived = {**loc.point.derived, self.curve.free: float(free),
                        self.curve.parameter: float(loc.y[-1]),
                        "condition": self.curve.condition(loc.point)}
+            boundary = self._defining_tests(loc.point)
             out.append(dataclasses.replace(loc.point, y=loc.y, s=s, tangent=t,
-                                           derived=derived))
+                                           derived=derived, on_boundary=boundary))
         return out
 
 

@@ -207,6 +207,16 @@ class RunRecord:
     rows: dict[int, np.ndarray] = field(default_factory=dict)
 
 
+def _run_first(folder: Path) -> str:
+    """``; run it first: nsm-continuation run NAME`` when ``folder`` is where the bundled case
+    NAME writes (``runs/NAME``, the parent run of a bundled restart case), else ''."""
+    from nsm_continuation.cases import bundled
+
+    if folder.parent.name != "runs" or bundled.find(folder.name) is None:
+        return ""
+    return f"; run it first: nsm-continuation run {folder.name}"
+
+
 def load_run(source: str) -> RunRecord:
     """The run in the folder ``source`` (``start.from``); :class:`CaseError` naming
     ``start.from`` when it is not a readable run of this tool with a restart record."""
@@ -216,7 +226,7 @@ def load_run(source: str) -> RunRecord:
     try:
         if not folder.exists():
             where = "" if folder.is_absolute() else f" (looked for in {Path.cwd()})"
-            raise CaseError(f"start.from: {shown} does not exist{where}")
+            raise CaseError(f"start.from: {shown} does not exist{where}{_run_first(folder)}")
         if not folder.is_dir():
             raise CaseError(f"start.from: {shown} is not a folder (the output folder of a "
                             "run)")

@@ -99,6 +99,9 @@ def register_event_kinds(kinds: dict[str, str], owner: str) -> None:
         _FAMILY_KINDS.setdefault(kind, owner)
 
 
+#: the termination reason of a direction whose start lies outside the parameter window
+START_OUTSIDE = "start outside parameter bounds"
+
 @dataclass
 class Event:
     """A located event. ``point`` is the branch point (a ``continuation.Point``) where it sits."""
@@ -141,10 +144,17 @@ class Point:
     #: the chart of ``y`` when the problem moved to another one on the way
     #: (``Problem.rechart``; ``Problem.in_chart`` gives its problem); None: the problem's own
     chart: dict[str, float] | None = None
+    #: the admissibility tests this point lies on the zero of by construction (a point of a
+    #: two-parameter grazing curve is a located zero of its clearance test): their sign there
+    #: is rounding, and :attr:`admissible` disregards them
+    on_boundary: tuple[str, ...] = ()
 
     @property
     def admissible(self) -> bool:
-        return all(v >= 0.0 for v in self.tests.values())
+        """Whether every admissibility test is non-negative (Problem.tests: the orbit is
+        physical), those the point lies on the zero of by construction (:attr:`on_boundary`)
+        excepted."""
+        return all(v >= 0.0 for k, v in self.tests.items() if k not in self.on_boundary)
 
     @property
     def stable(self) -> bool | None:
@@ -183,6 +193,13 @@ class Branch:
     @property
     def n_points(self) -> int:
         return len(self.points)
+
+    @property
+    def failed_start(self) -> bool:
+        """Whether the start failed: no point (its correction failed), or a start outside the
+        parameter window that no direction could leave (:data:`START_OUTSIDE`)."""
+        return not self.points or (bool(self.termination) and all(
+            str(v).startswith(START_OUTSIDE) for v in self.termination.values()))
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,14 @@ def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: fl
     """Locate a sign change of ``f`` in ``[a, b]`` (``fa * fb <= 0``) by the Illinois method.
 
     ``f(sigma)`` returns ``(value, payload)``; the payload of the best final iterate is returned
-    with its abscissa and the final bracket width. If ``f`` fails (returns ``nan``) the bracket is
-    bisected instead.
+    with its abscissa and the final bracket width.
+
+    A trial point where ``f`` fails (returns ``nan``: the corrector did not converge there) says
+    nothing about the side of the zero, so the bracket keeps both of its evaluated ends and the
+    next trial is the midpoint of the widest gap between the ends and the failed points inside
+    the bracket (:func:`_widest_gap`). The bracket only ever shrinks to a point where ``f`` has
+    a sign, and the width returned always covers the failed points: where they surround the zero,
+    the width says how far from it the iteration could get, never less.
 
     A secant iterate within ``1e-3`` of the bracket's width from one of its ends is replaced by
     the midpoint (the ends then approach the zero by halves). With ``close``, it is instead
@@ -41,28 +47,20 @@ def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: fl
     """
     side = 0
     best = (a, None) if abs(fa) < abs(fb) else (b, None)
+    failed: list[float] = []
     for _ in range(max_iter):
         if abs(b - a) <= tol:
             break
-        if np.isfinite(fa) and np.isfinite(fb) and fb != fa:
-            c = b - fb * (b - a) / (fb - fa)
+        inside = [x for x in failed if min(a, b) < x < max(a, b)]
+        if inside:
+            c, gap = _widest_gap(a, b, inside)
+            if gap <= tol:
+                break
         else:
-            c = 0.5 * (a + b)
-        # keep c strictly inside; fall back to bisection near the ends
-        lo, hi = min(a, b), max(a, b)
-        margin = 1e-3 * (hi - lo)
-        if not (lo + margin < c < hi - margin):
-            if close and lo <= c <= hi:
-                c = min(max(c + 0.5 * tol, lo), hi) if c - lo < hi - c else \
-                    min(max(c - 0.5 * tol, lo), hi)
-                if not (lo < c < hi):
-                    c = 0.5 * (a + b)
-            else:
-                c = 0.5 * (a + b)
+            c = _secant_point(a, fa, b, fb, tol, close)
         fc, payload_c = f(c)
         if not np.isfinite(fc):
-            # cannot evaluate: shrink from the side we trust
-            b, fb = c, fb
+            failed.append(c)
             continue
         best = (c, payload_c)
         if fc == 0.0:
@@ -78,6 +76,37 @@ def illinois(f: Callable[[float], tuple[float, Any]], a: float, fa: float, b: fl
                 fb *= 0.5
             side = 1
     return best[0], best[1], abs(b - a)
+
+
+def _widest_gap(a: float, b: float, failed: list[float]) -> tuple[float, float]:
+    """The midpoint and the length of the widest gap between consecutive points of ``a``, ``b``
+    and the failed trial points ``failed`` (all strictly inside ``[a, b]``)."""
+    pts = np.sort(np.array([a, b, *failed], dtype=float))
+    gaps = np.diff(pts)
+    i = int(np.argmax(gaps))
+    return 0.5 * (pts[i] + pts[i + 1]), float(gaps[i])
+
+
+def _secant_point(a: float, fa: float, b: float, fb: float, tol: float, close: bool) -> float:
+    """The Illinois trial point of the bracket ``[a, b]``: the secant's zero, replaced by the
+    midpoint within ``1e-3`` of the bracket's width from one of its ends (or, with ``close``,
+    moved ``tol / 2`` past the estimate away from that end)."""
+    if np.isfinite(fa) and np.isfinite(fb) and fb != fa:
+        c = b - fb * (b - a) / (fb - fa)
+    else:
+        c = 0.5 * (a + b)
+    # keep c strictly inside; fall back to bisection near the ends
+    lo, hi = min(a, b), max(a, b)
+    margin = 1e-3 * (hi - lo)
+    if not (lo + margin < c < hi - margin):
+        if close and lo <= c <= hi:
+            c = min(max(c + 0.5 * tol, lo), hi) if c - lo < hi - c else \
+                min(max(c - 0.5 * tol, lo), hi)
+            if not (lo < c < hi):
+                c = 0.5 * (a + b)
+        else:
+            c = 0.5 * (a + b)
+    return c
 
 
 def bisect_predicate(f: Callable[[float], tuple[Any, Any]], a: float, va: Any, b: float, vb: Any,

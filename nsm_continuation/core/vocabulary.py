@@ -1,6 +1,7 @@
 """One vocabulary across the problem families: canonical parameter names, old names deprecated.
 
-The same quantity has the same key in every problem's ``parameters:`` (README, "Vocabulary"):
+The same quantity has the same key in every problem's ``parameters:`` (docs/case_files.md,
+"Vocabulary"):
 
 * ``gap``: the obstacle's position in the impacting coordinate, measured from the contact-free
   rest position (chain: ``u_c <= gap``, ``g`` in Legrand et al.; two-mass chain: ``q2 <= gap``;

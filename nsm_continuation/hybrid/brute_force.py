@@ -31,6 +31,7 @@ Usage (the pendulum's benchmark, ``benchmarks/brute_force_pendulum.py``, goes th
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -40,6 +41,7 @@ import numpy as np
 
 from nsm_continuation.algorithms.sweep import sweep_point_record
 from nsm_continuation.core.capabilities import SweepSeed
+from nsm_continuation.core.progress import progress_bar
 from nsm_continuation.core.records import Point
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 
@@ -47,6 +49,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from nsm_continuation.hybrid.case import HybridCaseProblem
 
 TWO_PI = 2.0 * np.pi
+
+#: the lines of a sweep with ``progress`` (one a value, level INFO)
+logger = logging.getLogger(__name__)
 
 
 def wrap(q: Any, period: float = TWO_PI) -> Any:
@@ -271,30 +276,43 @@ def attractor(stepper: ReturnMap, value: float, X: np.ndarray | None, transient:
     return pt, X
 
 
+def _summary(label: str, value: float, pt: SweepPoint) -> str:
+    """One line on the attractor at ``value``: returns, period, sticking, return time, wall
+    time, failures."""
+    per = pt.period()
+    sticking = "all" if pt.all_sticking else ("some" if pt.any_sticking else "none")
+    return (f"{label} = {value:.7g}: {pt.section.size} returns, period "
+            f"{per if per is not None else '-'}, sticking {sticking}, T_return "
+            f"{np.mean(pt.return_times) if pt.ok else np.nan:.4f}, {pt.wall:.2f} s"
+            + (f", FAILED: {pt.failures}" if pt.failures else ""))
+
+
 def sweep(stepper: ReturnMap, values: Any, transient: int = 30, record: int = 30,
           initial: np.ndarray | None = None, converge_tol: float | None = None,
           max_period: int = 8, max_time: float | None = 1000.0,
           progress: bool = False) -> list[SweepPoint]:
     """The brute-force diagram over ``values``, in order, each value from the previous one's
     final state (:func:`attractor`). ``initial``: the state on the section (without the
-    parameter) the first value starts from (default: the problem's default initial state)."""
+    parameter) the first value starts from (default: the problem's default initial state).
+    ``progress``: a progress bar (:func:`~nsm_continuation.core.progress.progress_bar`, one
+    tick a value) and one line a value on the logger ``nsm_continuation.hybrid.brute_force``
+    (level INFO: shown with ``logging.basicConfig(level=logging.INFO)``)."""
     values = [float(v) for v in np.atleast_1d(values)]
     X: np.ndarray | None = None
     if initial is not None:
         X = np.append(np.asarray(initial, dtype=float)[:stepper.n], [values[0]])
     out: list[SweepPoint] = []
+    bar = progress_bar(f"brute force {stepper.label}", len(values), "value") \
+        if progress else None
     for i, val in enumerate(values):
         pt, X = attractor(stepper, val, X, transient, record, converge_tol, max_period,
                           max_time, first=i == 0)
-        if progress:
-            per = pt.period()
-            print(f"  {stepper.label} = {val:.7g}: {pt.section.size} returns, period "
-                  f"{per if per is not None else '-'}, sticking "
-                  f"{'all' if pt.all_sticking else ('some' if pt.any_sticking else 'none')}, "
-                  f"T_return {np.mean(pt.return_times) if pt.ok else np.nan:.4f}, "
-                  f"{pt.wall:.2f} s" + (f", FAILED: {pt.failures}" if pt.failures else ""),
-                  flush=True)
+        if bar is not None:
+            logger.info("%s", _summary(stepper.label, val, pt))
+            bar.update(1)
         out.append(pt)
+    if bar is not None:
+        bar.close()
     return out
 
 

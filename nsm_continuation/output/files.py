@@ -494,24 +494,30 @@ def keep_elsewhere(res: RunResult, folder: Path, exc: OSError) -> NoSpaceError:
 
 
 def write_outputs(res: RunResult, out_dir: Path | str, draw: Draw | None = None,
-                  if_exists: IfExists = "error") -> Path:
+                  if_exists: IfExists = "error", notes: list[str] | None = None) -> Path:
     """Write every output of a run into ``out_dir`` under the output policy of
     :mod:`nsm_continuation.output.folders` (never deletes what this tool did not write), the
     figures with ``draw`` (none when None); returns the directory written (a numbered sibling
     with ``if_exists="new"``). A full disk raises :class:`NoSpaceError`, the results kept in the
-    system's temporary directory when it has room (:func:`keep_elsewhere`)."""
-    return _write_outputs(res, out_dir, draw, if_exists, keep=True)
+    system's temporary directory when it has room (:func:`keep_elsewhere`). ``notes``, when
+    given, gets what the command line would print: what killed runs had left next to the
+    folder (:attr:`OutputTarget.recovered`) and the failures of the problem's hooks
+    (:func:`write_files`)."""
+    return _write_outputs(res, out_dir, draw, if_exists, keep=True, notes=notes)
 
 
 def _write_outputs(res: RunResult, out_dir: Path | str, draw: Draw | None,
-                   if_exists: IfExists, keep: bool) -> Path:
+                   if_exists: IfExists, keep: bool, notes: list[str] | None = None) -> Path:
     """:func:`write_outputs`; ``keep``: on a full disk, keep the results elsewhere."""
     target = OutputTarget(Path(out_dir), if_exists)
     target.prepare()
     try:
         assert target.tmp is not None
-        write_files(res, target.tmp, draw)
-        return target.commit()
+        failures = write_files(res, target.tmp, draw)
+        path = target.commit()
+        if notes is not None:
+            notes += [*target.recovered, *failures]
+        return path
     except BaseException as exc:
         where = target.path
         target.abort()

@@ -1,6 +1,6 @@
 """Where a run writes, and the promise that it never loses a user's data.
 
-The output policy (README, "Output folders"):
+The output policy (docs/runs.md, "Runs: output folders, exit status, limits"):
 
 * A run writes a **new** directory. Everything is first written into a hidden sibling
   ``.<name>.tmp-*`` and moved into place only when complete, so a failed or interrupted run

@@ -5,7 +5,6 @@ diagram grows on top of this (:mod:`nsm_continuation.runs.diagrams`, through ``g
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable
 from contextlib import nullcontext
@@ -17,6 +16,7 @@ from nsm_continuation.cases.schema import Case
 from nsm_continuation.core.errors import CaseError
 from nsm_continuation.core.palc import HOOK_FAULTS, describe_fault
 from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.progress import progress_bar
 from nsm_continuation.core.records import Branch
 from nsm_continuation.core.settings import ContinuationSettings
 from nsm_continuation.runs.execution import (
@@ -31,43 +31,6 @@ from nsm_continuation.runs.setup import registered_class, settings_from_case
 
 #: grows a run into a bifurcation diagram: ``grow(result, poll, session)``
 Grow = Callable[[RunResult, Callable[[], None] | None, DaskSession | None], None]
-
-
-class _LineProgress:
-    """A progress line on stderr where tqdm is not installed: ``name: n / total points``,
-    rewritten at most twice a second, ended by a newline."""
-
-    def __init__(self, desc: str, total: int) -> None:
-        self.desc, self.total, self.n, self.shown = desc, total, 0, 0.0
-
-    def update(self, n: int) -> None:
-        self.n += n
-        if time.monotonic() - self.shown >= 0.5:
-            self.shown = time.monotonic()
-            sys.stderr.write(f"\r{self.desc}: {self.n} / {self.total} points")
-            sys.stderr.flush()
-
-    def close(self) -> None:
-        sys.stderr.write(f"\r{self.desc}: {self.n} points\n")
-        sys.stderr.flush()
-
-
-def progress_bar(desc: str, total: int) -> Any:
-    """A progress bar of ``total`` points that shows wherever it is asked for: tqdm's (text on
-    a terminal; elsewhere ``tqdm.auto``: a widget in a Jupyter notebook, text without a TTY),
-    else a plain line (:class:`_LineProgress`). Whether to show one at all is the caller's
-    choice (the command line: only on a terminal)."""
-    try:
-        if sys.stderr.isatty():  # a terminal: the text bar (tqdm.auto would import IPython)
-            from tqdm import tqdm
-        else:
-            from tqdm.auto import tqdm
-    except ImportError:
-        return _LineProgress(desc, total)
-    # no monitor thread: a process without threads may draw its figures in a forked child
-    # (nsm_continuation.figures.process)
-    tqdm.monitor_interval = 0
-    return tqdm(total=total, unit="pt", leave=False, desc=desc, disable=False)
 
 
 class _Progress:

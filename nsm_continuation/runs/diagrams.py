@@ -135,7 +135,7 @@ def _switch(raw: dict[str, Any], record: Any, cls: type[Problem], poll: Callable
     if case is None:
         return None, why, [], None
     child = run_branches(case, target, progress=False, poll=poll, execution=Execution())
-    failed = [b for b in child.branches if not b.points]
+    failed = [b for b in child.branches if b.failed_start]
     if failed or not child.branches:
         why = "; ".join(f"{k}: {v}" for b in failed for k, v in b.termination.items())
         return None, why or "no branch", [], None

@@ -191,9 +191,15 @@ def start_client(execution: Execution) -> tuple[Any, Any]:
     * the event loop ticks every 20 ms (``distributed.admin.tick.interval``), each tick taking
       the GIL from the task: every second.
 
-    A cluster of one's own (``scheduler``) is set up by whoever starts it (README)."""
-    import dask
-    from dask.distributed import Client, LocalCluster
+    A cluster of one's own (``scheduler``) is set up by whoever starts it (docs/dask.md). Without
+    Dask installed, one :class:`CaseError` line saying how to install it."""
+    try:
+        import dask
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        what = _SCHEDULER if execution.scheduler else "execution.workers (--workers)"
+        raise CaseError(f"{what}: computing the branches as Dask tasks needs Dask, which is "
+                        "not installed here: pip install 'nsm-continuation[dask]'") from None
 
     if execution.scheduler:
         security = check_scheduler(execution.scheduler)
@@ -415,7 +421,7 @@ class UnauthenticatedClusterWarning(UserWarning):
 def warn_if_unauthenticated(address: str) -> None:
     """One warning line when ``address`` is a plain (``tcp://``, ``ws://``) scheduler that is not
     on this machine (a loopback address or ``localhost``): the cluster runs this process's
-    tasks, pickled Python, without authentication (README, "Who may do what")."""
+    tasks, pickled Python, without authentication (docs/runs.md, "Who may do what")."""
     import ipaddress
     from urllib.parse import urlsplit
 

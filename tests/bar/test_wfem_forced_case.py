@@ -10,7 +10,7 @@ Oracles:
 * the sweep through the YAML case must give the same numbers as calling
   :func:`forced_response_sweep` directly (a second entry point into the same time stepping);
 * the main NSM backbone overlaid on the figures against the closed form of the lattice energy
-  ``E / E_ref = 8 / (pi^2 (cT/L - 3)^2)`` (mode 1, README: "main backbone energy").
+  ``E / E_ref = 8 / (pi^2 (cT/L - 3)^2)`` (mode 1, docs/results.md: "main backbone energy").
 """
 
 from __future__ import annotations

@@ -204,7 +204,9 @@ def test_chain_nonlinear_grazing_curve_follows_the_time_scaling() -> None:
     """Point B of Fig. 5.1 (the nonlinear grazing orbit ending branch 1 of the 5-dof chain)
     in (stiffness, omega): a uniform stiffness k scales time by sqrt(k) and leaves the orbits'
     shapes (M u'' + k K1 u = 0 with the same wall), so omega_B(k) = omega_B(5) sqrt(k / 5)
-    exactly; every point is at zero clearance (the admissibility test located)."""
+    exactly; every point is at zero clearance (the admissibility test located) and, the
+    orbits having B's shape, admissible as B is: the located test's sign is rounding there
+    (``Point.on_boundary``), every other test's value is B's."""
     case = {"name": "chain_b", "problem": "ndof_impact",
             "parameters": {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0},
             "start": {"mode": 1, "subharmonic": 1},
@@ -226,6 +228,9 @@ def test_chain_nonlinear_grazing_curve_follows_the_time_scaling() -> None:
         k = p.derived["stiffness"]
         assert p.derived["omega"] == pytest.approx(omega_b * np.sqrt(k / 5.0), rel=1e-9)
         assert p.derived["condition"] < 1e-9
+        assert p.on_boundary == ("clearance",) and p.admissible
+        assert p.tests["outgoing_velocity"] == pytest.approx(
+            ev.point.tests["outgoing_velocity"], rel=1e-8)
 
 
 # ---------------------------------------------------------------------- kinds from the problem

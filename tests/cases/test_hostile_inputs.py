@@ -3,7 +3,8 @@ before computing with one line naming the key and the real cause (exit status 2 
 command line, a ``CaseError`` from the Python API).
 
 * ``formulation: shooting`` with a start on a pole (``mode``, ``all``): its Jacobian loses rank
-  there (README), and the start failed with "Newton did not converge (residual 4.4e-16)";
+  there (docs/theory.md), and the start failed with "Newton did not converge
+  (residual 4.4e-16)";
 * ``newton_tol`` below double precision's resolution: "did not converge (residual 7e-18)";
 * a list value of a ``float | list`` key with one bad entry (``stiffness: [1, 0, 1]``): "Input
   should be a valid number" for the whole key, instead of the entry and its bound;

@@ -1,7 +1,7 @@
 """Who may do what: a YAML case and a run folder are data, never code. A YAML tag that would
 build a Python object, and a run folder whose report.json holds a pickle, are refused in one line
 (exit 2) without running their payload; a plain scheduler address to another machine is said to
-be unauthenticated (README, "Who may do what")."""
+be unauthenticated (docs/runs.md, "Who may do what")."""
 
 from __future__ import annotations
 

@@ -366,12 +366,16 @@ RUNNING = TEMPLATE.format(
     def start_points(self, start, window=(None, None)):
         if FAULT == "start_exit":
             sys.exit(7)
+        if FAULT == "start_outside":  # an orbit at mu = 2, outside the window [0, 1]
+            return [StartPoint(np.array([2.0 * self.params.a, 2.0]), "toy")]
         return [StartPoint(np.array([0.0, 0.0]), "toy")]
 '''
 
 
 @pytest.mark.parametrize(("fault", "status", "line"), [
     ("start_exit", 3, "problem 'toy' raised SystemExit(7) in a hook (sys.exit)"),
+    ("start_outside", 3, "start outside parameter bounds (the start's parameter 2 is outside "
+                         "the window [0.0, 1.0])"),
     ("figure", 0, "problem 'toy' ({module}): the figures failed in its code (RuntimeError: "
                   "no colour map); they are left out"),
     ("figure_exit", 0, "problem 'toy' ({module}): the figures failed in its code "
@@ -380,8 +384,9 @@ RUNNING = TEMPLATE.format(
 def test_a_plugin_failing_during_the_run_is_named_and_the_results_written(
         plugin: Callable[..., str], tmp_path: Path, capsys: pytest.CaptureFixture[str],
         fault: str, status: int, line: str) -> None:
-    """After the preflight, a plugin's ``start_points`` calling ``sys.exit`` is a failed start
-    (exit 3, its reason named, the report written), and its figure hooks failing (an
+    """After the preflight, a plugin's ``start_points`` calling ``sys.exit`` or giving a start
+    outside the parameter window (a branch of one point that no direction can leave) is a
+    failed start (exit 3, its reason named, the report written), and its figure hooks failing (an
     exception or ``sys.exit``) leave the figures out with a warning naming it, the data and
     the report written: not the plugin's exit code without a word, nor "this is a bug" with
     everything computed lost."""
@@ -394,3 +399,29 @@ def test_a_plugin_failing_during_the_run_is_named_and_the_results_written(
     assert line in err, err
     assert (out / "branch_0.csv").is_file() and (out / "report.md").is_file()
     assert line in (out / "report.md").read_text() or status == 3
+
+
+@pytest.mark.parametrize(("fault", "line"), [
+    ("start_exit", "toy: 1 of 1 starts failed: branch 0 (start): start: no start point: "
+                   "problem 'toy' raised SystemExit(7) in a hook (sys.exit)"),
+    ("figure", "toy: problem 'toy' ({module}): the figures failed in its code (RuntimeError: "
+               "no colour map); they are left out"),
+])
+def test_what_the_command_line_says_an_api_user_is_told(
+        plugin: Callable[..., str], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        caplog: pytest.LogCaptureFixture, fault: str, line: str) -> None:
+    """The failed start (the command line's exit 3 and its line) is logged when ``nsm.run``
+    returns; the figures a plugin failed to draw are logged by ``Result.save`` (the command
+    line's warning), each once, to the ``nsm_continuation`` logger; nothing on stdout."""
+    import logging
+
+    target = plugin(source=RUNNING.replace("{fault!r}", repr(fault)))
+    line = line.format(module=target.partition(":")[0])
+    path = case_file(tmp_path, output={"progress": False, "plots": True})
+    with caplog.at_level(logging.WARNING, logger="nsm_continuation"):
+        res = api.run(str(path))
+        res.save(tmp_path / "out")
+    logged = [r.getMessage() for r in caplog.records if r.name == "nsm_continuation"]
+    assert sum(m.startswith(line) for m in logged) == 1, logged
+    assert capsys.readouterr().out == ""
+    assert (tmp_path / "out" / "branch_0.csv").is_file()

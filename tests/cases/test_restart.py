@@ -285,3 +285,25 @@ def test_start_curve_takes_any_kind_name_checked_with_the_problem() -> None:
     assert spec.curve == "some_family_kind"
     with pytest.raises(Exception, match=r"start\.curve"):
         parse_spec({"from": "runs/x", "event": "fold", "curve": ""})
+
+
+def test_a_bundled_restart_without_its_parent_run_says_which_to_run_first(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+        ) -> None:
+    """A bundled restart case run in an empty folder (its parent run, ``runs/<case>``, is
+    not there): one line naming the bundled case that writes it; a folder that no bundled
+    case writes gets no such advice."""
+    from nsm_continuation.cases import bundled
+
+    monkeypatch.chdir(tmp_path)
+    restart = [name for name, path in bundled.cases().items()
+               if "from: runs/impact_oscillator_grazing," in path.read_text()]
+    assert restart, "a bundled restart case starts from runs/impact_oscillator_grazing"
+    assert cli.main(["run", restart[0], "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"error: start.from: runs/impact_oscillator_grazing does not exist (looked "
+                   f"for in {tmp_path}); run it first: nsm-continuation run "
+                   "impact_oscillator_grazing"]
+    with pytest.raises(nsm.CaseError) as exc:
+        nsm.load("runs/no_such_case")
+    assert "run it first" not in str(exc.value)

@@ -16,8 +16,8 @@ Oracles (closed forms, or a second method):
   ``x (mu - x) = 0`` and ``x (x^2 - mu) = 0`` are at ``mu = 0``;
 * multiplier motion: the true displacement of a multiplier through ``|lambda| = 0.5``; a family
   whose multiplier moves from 0.3 to 0.7 takes as many points as one whose multiplier stays at
-  0.3; the Neimark-Sacker window 8.6e-4 wide of Fig. 6.1 (README: [1.503588, 1.504449], found
-  identically with a 4x finer motion limit) is still found;
+  0.3; the Neimark-Sacker window 8.6e-4 wide of Fig. 6.1 (docs/results.md: [1.503588,
+  1.504449], found identically with a 4x finer motion limit) is still found;
 * event functions: the zeros of ``cos(4 p)`` at ``pi/8`` and ``3 pi/8``, a zero pair 0.02 apart
   inside one huge step, and no event where a value is missing or NaN.
 """
@@ -376,7 +376,7 @@ def test_multiplier_through_half_does_not_collapse_the_step() -> None:
 def test_narrow_neimark_sacker_window_of_fig_6_1_is_found() -> None:
     """Fig. 6.1 (5-dof chain, branch 1): the complex-pair window [1.503588, 1.504449], 8.6e-4
     wide in omega, hides inside a step when multipliers may move 0.05 per step; the default
-    limit 0.02 finds it, at the omega a 4x finer limit (0.005) gives (README table)."""
+    limit 0.02 finds it, at the omega a 4x finer limit (0.005) gives (docs/results.md table)."""
 
     from nsm_continuation import cases
     from nsm_continuation.runs.runner import run_case

@@ -148,11 +148,11 @@ def test_steps_capped_by_the_ratio_keep_every_event_in_fewer_attempts(
     step attempts (352 against 381 measured, since multipliers outside the circle may move
     by half their distance to it: fewer refusals are left for the cap to save; 428 against
     531 before that)."""
-    sized = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
+    sized = api.run("yaml_cases/ndof_default.yaml", {"output.plots": False})
     n_sized = attempts[0]
     attempts[0] = 0
     monkeypatch.setattr(palc.step_control, "_motion_capped_step", lambda h, ratio: np.inf)
-    halved = api.run("nsm_continuation/default_case.yaml", {"output.plots": False})
+    halved = api.run("yaml_cases/ndof_default.yaml", {"output.plots": False})
     n_halved = attempts[0]
     ev_sized, ev_halved = _events(sized), _events(halved)
     assert [k for k, _ in ev_sized] == [k for k, _ in ev_halved]

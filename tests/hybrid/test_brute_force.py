@@ -65,3 +65,22 @@ def test_failure_is_recorded_and_restarted() -> None:
     assert not pts[0].ok and pts[0].q2.size == 0
     assert pts[0].failures and "no return to the section" in pts[0].failures[0]
     assert pts[1].ok and pts[1].q2.size == 2 and pts[1].restarted
+
+
+def test_progress_is_a_bar_and_logged_lines_never_stdout(capsys, caplog) -> None:
+    """``progress=True``: one INFO line a value on the module's logger naming the value and
+    its period (1 at e = 0.89, as above) and a progress bar on stderr; nothing on stdout."""
+    import logging
+
+    values = [0.89, 0.8905]
+    with caplog.at_level(logging.INFO, logger="nsm_continuation.hybrid.brute_force"):
+        pts = sweep("restitution", values, {"d": 0.5, "torque": -31.15},
+                    transient_returns=12, recorded_returns=4, progress=True)
+    out, err = capsys.readouterr()
+    assert out == ""
+    lines = [r.getMessage() for r in caplog.records
+             if r.name == "nsm_continuation.hybrid.brute_force"]
+    assert len(lines) == len(values) == len(pts)
+    for line, v, p in zip(lines, values, pts, strict=True):
+        assert line.startswith(f"restitution = {v:.7g}: 4 returns, period {p.period()}")
+    assert "brute force restitution" in err

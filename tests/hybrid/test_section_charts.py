@@ -77,7 +77,7 @@ def grazing_on_the_section() -> Any:
 
 def test_grazing_at_the_section_phase_is_located_with_no_false_event(
         grazing_on_the_section: Any) -> None:
-    """The same events as with the section away from the grazing (README, case
+    """The same events as with the section away from the grazing (docs/events_and_grazing.md, case
     ``impact_oscillator_grazing``): the fold, the grazing at sqrt(3) to 1e-10 with the
     sequence ``I -> -`` (a family change there), the stability changes there, and nothing
     else (no branch point, no false fold, no sequence change from the section at the grazing

@@ -8,7 +8,7 @@ but the Python examples:
   A block with a `problem:` key is a whole case and validates (`cases.validate`: schema,
   problem, preflight) as it stands; a block with a `start:` key but no `problem:` (the chain's
   `parameters:`/`start:` example) and a fragment (neither key, e.g. a lone `continuation:`) are
-  merged key by key over the bundled default case (`nsm_continuation/default_case.yaml`, the
+  merged key by key over the bundled default case (`yaml_cases/ndof_default.yaml`, the
   block's top-level keys replacing the default's) and the result validates. The placeholder
   `{...}` of the YAML reference is filled with the default case's value for that key. A restart
   (`start: {from: <run>}`) names a run the test does not compute: its `start:` block validates
@@ -121,7 +121,7 @@ def test_snippet_runs(code, tmp_path, monkeypatch):
 def _default_case() -> dict[str, Any]:
     from nsm_continuation import cases
 
-    path = resources.files("nsm_continuation").joinpath("default_case.yaml")
+    path = resources.files("nsm_continuation.yaml_cases").joinpath("ndof_default.yaml")
     return cases.load_raw(str(path))
 
 

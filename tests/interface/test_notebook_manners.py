@@ -15,7 +15,7 @@ import pytest
 from helpers import PACKAGE, ROOT, run_fresh
 
 import nsm_continuation as nsm
-from nsm_continuation.runs import branches as run_branches
+from nsm_continuation.core.progress import progress_bar
 
 SMALL = {"name": "small", "problem": "ndof_impact",
          "parameters": {"chain": {"dofs": 3, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
@@ -71,7 +71,7 @@ print(json.dumps({{"before": before, "after": after, "drawn": len(fig.axes[0].ge
 def test_progress_shows_a_bar_without_a_terminal(capsys: pytest.CaptureFixture[str]) -> None:
     """Under pytest stderr is no terminal (as in a notebook): asked for, the bar is shown."""
     assert not sys.stderr.isatty()
-    bar = run_branches.progress_bar("shown", 10)
+    bar = progress_bar("shown", 10)
     assert not bar.disable and type(bar).__module__.startswith("tqdm")
     bar.update(10)
     bar.close()
@@ -82,7 +82,7 @@ def test_progress_shows_a_bar_without_a_terminal(capsys: pytest.CaptureFixture[s
 def test_without_tqdm_progress_is_a_plain_line(monkeypatch: pytest.MonkeyPatch,
                                                capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setitem(sys.modules, "tqdm.auto", None)  # `from tqdm.auto import` fails
-    bar = run_branches.progress_bar("plain", 7)
+    bar = progress_bar("plain", 7)
     bar.update(3)
     bar.update(4)
     bar.close()
@@ -93,7 +93,8 @@ def test_warnings_are_logged_and_returned(caplog: pytest.LogCaptureFixture,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     """A chain whose frequencies are in the ratio 3 (K = [[5, -4], [-4, 5]]: omega = 1, 3)
     violates the paper's Assumption 3.1: the run's warning is logged to ``nsm_continuation``
-    and listed in ``Result.warnings`` as in ``report.json``; nothing is printed on stdout."""
+    and listed in ``Result.warnings`` as in ``report.json``, its failed start logged too;
+    nothing is printed on stdout."""
     case = {**SMALL, "name": "resonant",
             "parameters": {"M": [[1, 0], [0, 1]], "K": [[5, -4], [-4, 5]], "gap": 1.0},
             "continuation": {"parameter": "omega", "min": 0.5, "max": 2.0, "max_points": 8},
@@ -103,7 +104,11 @@ def test_warnings_are_logged_and_returned(caplog: pytest.LogCaptureFixture,
     logged = [r.getMessage() for r in caplog.records if r.name == "nsm_continuation"]
     assert res.warnings == res.report()["warnings"]
     assert len(res.warnings) == 1 and "3 T_2 = 1 T_1" in res.warnings[0]
-    assert logged == [f"resonant: {res.warnings[0]}"]
+    # its start fails (a singular Jacobian at the resonance): said as the command line does
+    assert [b.id for b in res.failed_starts] == [0]
+    assert logged == [f"resonant: {res.warnings[0]}",
+                      f"resonant: 1 of 1 starts failed: branch 0 ({res.branches[0].label}): "
+                      f"start: {res.branches[0].raw.termination['start']}"]
     assert capsys.readouterr().out == ""
 
 

@@ -197,6 +197,25 @@ def test_cluster_arguments_refused_in_one_line(tmp_path: Path, capsys: Any) -> N
         nsm.run(CASE, workers=2, scheduler=address)
 
 
+def test_without_dask_workers_are_one_line(tmp_path: Path, capsys: Any,
+                                           monkeypatch: Any) -> None:
+    """Dask not installed (``import dask`` fails): ``--workers`` / ``workers=`` on a case of
+    several branches is one line naming the argument and the extra to install, exit 2,
+    nothing written."""
+    monkeypatch.setitem(sys.modules, "dask", None)
+    two = {**CASE, "start": [{"mode": 1}, {"mode": 2}],
+           "continuation": {**CASE["continuation"], "max_points": 5}}
+    path = tmp_path / "two.yaml"
+    path.write_text(yaml.safe_dump(two))
+    out = tmp_path / "out"
+    assert cli.main(["run", str(path), "--quiet", "--out", str(out), "--workers", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--workers" in err[0] and "nsm-continuation[dask]" in err[0], err
+    assert not out.exists()
+    with pytest.raises(nsm.CaseError, match=r"^execution.workers \(workers=\): .*needs Dask"):
+        nsm.run(two, workers=2)
+
+
 def test_a_script_problem_class_is_refused_for_an_existing_cluster() -> None:
     """A problem class defined in the user's script (``__main__``) cannot be imported by the
     workers of an existing cluster: refused in one line before any branch is computed

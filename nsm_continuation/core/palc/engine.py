@@ -70,7 +70,7 @@ from nsm_continuation.core.palc.kinks import KinkCrosser
 from nsm_continuation.core.palc.locate import EventLocator
 from nsm_continuation.core.palc.step_control import StepController
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
-from nsm_continuation.core.records import Branch, Event, Point
+from nsm_continuation.core.records import START_OUTSIDE, Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 
 
@@ -328,8 +328,10 @@ class ContinuationEngine:
         the step or met by a step that failed (:class:`KinkCrosser`), then the next step's
         length (:meth:`StepController.accept`)."""
         control = self.step_control
-        if not control.inside_window(pts[0]):
-            return "start outside parameter bounds"  # a start outside the window ends at once
+        if not control.inside_window(pts[0]):  # a start outside the window ends at once
+            st = self.settings
+            return (f"{START_OUTSIDE} (the start's parameter {pts[0].y[control.ip]:.10g} is "
+                    f"outside the window [{st.param_min}, {st.param_max}])")
         control.begin()
         self.asymptote.begin()
         self.ends.begin()

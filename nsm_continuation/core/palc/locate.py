@@ -174,9 +174,11 @@ class EventLocator(EnginePart):
         the zero interpolated from resolved points around it (:func:`~nsm_continuation.core.
         palc.branch_points.stencil_zero`, at least 8 widths of the failed zone away): where
         that zero is accurate to ``multiplier_event_tol`` (the accuracy a crossing's location
-        must reach, :meth:`~.crossings.CrossingLocator._locate_on_modulus`) and the two
-        differ by more than both accuracies, the corrector's noise misled the iteration, and
-        the interpolated zero is the event (``data['interpolated']``;
+        must reach, :meth:`~.crossings.CrossingLocator._locate_on_modulus`) and either more
+        accurate than the iteration's bracket (which covers the failed trial points,
+        :func:`~nsm_continuation.core.roots.illinois`) or away from it by more than both
+        accuracies (the corrector's noise misled the iteration), the interpolated zero is the
+        event (``data['interpolated']``;
         ``data['iteration_offset']``: how far the iteration's location was). None through a
         pole (the Jacobian blows up, e.g. like ``1/|v|`` as an impact's velocity vanishes at a
         grazing: no second branch crosses) or off the step's arc (counted in
@@ -195,7 +197,7 @@ class EventLocator(EnginePart):
             sig, b.s - a.s, lambda x: self.engine.point_at(a, b, x, tests=False, floquet=False),
             det, float(np.sign(a.bordered_det)), min_half_width=8.0 * (max(failed) - min(failed)))
         if z is not None and z.accuracy <= self.settings.multiplier_event_tol \
-                and abs(z.sigma - sig) > max(w, z.accuracy):
+                and (z.accuracy < w or abs(z.sigma - sig) > max(w, z.accuracy)):
             p = self.engine.analyse(z.y, z.tangent, a.s + z.sigma)
             w = max(z.accuracy, self.settings.event_tol)
             data.update(interpolated=True, iteration_offset=float(abs(z.sigma - sig)))
