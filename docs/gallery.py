@@ -97,6 +97,15 @@ PAPER: dict[str, tuple[str, str]] = {
     "ndof_hybrid_period_doubling": ("none (beyond the paper: two impacts per period)",
                                     "the period-2 families born at the period doublings of "
                                     "branch 1"),
+    "ndof_hybrid_multi_impact": ("none (beyond the paper: several impacts per period)",
+                                 "branch 1 with the five period-2 families born at its period "
+                                 "doublings (docs/multi_impact_families.md)"),
+    "ndof_hybrid_internal_resonance": ("none (beyond the paper: an internal resonance)",
+                                       "the period-3 family born where branch 1's multipliers "
+                                       "pass exp(2 pi i / 3) (docs/internal_resonances.md)"),
+    "ndof_two_walls_modes": ("none (beyond the paper: two contacts)",
+                             "modes 1 and 2 of the chain with its last mass between two walls "
+                             "(docs/several_contacts.md)"),
     "ndof_fig3_2_fep": (f"{LEGRAND}, Fig. 3.2",
                         "admissible (thick) and phantom (thin grey) spectrum, linear "
                         "frequencies and subharmonics"),
