@@ -194,7 +194,7 @@ class LocatedCurvePresentation(Presentation):
         """The point of the curve at the base run's value of the continued parameter (the
         codimension-one point it was started from; the curve's arclength starts at one of its
         ends)."""
-        value = getattr(self.problem, "start_value", None)
+        value = self.problem.start_value if isinstance(self.problem, LocatedCurve) else None
         if value is None or not branch.points:
             return super().start_point(branch)
         i = self.problem.variables.index(self.problem.parameter)

@@ -74,6 +74,8 @@ BASE_SOURCES: dict[str, tuple[str, dict[str, Any]]] = {
     "two_sided_oscillator": ("two_sided_oscillator.yaml", {}),
     "impact_damper": ("impact_damper.yaml", {}),
     "ndof_impact_hybrid": ("ndof_hybrid_branch1.yaml", {"continuation": {"max_points": 2}}),
+    "ndof_two_walls": ("ndof_two_walls_modes.yaml",
+                       {"start": [{"omega": 1.45}], "continuation": {"max_points": 2}}),
 }
 #: problems whose runs are cheap enough to fuzz ``run`` as well as ``validate`` with
 #: schema-generated parameters (the hybrid ones simulate a transient of random systems)
@@ -82,7 +84,7 @@ SCHEMA_RUN = {"ndof_impact", "wfem_bar", "bar_continuum"}
 MUTATION_EXAMPLES = {"ndof_impact": 60, "wfem_bar": 50, "bar_continuum": 50, "bouncing_ball": 30,
                      "impact_oscillator": 25, "two_mass_chain": 25, "double_pendulum": 20,
                      "wfem_forced_bar": 15, "two_sided_oscillator": 15, "impact_damper": 15,
-                     "ndof_impact_hybrid": 15}
+                     "ndof_impact_hybrid": 15, "ndof_two_walls": 10}
 SCHEMA_EXAMPLES = {"ndof_impact": 30, "wfem_bar": 30, "bar_continuum": 30}
 SCHEMA_EXAMPLES_VALIDATE_ONLY = 15
 #: parameters that set the size of a problem: kept from the base when a schema-generated
