@@ -134,14 +134,19 @@ class Simulator(Transitions, SurfaceContacts):
 
     def _step(self, key: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
         """One Runge-Kutta step of length ``dt`` from ``Y`` of the field ``key``: ``(Y_new,
-        err, err3, probe, field[, J])`` at the step end (views into one fresh array)."""
+        err, err3, probe, field[, J, dE])`` at the step end (views into one fresh array);
+        ``dE`` stacks the Jacobians ``d err / dY`` (and ``d err3 / dY``) of the error
+        estimates, shape ``(k, m, m)`` (None for an exact flow, which has no error)."""
         flat = self.calls.steps[key][1 if jac else 0].flat(Y, dt)
         m = Y.size
         npr = self._npr(key)
         i1, i2, i3, i4, i5 = m, 2 * m, 3 * m, 3 * m + npr, 4 * m + npr
         parts = (flat[:i1], flat[i1:i2], flat[i2:i3], flat[i3:i4], flat[i4:i5])
         if jac:
-            return (*parts, flat[i5:].reshape(m, m, order="F"))
+            i6 = i5 + m * m
+            dE = (flat[i6:].reshape(-1, m, m).transpose(0, 2, 1) if flat.size > i6
+                  else None)
+            return (*parts, flat[i5:i6].reshape(m, m, order="F"), dE)
         return parts
 
     def _step_probe(self, key: str, Y: np.ndarray, dt: float) -> np.ndarray:
@@ -168,6 +173,30 @@ class Simulator(Transitions, SurfaceContacts):
                 return 0.0
             return n5 / np.sqrt((n5 + 0.01 * n3) * len(scale))
         return float(np.sqrt(e5 @ e5 / len(scale)))
+
+    def _sens_err_norm(self, J: np.ndarray, Jstep: np.ndarray, dE: np.ndarray) -> float:
+        """The error norm of the sensitivities carried over one step, as CVODES' ``errconS``
+        controls them: the step integrates the variational equations along with the state, and
+        its error estimate for them is the estimate's own derivative, ``d err / dY @ J``
+        (the step of the variational equations is the derivative of the step); each column
+        (the sensitivity to one initial component or freed parameter) is scaled like the state
+        (``atol + rtol |J|``, CVODES' ``atolS = atol / pbar`` with ``pbar = 1``) and the step
+        is accepted only if the worst column passes. Without it the step size follows the
+        state alone, which on an orbit where the state has no local error (a constant radius)
+        leaves the transverse contraction ``dr/dr0`` to a step as long as the period."""
+        o = self.o
+        Jn = Jstep @ J
+        scale = o.atol + o.rtol * np.maximum(np.abs(J), np.abs(Jn))
+        EJ = dE @ J
+        e5 = EJ[0] / scale
+        n5 = np.einsum("ij,ij->j", e5, e5)
+        if EJ.shape[0] == 1:
+            # DOPRI5: the RMS norm of each column
+            return float(np.sqrt(np.max(n5) / e5.shape[0]))
+        # DOP853: each column's two estimates combined as in _err_norm (scipy's DOP853)
+        e3 = EJ[1] / scale
+        den = np.sqrt((n5 + 0.01 * np.einsum("ij,ij->j", e3, e3)) * e5.shape[0])
+        return float(np.max(np.divide(n5, den, out=np.zeros_like(n5), where=den > 0)))
 
     # ------------------------------------------------------------------ main loop
     def run(self, X0: np.ndarray, t_end: float | None = None,
@@ -295,9 +324,11 @@ class Simulator(Transitions, SurfaceContacts):
         jac = w.J is not None and w.mode not in EXTENDED and not exact
         outs = self._step(w.key, w.Y, dt, jac)
         if not jac:
-            outs = (*outs, None)
+            outs = (*outs, None, None)
         Yn = outs[0].ravel()
         en = self._err_norm(w.Y, Yn, outs[1], outs[2], dt)
+        if jac and self.o.sensitivity_error and outs[6] is not None and math.isfinite(en):
+            en = max(en, self._sens_err_norm(w.J, outs[5], outs[6]))
         if not math.isfinite(en) or not np.isfinite(Yn).all():
             w.h = dt * 0.2
             if w.h < 1e-15 * (1 + abs(w.t)):

@@ -444,9 +444,13 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         Yn, err, err3 = rk_step(f, Y, dt, method)
         fields = f(Yn)
         prn = ca.substitute([pr], [Y], [Yn])[0]
-        J = ca.jacobian(Yn, Y)
+        # the step's Jacobian and its error estimates' (the error of the variational
+        # equations integrated by the step, ``d err / dY @ J``: Simulator._sens_err_norm)
+        JE = ca.jacobian(ca.vertcat(Yn, err, err3) if method == "dop853"
+                         else ca.vertcat(Yn, err), Y)
         # one flat output per call (a single DM -> numpy conversion): Yn, err, err3, probe,
-        # field, vec(J) (column-major); split by Simulator._step. The third Function is the
+        # field, vec(J), vec(d err/dY)[, vec(d err3/dY)] (column-major); split by
+        # Simulator._step. The third Function is the
         # probe alone (the event iterations of Simulator._refine need nothing else; 15 % fewer
         # instructions than the whole step). Common-subexpression elimination (``cse``) would
         # save another 5-13 %, but it costs 0.3 s per build, as much as it saves in the
@@ -454,7 +458,9 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         steps[key] = (
             ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
             ca.Function(f"stepJ_{key}", [Y, dt],
-                        [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
+                        [ca.vertcat(Yn, err, err3, prn, fields,
+                                    *(ca.vec(JE[k:k + Y.numel(), :])
+                                      for k in range(0, JE.size1(), Y.numel())))]),
             ca.Function(f"stepP_{key}", [Y, dt], [prn]),
         )
     return fF, steps, probe_field, ext
