@@ -10,9 +10,8 @@ tight-tolerance reference of ``benchmarks/README.md`` (sec. 6.1 orbit, DOP853 at
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
