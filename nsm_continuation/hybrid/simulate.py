@@ -34,7 +34,13 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 ``d tau = -(g_x J) / (g_x F)``; each event map ``E`` (impact ``R``, chatter map ``Q``, time jump
 ``q``) contributes ``J <- E_x J``, ``J_t <- J_t + e_x J``. This is the chain (40) of flows and
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
-equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
+equivalence); with a fixed end time the last correction is ``J <- J - F J_t``. The step error
+test covers ``J`` as well as the state (CVODES' ``errconS``, :meth:`Simulator._sens_err_norm`):
+the error estimate of the variational equations integrated by a step is the derivative of the
+step's own estimate, ``d err/dY @ J``; without it an orbit on which the state has no local
+error (a constant amplitude) is crossed in a few long steps that integrate the transverse
+contraction, and so the multipliers, far less accurately than the state
+(``tests/hybrid/test_multiplier_error_control.py``).
 
 **Exact flows** (:mod:`.linear_flow`, ``integrator: {method: exact | auto}``). A field whose
 steps are an exact flow (the free flight of a system linear between events) has no integration

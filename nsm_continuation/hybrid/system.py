@@ -404,7 +404,8 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
                     free_flight: bool = True) -> tuple[Any, ...]:
     """The fields ``F``, ``F'_i`` of each surface ``i`` (``sticking[i] = (F'_i, v_i)``) and the
     scaled extended field of sec. 4.3, eq. (44) (``(X, h, u)``, ``h' = v_i/u``, ``u' = 0``), with
-    one Runge-Kutta step of each and its exact Jacobian, each with its probe (the blocks
+    one Runge-Kutta step of each and its exact Jacobian (and its error estimates' Jacobians),
+    each with its probe (the blocks
     ``(H, v, a, jerk)`` of every surface in the order of :func:`probe_layout`):
     ``(fF, steps, probe_field, ext)``; ``probe_field[key]`` gives the probe and the field of
     ``key`` at a state in one call; ``ext[i] = (fFs_i, fFe_i, probe_e_i, Xe)``. While sticking
