@@ -142,7 +142,7 @@ class Simulator(Transitions, SurfaceContacts):
         """One Runge-Kutta step of length ``dt`` from ``Y`` of the field ``key``: ``(Y_new,
         err, err3, probe, field[, J, dE])`` at the step end (views into one fresh array);
         ``dE`` stacks the Jacobians ``d err / dY`` (and ``d err3 / dY``) of the error
-        estimates, shape ``(k, m, m)`` (None for an exact flow, which has no error)."""
+        estimates, shape ``(k m, m)`` (None for an exact flow, which has no error)."""
         flat = self.calls.steps[key][1 if jac else 0].flat(Y, dt)
         m = Y.size
         npr = self._npr(key)
@@ -150,8 +150,7 @@ class Simulator(Transitions, SurfaceContacts):
         parts = (flat[:i1], flat[i1:i2], flat[i2:i3], flat[i3:i4], flat[i4:i5])
         if jac:
             i6 = i5 + m * m
-            dE = (flat[i6:].reshape(-1, m, m).transpose(0, 2, 1) if flat.size > i6
-                  else None)
+            dE = flat[i6:].reshape(-1, m, order="F") if flat.size > i6 else None
             return (*parts, flat[i5:i6].reshape(m, m, order="F"), dE)
         return parts
 
@@ -191,18 +190,21 @@ class Simulator(Transitions, SurfaceContacts):
         state alone, which on an orbit where the state has no local error (a constant radius)
         leaves the transverse contraction ``dr/dr0`` to a step as long as the period."""
         o = self.o
-        Jn = Jstep @ J
-        scale = o.atol + o.rtol * np.maximum(np.abs(J), np.abs(Jn))
-        EJ = dE @ J
-        e5 = EJ[0] / scale
-        n5 = np.einsum("ij,ij->j", e5, e5)
-        if EJ.shape[0] == 1:
+        scale = np.abs(J)
+        np.maximum(scale, np.abs(Jstep @ J), out=scale)
+        scale *= o.rtol
+        scale += o.atol
+        m = J.shape[0]
+        EJ = (dE @ J).reshape(-1, m, J.shape[1])
+        EJ /= scale
+        sq = np.square(EJ, out=EJ).sum(axis=1)      # per estimate and column
+        if sq.shape[0] == 1:
             # DOPRI5: the RMS norm of each column
-            return float(np.sqrt(np.max(n5) / e5.shape[0]))
-        # DOP853: each column's two estimates combined as in _err_norm (scipy's DOP853)
-        e3 = EJ[1] / scale
-        den = np.sqrt((n5 + 0.01 * np.einsum("ij,ij->j", e3, e3)) * e5.shape[0])
-        return float(np.max(np.divide(n5, den, out=np.zeros_like(n5), where=den > 0)))
+            return math.sqrt(float(sq.max()) / m)
+        # DOP853: each column's two estimates combined as in _err_norm (scipy's DOP853); a
+        # column whose both estimates vanish has norm 0
+        n5 = sq[0]
+        return float(np.max(n5 / np.sqrt(np.maximum(n5 + 0.01 * sq[1], 1e-300) * m)))
 
     # ------------------------------------------------------------------ main loop
     def run(self, X0: np.ndarray, t_end: float | None = None,

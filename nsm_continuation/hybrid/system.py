@@ -450,7 +450,7 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         JE = ca.jacobian(ca.vertcat(Yn, err, err3) if method == "dop853"
                          else ca.vertcat(Yn, err), Y)
         # one flat output per call (a single DM -> numpy conversion): Yn, err, err3, probe,
-        # field, vec(J), vec(d err/dY)[, vec(d err3/dY)] (column-major); split by
+        # field, vec(J), vec(d (err[, err3]) / dY) (column-major); split by
         # Simulator._step. The third Function is the
         # probe alone (the event iterations of Simulator._refine need nothing else; 15 % fewer
         # instructions than the whole step). Common-subexpression elimination (``cse``) would
@@ -460,8 +460,7 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
             ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
             ca.Function(f"stepJ_{key}", [Y, dt],
                         [ca.vertcat(Yn, err, err3, prn, fields,
-                                    *(ca.vec(JE[k:k + Y.numel(), :])
-                                      for k in range(0, JE.size1(), Y.numel())))]),
+                                    ca.vec(JE[:Y.numel(), :]), ca.vec(JE[Y.numel():, :]))]),
             ca.Function(f"stepP_{key}", [Y, dt], [prn]),
         )
     return fF, steps, probe_field, ext

@@ -118,7 +118,9 @@ def test_step_jacobian_equals_central_differences(compiled, key: str) -> None:
     h = 1e-6
     for dt_, rows in ((dt, 1), (0.2, 3)):
         flat = calls.steps[key][1].flat(Y, dt_)[4 * m + npr:]
-        blocks = [flat[k:k + m * m].reshape(m, m, order="F") for k in range(0, flat.size, m * m)]
+        dE = flat[m * m:].reshape(-1, m, order="F")
+        blocks = [flat[:m * m].reshape(m, m, order="F"), *(dE[k:k + m]
+                                                           for k in range(0, dE.shape[0], m))]
         assert len(blocks) == (3 if c.method == "dop853" else 2)
         for j in range(m):
             d = np.zeros(m)
