@@ -15,7 +15,10 @@ by Newton to a period-1 orbit (at some frequencies the steady state is not perio
 the wall); from that orbit both paths continue in omega over ``[omega_0, omega_0 + WINDOW]``
 with the same settings (``max_points``, steps, ``newton_tol 1e-9``, stability and bifurcation
 detection on). Time per point = wall time of ``nsm.continuation`` / points on the branch (both
-paths find the same points: the largest difference of their section states is printed). The
+paths find the same points: the largest difference of their section states is printed); also
+in CPU time of the process (the cores are shared: wall time counts the other jobs' turns), and
+the marginal cost of a point, the difference to a two-point continuation of the same start
+per extra point (without the run's fixed setup: case validation, the problem registry). The
 start orbits of the sizes in ``--accuracy`` are also solved by DOP853 at ``rtol = 1e-13``:
 the distance of each path's section state to it is printed. The
 Runge-Kutta path is skipped above ``--rk-max`` (default 40: at N = 200 its compile alone takes
@@ -134,23 +137,38 @@ def start_orbit(n: int) -> tuple[float, np.ndarray] | None:
     return None
 
 
-def continue_chain(n: int, method: str, omega0: float, y: np.ndarray, points: int
-                   ) -> dict[str, Any]:
-    """One continuation by ``method``: wall time (build excluded), points, section states,
-    events."""
-    t0 = time.perf_counter()
-    pb = ForcedChain({"n": n, "omega": omega0, "integrator": {"method": method}})
-    build = time.perf_counter() - t0
-    t0 = time.perf_counter()
+def _continue(pb: ForcedChain, y: np.ndarray, omega0: float, points: int
+              ) -> tuple[float, float, Any]:
+    """Wall and CPU time of one continuation of ``pb`` from ``y`` over the window, and its
+    result."""
+    t0, c0 = time.perf_counter(), time.process_time()
     res = nsm.continuation(pb, y.copy(), parameter="omega", min=omega0 - 1e-9,
                            max=omega0 + WINDOW, max_points=points,
                            step={"initial": WINDOW / points, "max": 2 * WINDOW / points},
                            newton_tol=1e-9)
-    wall = time.perf_counter() - t0
+    return time.perf_counter() - t0, time.process_time() - c0, res
+
+
+def continue_chain(n: int, method: str, omega0: float, y: np.ndarray, points: int
+                   ) -> dict[str, Any]:
+    """One continuation by ``method``: wall time (build excluded), points, section states,
+    events; and the marginal cost of a point (``marginal``, ``cpu_marginal``): the difference
+    to a two-point continuation of the same start, per extra point (what a point costs
+    without the run's fixed setup: case validation, the problem registry, the first
+    simulations)."""
+    t0 = time.perf_counter()
+    pb = ForcedChain({"n": n, "omega": omega0, "integrator": {"method": method}})
+    build = time.perf_counter() - t0
+    wall2, cpu2, res2 = _continue(pb, y, omega0, 2)
+    wall, cpu, res = _continue(pb, y, omega0, points)
     br = res.branches[0]
-    Y = np.column_stack([br[f"y_{v}"] for v in pb.variables]) if len(br["omega"]) else None
+    npts, npts2 = len(br["omega"]), len(res2.branches[0]["omega"])
+    extra = max(1, npts - npts2)
+    Y = np.column_stack([br[f"y_{v}"] for v in pb.variables]) if npts else None
     return {"flow": pb.shooting.c.flow, "build": build, "wall": wall,
-            "points": len(br["omega"]), "per_point": wall / max(1, len(br["omega"])),
+            "points": npts, "per_point": wall / max(1, npts),
+            "cpu_per_point": cpu / max(1, npts),
+            "marginal": (wall - wall2) / extra, "cpu_marginal": (cpu - cpu2) / extra,
             "y": Y, "events": [(e.kind, e.parameter) for e in res.events]}
 
 
@@ -183,21 +201,22 @@ def accuracy(n: int, omega0: float, y: np.ndarray) -> tuple[float, float]:
 
 
 def chart(rows: list[dict[str, Any]], out: Path) -> None:
-    """Time per point against N, log-log, both paths."""
+    """CPU time per point (marginal) against N, log-log, both paths: on shared cores the wall
+    time counts the other jobs' turns, the process's CPU time does not."""
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     for method, style in (("dop853", "o-"), ("exact", "s-")):
-        pts = [(r["N"], r[method]["per_point"]) for r in rows if method in r]
+        pts = [(r["N"], r[method]["cpu_marginal"]) for r in rows if method in r]
         if pts:
             x, y = zip(*pts, strict=True)
             label = "Runge-Kutta (DOP853, rtol 1e-10)" if method == "dop853" else "exact flow"
             ax.loglog(x, y, style, label=label)
     for r in rows:
         if "dop853" in r and "exact" in r:
-            ratio = r["dop853"]["per_point"] / r["exact"]["per_point"]
-            ax.annotate(f"{ratio:.1f}x", (r["N"], r["exact"]["per_point"]),
+            ratio = r["dop853"]["cpu_marginal"] / r["exact"]["cpu_marginal"]
+            ax.annotate(f"{ratio:.1f}x", (r["N"], r["exact"]["cpu_marginal"]),
                         textcoords="offset points", xytext=(4, -12), fontsize=8)
     ax.set_xlabel("N (masses)")
-    ax.set_ylabel("wall time per continuation point [s]")
+    ax.set_ylabel("CPU time per continuation point [s]")
     ax.set_title("Forced N-mass chain with a wall: cost per point")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
@@ -238,7 +257,8 @@ def main() -> None:
             row[method] = continue_chain(n, method, omega0, y, args.points)
             r = row[method]
             print(f"N = {n:4d} {method:7s} omega0 {omega0:.2f}: {r['points']} points, "
-                  f"{r['per_point']:.4f} s/point (build {r['build']:.1f} s), "
+                  f"{r['per_point']:.4f} s/point (CPU {r['cpu_per_point']:.4f}; marginal "
+                  f"{r['marginal']:.4f}, CPU {r['cpu_marginal']:.4f}; build {r['build']:.1f} s), "
                   f"events {[k for k, _ in r['events']]}")
         if n in args.accuracy:
             ea, eb = accuracy(n, omega0, y)
@@ -248,7 +268,10 @@ def main() -> None:
             a, b = row["exact"], row["dop853"]
             same = a["y"] is not None and b["y"] is not None and a["y"].shape == b["y"].shape
             diff = float(np.max(np.abs(a["y"] - b["y"]))) if same else float("nan")
-            print(f"           ratio RK / exact {b['per_point'] / a['per_point']:.1f}x; "
+            print(f"           ratio RK / exact {b['per_point'] / a['per_point']:.1f}x "
+                  f"(CPU {b['cpu_per_point'] / a['cpu_per_point']:.1f}x; marginal "
+                  f"{b['marginal'] / a['marginal']:.1f}x, CPU "
+                  f"{b['cpu_marginal'] / a['cpu_marginal']:.1f}x); "
                   f"section states: max difference {diff:.1e}; "
                   f"same events: {[k for k, _ in a['events']] == [k for k, _ in b['events']]}")
         rows.append(row)

@@ -5,12 +5,17 @@
     python docs/gallery.py --runs DIR           # the figures of runs already in DIR/<case>
     python docs/gallery.py --runs DIR --redraw  # the same runs drawn again by this code
 
+Drawn here (the first and the last form), every case's figures are checked: the command
+names each warning raised while drawing and each legend entry that names no drawn artist,
+and exits with status 1 if there is one.
+
 Each case is run with the command line (``nsm-continuation run yaml_cases/<case>.yaml``; the
 restart cases after the runs they start from, in a scratch folder whose ``runs/`` they read),
 or taken from ``DIR/<case>/`` (with ``--redraw``: read back, ``nsm.load``, and drawn again by
 the current figure code, without computing); each figure is copied at a reduced size (at most
 :data:`WIDTH` pixels wide, 256 colours) and listed under its case with one line on what it
-shows, next to the paper figure the case reproduces (:data:`PAPER`) and what to compare.
+shows, next to the paper figure it reproduces (:data:`FIGURE_PAPER`, else the case's,
+:data:`PAPER`) and what to compare.
 """
 
 from __future__ import annotations
@@ -21,9 +26,13 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import warnings
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import yaml
+from matplotlib.lines import Line2D
 from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,9 +83,10 @@ PAPER: dict[str, tuple[str, str]] = {
     "impact_oscillator_period_doubling": ("closed form (eq. O2)",
                                           "period doublings at 1.0949764 and 1.0144576"),
     "impact_oscillator_period_doubling_curve": ("closed form (eq. O2)",
-                                                "the computed arm of the U against the "
-                                                "closed form: the case stops before the tip "
-                                                "(see the report's termination)"),
+                                                "the computed U on the dashed closed form: "
+                                                "down the upper period doubling to the tip "
+                                                "at gap = -0.65177, back up the lower one to "
+                                                "omega = 1.0094 at gap = -0.3"),
     "ndof_default": (f"{LEGRAND}, Figs. 5.1 (branch 1), 6.1",
                      "the first nonlinear mode from its linear grazing to its nonlinear "
                      "grazing, stability changes"),
@@ -148,6 +158,28 @@ PAPER: dict[str, tuple[str, str]] = {
                                        "vertical backbones at the asymptotes"),
 }
 
+#: (case, file) -> (the paper figure this one figure reproduces, what to compare), where it
+#: is not the case's (:data:`PAPER`)
+FIGURE_PAPER: dict[tuple[str, str], tuple[str, str]] = {
+    ("ndof_fig3_1_wN", "fep.png"): (f"{LEGRAND}, Fig. 3.2 (the branches between the poles)",
+                                    "one branch through each pole k T_j"),
+    ("ndof_fig3_2_fep", "fep.png"): (f"{LEGRAND}, Fig. 3.2",
+                                     "admissible (thick; here black stable, red unstable) and "
+                                     "phantom (thin grey) spectrum, the linear frequencies "
+                                     "and subharmonics; the crowded window omega < 3.3 "
+                                     "zoomed below"),
+    ("ndof_fig3_2_fep", "w_N.png"): (f"{LEGRAND}, Fig. 3.1",
+                                     "zeros of w_N between its poles k T_j"),
+    ("ndof_fig6_1_stability", "multipliers_complex_plane.png"): (
+        f"{LEGRAND}, Fig. 6.2", "multipliers leaving the unit circle"),
+    ("ndof_fig6_1_stability", "fep.png"): (f"{LEGRAND}, Fig. 6.1",
+                                           "unstable (red) stretches of branch 1"),
+    ("pendulum_sec6_1_complete_to_incomplete", "orbits_time.png"): (
+        f"{NP}, Figs. 8(a), 8(c)", "the sticking interval (shaded) shrinking with e"),
+    ("pendulum_sec6_2_period_doubling", "multipliers_complex_plane.png"): (
+        f"{NP}, Fig. 9(d)", "a multiplier leaving through -1"),
+}
+
 #: file name (a regular expression) -> what the figure shows
 FIGURES: list[tuple[str, str]] = [
     (r"fep\.png", "the branch diagram (frequency-energy plot, frequency response, bifurcation "
@@ -213,16 +245,71 @@ def thumbnail(src: Path, dst: Path) -> None:
     im.quantize(256, method=Image.Quantize.FASTOCTREE).save(dst, optimize=True)
 
 
-def redraw(name: str, runs: Path, scratch: Path) -> Path:
+def unlisted(fig: Any) -> list[str]:
+    """The legend entries of ``fig`` that name no drawn artist, and those listed twice. An
+    entry names a drawn artist if an artist of the figure carries its label (a line with finite
+    data, a collection or a patch) or, for a key to a marker shape or a shading drawn in each
+    orbit's colour (an unlabelled proxy), if a drawn line has that marker or a collection or
+    patch is drawn."""
+    drawn, markers, shaded = set(), set(), False
+    for ax in fig.axes:
+        for a in [*ax.lines, *ax.collections, *ax.patches]:
+            if isinstance(a, Line2D):
+                if not np.isfinite(np.asarray(a.get_xdata(), dtype=float)).any():
+                    continue
+                markers.add(str(a.get_marker()))
+            else:
+                shaded = True
+            drawn.add(a.get_label())
+    out = []
+    for ax in fig.axes:
+        leg = ax.get_legend()
+        if leg is None:
+            continue
+        entries = [t.get_text() for t in leg.get_texts()]
+        for entry, handle in zip(entries, leg.legend_handles, strict=True):
+            if entry in drawn:
+                continue
+            key = (str(handle.get_marker()) in markers - {"None", ""}
+                   if isinstance(handle, Line2D) else shaded)
+            if not key:
+                out.append(f"{entry!r} (no artist)")
+        out += [f"{e!r} (listed twice)" for e in set(entries) if entries.count(e) > 1]
+    return out
+
+
+def redraw(name: str, runs: Path, scratch: Path) -> tuple[Path, list[str]]:
     """The run ``runs/<name>`` read back and its figures drawn again into ``scratch/<name>``
-    (the folder returned; ``runs`` is not written)."""
+    (the folder returned; ``runs`` is not written), in this process, with what is wrong with
+    them: every warning raised while drawing and every legend entry without its artist
+    (:func:`unlisted`)."""
+    from matplotlib.figure import Figure
+
     import nsm_continuation as nsm
+    from nsm_continuation.figures import process
     from nsm_continuation.figures.make import make_all
 
     out = scratch / name
     out.mkdir(parents=True, exist_ok=True)
-    make_all(nsm.load(runs / name).run_result, out)
-    return scratch
+    drawn: list[Any] = []
+    real = Figure.savefig
+
+    def keep(fig: Any, path: Any, **kw: Any) -> None:
+        drawn.append(fig)
+        real(fig, path, **kw)
+
+    res = nsm.load(runs / name).run_result
+    forks, process.FORKS, Figure.savefig = process.FORKS, False, keep
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            warnings.filterwarnings("ignore", category=DeprecationWarning)
+            make_all(res, out)
+    finally:
+        process.FORKS, Figure.savefig = forks, real
+    faults = [f"warning: {w.message}" for w in caught]
+    faults += [f"legend entry {e}" for fig in drawn for e in unlisted(fig)]
+    return scratch, faults
 
 
 def refresh(name: str, runs: Path) -> None:
@@ -255,7 +342,11 @@ def page() -> str:
             lines += ["(no figures yet: run `python docs/gallery.py " + name + "`)", ""]
         for png in pngs:
             lines += [f"![{name}/{png.name}](gallery/{name}/{png.name})", "",
-                      f"`{png.name}`: {caption(png.name)}.", ""]
+                      f"`{png.name}`: {caption(png.name)}."]
+            if (name, png.name) in FIGURE_PAPER:
+                fig_paper, fig_compare = FIGURE_PAPER[name, png.name]
+                lines[-1] += f" *Reproduces:* {fig_paper}. *Compare:* {fig_compare}."
+            lines.append("")
     return "\n".join(lines)
 
 
@@ -267,21 +358,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("cases", nargs="*", help="only these cases' figures (default: all)")
     args = ap.parse_args(argv)
     names = args.cases or cases()
-    if args.runs is None:
-        runs = run_all(names, Path(tempfile.mkdtemp(prefix="nsm_gallery_")))
+    if args.runs is None:  # run, then draw here: the drawing is checked
+        runs, args.redraw = run_all(names, Path(tempfile.mkdtemp(prefix="nsm_gallery_"))), True
     else:
         runs = args.runs
     OUT.mkdir(parents=True, exist_ok=True)
     scratch = Path(tempfile.mkdtemp(prefix="nsm_gallery_draw_")) if args.redraw else runs
+    faults: dict[str, list[str]] = {}
     for name in names:
         source = runs
         if args.redraw and (runs / name / "report.json").is_file():
             print(f"drawing {name}", flush=True)
-            source = redraw(name, runs, scratch)
+            source, faults[name] = redraw(name, runs, scratch)
         refresh(name, source)
     PAGE.write_text(page() + "\n")
     print(f"wrote {PAGE.relative_to(ROOT)} and {OUT.relative_to(ROOT)}/")
-    return 0
+    bad = {k: v for k, v in faults.items() if v}
+    for name, found in bad.items():
+        print(f"{name}: " + "; ".join(found), file=sys.stderr)
+    if faults:
+        print(f"{len(faults) - len(bad)} of {len(faults)} cases drawn without warnings, every "
+              "legend entry with its artist", flush=True)
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":

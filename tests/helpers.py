@@ -1,6 +1,7 @@
 """Plain helpers shared by the tests, imported as ``helpers`` (``tests/`` is on ``sys.path``:
 see ``tests/conftest.py``): where the repository's files are, a fresh interpreter, the
-distance of two multisets of multipliers, and the empty parameter model of toy problems.
+distance of two multisets of multipliers, the orbit of a conservative family at a frequency,
+and the empty parameter model of toy problems.
 
 Fixtures are in ``tests/conftest.py`` and in the ``conftest.py`` of each folder."""
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pydantic import BaseModel
@@ -37,6 +39,23 @@ def msd(x: np.ndarray, y: np.ndarray) -> float:
     cost = np.abs(np.asarray(x)[:, None] - np.asarray(y)[None, :])
     r, c = linear_sum_assignment(cost)
     return float(cost[r, c].max())
+
+
+def family_orbit(pb: Any, omega: float) -> tuple[np.ndarray, np.ndarray, Any]:
+    """The orbit of a conservative family (a ``ConservativeFamilyProblem``) at ``omega``:
+    Newton in ``(z, beta)`` from the problem's start at that frequency, its tangent along the
+    family and its Floquet data."""
+    (sp,) = pb.start_points({"omega": omega})
+    y = np.asarray(sp.y, dtype=float).copy()
+    for _ in range(6):
+        g, A = pb.evaluate_with_jacobian(y)
+        dy = np.linalg.solve(A[:, :-1], -g)
+        y[:-1] += dy
+        if np.max(np.abs(dy)) < 1e-13:
+            break
+    _, A = pb.evaluate_with_jacobian(y)
+    tangent = np.linalg.svd(A)[2][-1]
+    return y, tangent, pb.floquet(y, tangent)
 
 
 class NoParameters(BaseModel):

@@ -27,7 +27,12 @@ does exactly:
   the one nearest the prediction is the next point;
 * none in the window, or one farther from the prediction than a quarter of the step (another
   zero of the condition: the secant's error is ``O(h^2)``): the window is widened (x4, once),
-  then ``h`` is halved.
+  then ``h`` is halved;
+* a secant much longer than the step (a long step, then halvings, e.g. where a step overshot
+  the tip of a U) errs by its own turn, ``kappa h_s / 2`` (``kappa`` the curvature, ``h_s``
+  its length), so its prediction errs in proportion to ``h`` and halving does not help: a point
+  located within a few steps of the last one is then taken as the new secant's end, and the
+  step is predicted again along it (:meth:`CurveTracer._stale`).
 
 Fixing the parameter that moves most is what lets the curve go round its turns (the U-shaped
 period-doubling curve of the impact oscillator in ``(omega, gap)``:
@@ -126,6 +131,9 @@ WINDOW_GROWTH = 4.0
 WINDOW_WIDENINGS = 1
 #: largest distance of a located point from the secant prediction, relative to the step
 CONTINUITY = 0.25
+#: a secant is re-taken from the last point where the step falls below this fraction of its
+#: length (:meth:`CurveTracer._stale`)
+STALE = 0.25
 #: the first step is step.initial divided by this
 FIRST_STEP_FRACTION = 10.0
 #: points of each base continuation (both ways from the prediction)
@@ -150,12 +158,12 @@ class CodimOneCurve(Problem):
 BASE_SETTINGS = ("newton_tol", "derived_bounds", "step_initial")
 
 
-def _flat(values: dict[str, Any]) -> dict[str, Any]:
+def flat_parameters(values: dict[str, Any]) -> dict[str, Any]:
     """A nested mapping of parameters flattened to its leaves, each under its own key
     (``{"chain": {"stiffness": 4}}`` -> ``{"stiffness": 4}``)."""
     out: dict[str, Any] = {}
     for k, v in values.items():
-        out.update(_flat(v) if isinstance(v, dict) else {k: v})
+        out.update(flat_parameters(v) if isinstance(v, dict) else {k: v})
     return out
 
 
@@ -186,7 +194,7 @@ class LocatedCurvePresentation(Presentation):
         """The point of the curve at the base run's value of the continued parameter (the
         codimension-one point it was started from; the curve's arclength starts at one of its
         ends)."""
-        value = _flat(self.problem.base.params.model_dump()).get(self.problem.parameter)
+        value = getattr(self.problem, "start_value", None)
         if value is None or not branch.points:
             return super().start_point(branch)
         i = self.problem.variables.index(self.problem.parameter)
@@ -242,6 +250,8 @@ class LocatedCurve(CodimOneCurve):
         # to the case's continued parameter, ``q``)
         probe.parameter_bounds(free, None, None)
         self.base = probe
+        #: the value of ``parameter`` the curve was started at (that of the base run)
+        self.start_value: float | None = flat_parameters(base.params.model_dump()).get(parameter)
         self.curve_kind = kind
         self.free = free
         self.parameter = parameter
@@ -472,20 +482,29 @@ class CurveTracer:
         return _Located(y, best.point, along), ""
 
     # ------------------------------------------------------------------ one direction
-    def _step(self, pts: list[_Located], sign: int, h: float
-              ) -> tuple[np.ndarray, str, bool]:
-        """The prediction of the next point at arclength ``h`` in the ``(p, q)`` plane, the
-        parameter to locate in, and whether the step ends on a bound of ``q``."""
+    @staticmethod
+    def _secant(a: _Located, b: _Located) -> np.ndarray:
+        """The secant from ``a`` to ``b``, of unit length in the ``(p, q)`` plane (of the
+        parameters only where the two are in different charts)."""
+        d = b.y - a.y
+        if a.point.chart != b.point.chart:
+            d[:-2] = 0.0  # unknowns in two charts: the secant of the parameters only
+        return d / float(np.linalg.norm(d[-2:]))
+
+    def _step(self, pts: list[_Located], sign: int, h: float,
+              secant: np.ndarray | None = None) -> tuple[np.ndarray, str, bool]:
+        """The prediction of the next point at arclength ``h`` in the ``(p, q)`` plane (along
+        ``secant``, default that of the last two points), the parameter to locate in, and
+        whether the step ends on a bound of ``q``."""
         st = self.settings
         last = pts[-1]
-        if len(pts) < 2:  # no secant yet: a step in q
+        if secant is not None:
+            d = secant
+        elif len(pts) < 2:  # no secant yet: a step in q
             d = np.zeros_like(last.y)
             d[-1] = sign
         else:
-            d = last.y - pts[-2].y
-            if last.point.chart != pts[-2].point.chart:
-                d[:-2] = 0.0  # unknowns in two charts: the secant of the parameters only
-            d = d / float(np.linalg.norm(d[-2:]))
+            d = self._secant(pts[-2], last)
         y = last.y + h * d
         along = "p" if abs(d[-1]) >= abs(d[-2]) or not self.curve.can_swap else "q"
         edge = False
@@ -527,14 +546,35 @@ class CurveTracer:
         step = float(np.linalg.norm(y_pred[-2:] - last.y[-2:]))
         return float(np.linalg.norm(got.y[-2:] - y_pred[-2:])) <= CONTINUITY * step
 
+    @staticmethod
+    def _stale(pts: list[_Located], h: float, got: _Located) -> bool:
+        """Whether the secant of the last two points, not ``got``, is what is off: the step
+        ``h`` is less than ``STALE`` of the secant's own length and ``got`` lies within
+        ``h / CONTINUITY`` of the last point. The secant's direction then errs by
+        ``kappa h_s / 2`` (``kappa`` the curvature, ``h_s`` its length), so its prediction
+        at ``h`` errs by ``kappa h_s h / 2``: linear in ``h``, which halving ``h`` does not
+        reduce relative to the step (round the tip of a U-shaped curve, where ``kappa``
+        grows); another zero of the condition lies a finite distance away and is not
+        within a few steps of the last point once ``h`` is small."""
+        if len(pts) < 2:
+            return False
+        last = pts[-1]
+        base = float(np.linalg.norm(last.y[-2:] - pts[-2].y[-2:]))
+        near = float(np.linalg.norm(got.y[-2:] - last.y[-2:]))
+        return h < STALE * base and near <= h / CONTINUITY
+
     def _half(self, first: _Located, sign: int, width0: float) -> tuple[list[_Located], str]:
         st = self.settings
         pts = [first]
         # the first step has no secant to predict p: a tenth of step.initial, so that the
         # window (the base run's scale of p) holds the next point; steps grow from there
         h = st.step_initial / FIRST_STEP_FRACTION
+        #: the secant of the last point and a point located from it at a step well below
+        #: the last two points' distance (:meth:`_stale`), the prediction's direction until
+        #: the next point is accepted
+        fresh: np.ndarray | None = None
         while len(pts) < st.max_points:
-            y_pred, along, edge = self._step(pts, sign, h)
+            y_pred, along, edge = self._step(pts, sign, h, fresh)
             last = pts[-1]
             if edge and abs(y_pred[-1] - last.y[-1]) <= 1e-14 * (1.0 + abs(last.y[-1])):
                 return pts, f"bound reached: {self.curve.parameter}"
@@ -549,6 +589,10 @@ class CurveTracer:
                     break
                 width *= WINDOW_GROWTH
             if got is not None and len(pts) >= 2 and not self._continues(last, y_pred, got):
+                if fresh is None and self._stale(pts, h, got):
+                    # predict again along the secant to the point found, at the same step
+                    fresh = self._secant(last, got)
+                    continue
                 got, why = None, (f"the {self.curve.curve_kind} located at "
                                   f"{self.curve.parameter} = {got.y[-1]:.10g} is off the "
                                   "secant prediction (another zero of its condition)")
@@ -571,6 +615,7 @@ class CurveTracer:
                 return pts, f"bound reached: {self.curve.parameter}" + (
                     "" if got is not None else f" (the point on it not located: {why})")
             pts.append(self._rechart(got))
+            fresh = None
             if self.progress is not None:
                 self.progress(1)
             if edge:
@@ -669,4 +714,4 @@ class CurveTracer:
 
 __all__ = ["MULTIPLIER_KINDS", "CodimOneCurve", "CurveTracer",
            "LocatedCurve", "condition_meaning", "curve_kind_refusal", "curve_kinds",
-           "monitor_kinds"]
+           "flat_parameters", "monitor_kinds"]

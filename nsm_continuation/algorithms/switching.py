@@ -43,6 +43,22 @@ then a corrector with a step condition) and BifurcationKit's branch switching at
 points of periodic orbits. The family is continued away from the period doubling, along the
 secant from it (its other half is the same orbits shifted by ``k`` periods), unless
 ``start.direction`` says otherwise.
+
+**The start must be one the engine can correct.** The switched branch's first point is
+corrected once more by the engine on its own condition (:class:`~.base.TangentStart`: the
+secant ``s`` from the bifurcation point, ``s . (y - y0) = 0``). Near the bifurcation
+``[G_y; s^T]`` is nearly singular (both branches' directions are nearly in the kernel of
+``G_y``: its smallest singular value grows like the distance), so the Newton step made of the
+residual's noise (rounding, an integrator's tolerance) is that noise over the distance, and
+within some distance it exceeds the corrector's step tolerance at any residual. The 5-dof
+chain's period-2 families born at ``omega = 1.5386`` and ``1.4884`` are flat in the frequency
+(no amplitude resolves their parameter offset, so the scan falls back to a small amplitude):
+``2.5e-6`` from the flip at ``1.5386``, ``sigma_min = 1.3e-6`` and the steps are ``1e-10 ..
+1e-9`` against the tolerance ``2.5e-11`` at a residual of ``1.6e-14``. The scan therefore
+keeps only solutions whose start correction converges (:func:`start_converges`, the engine's
+own computation: the same point, condition and corrector) with a margin (one more step at most
+:data:`START_MARGIN` of the tolerance: where the noise's step is about the tolerance the
+correction converges by chance) and goes on to the next amplitude otherwise.
 """
 
 from __future__ import annotations
@@ -65,6 +81,9 @@ SINGULAR_RATIO = 1e-5
 #: amplitude whose parameter offset is this many times ``newton_tol (1 + |p|)``: below it the
 #: parameter along the flat family is corrector noise (measured: 3e-10 on the two-mass chain)
 PARAMETER_RESOLUTION = 1e2
+#: a switched branch's start is taken where one corrector step at the converged start is at
+#: most this fraction of the corrector's step tolerance (:func:`start_converges`)
+START_MARGIN = 0.1
 
 
 def null_vector(J: np.ndarray) -> np.ndarray:
@@ -124,6 +143,33 @@ def family_direction(J: np.ndarray, w: np.ndarray, ip: int) -> tuple[float, np.n
     if abs(wu) < 1e-4:
         return 1.0 / max(abs(wu), 1e-6), w
     return 1.0 / abs(wu), u / wu
+
+
+def start_converges(engine: ContinuationEngine, y: np.ndarray, yb: np.ndarray) -> str:
+    """Why the switched branch's start at ``y`` cannot be corrected on its own condition (the
+    secant from the bifurcation point ``yb``: :meth:`~.base.StartTangentEngine.correct_start`
+    runs the same Newton from the same point), or ``""`` where it converges (module
+    docstring: near the bifurcation the bordered Jacobian amplifies the residual's noise past
+    the step tolerance)."""
+    d = np.asarray(y, dtype=float) - yb
+    secant = d / np.linalg.norm(d)
+    y1, _, why = engine.correct(y, secant, y, 0.0)
+    if y1 is None:
+        return why
+    # converged with a margin: one more step from the converged point (the residual's noise
+    # over the bordered Jacobian's smallest singular value) is within START_MARGIN of the
+    # tolerance, so that the convergence is not by chance where that noise is the tolerance
+    try:
+        g, factor = engine.problem.residual_and_factor(y1, secant)
+        step = factor.solve(-np.append(g, secant @ (y1 - y)))
+    except (*NUMERICAL_ERRORS, np.linalg.LinAlgError) as exc:
+        return describe_error(exc)
+    size = float(np.linalg.norm(step, np.inf))
+    bound = START_MARGIN * engine.settings.newton_tol * (1.0 + float(np.linalg.norm(y1, np.inf)))
+    if not size <= bound:
+        return (f"the corrector's step at the converged start, {size:.2g}, is its noise over a "
+                f"nearly singular Jacobian (above {bound:.2g})")
+    return ""
 
 
 @dataclass
@@ -192,6 +238,10 @@ def switch_start(r: Switch, problem: Problem, settings: Any
             if abs(float(t1 @ d)) > 0.999 * dist / np.linalg.norm(t1):
                 tried.append(f"{eps:.2g}: the corrector fell back onto the arriving branch")
                 continue
+            why = start_converges(engine, y, yb)
+            if why:
+                tried.append(f"{eps:.2g}: too near the branch point to start from ({why})")
+                continue
             found = (y, eps, it)
             break
         try:
@@ -203,13 +253,18 @@ def switch_start(r: Switch, problem: Problem, settings: Any
             tried.append(f"{eps:.2g}: the solution is a period-{int(r.base.period_multiple())} "
                          "orbit again")
             continue
-        if found is None:
-            found = (y, eps, it)
         # the family is flat in the parameter at a period doubling (p - p_b ~ eps^2): go on
         # to an amplitude whose parameter offset the corrector resolves, so that the start's
         # tangent has the sign of the family's (else a fold is seen at the start)
-        if abs(y[ip] - yb[ip]) >= PARAMETER_RESOLUTION * tol * (1.0 + abs(yb[ip])):
+        resolved = abs(y[ip] - yb[ip]) >= PARAMETER_RESOLUTION * tol * (1.0 + abs(yb[ip]))
+        if found is None or resolved:  # a candidate start: one the engine can correct?
+            why = start_converges(engine, y, yb)
+            if why:
+                tried.append(f"{eps:.2g}: too near the period doubling to start from ({why})")
+                continue
+        if found is None or resolved:
             found = (y, eps, it)
+        if resolved:
             break
     if found is None:
         what = (f"period-{2 * int(r.base.period_multiple())} orbit" if pd else "other branch")
@@ -230,4 +285,4 @@ def switch_start(r: Switch, problem: Problem, settings: Any
 
 
 __all__ = ["AMPLITUDES", "Switch", "family_reach", "null_vector", "other_direction",
-           "switch_start"]
+           "start_converges", "switch_start"]

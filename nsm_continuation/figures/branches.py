@@ -36,7 +36,14 @@ from matplotlib.figure import Figure
 
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch
-from nsm_continuation.figures.events import Located, cluster_window, draw_located, drawable
+from nsm_continuation.figures.events import (
+    Located,
+    cluster_window,
+    declutter,
+    draw_located,
+    drawable,
+    markers_overlap,
+)
 from nsm_continuation.figures.events import located as located_events
 from nsm_continuation.figures.kit import (
     DIAGRAM_SIZE,
@@ -234,6 +241,20 @@ def _inset(zoom: Axes, res: Any, xk: str, yk: str, log: bool, events: list[Locat
     zoom.indicate_inset_zoom(ins, edgecolor="goldenrod")
 
 
+def _crowded_zoom(res: Any, xk: str, yk: str, log: bool, window: tuple[float, float],
+                  events: list[Located], depth: int = 2) -> bool:
+    """Whether markers overlap in the zoom over ``window`` and still in its inset (``depth``
+    levels) or where no inset can part them (a crowd wider than an inset): the crowd of
+    Legrand et al. 2017, Fig. 3.2 below omega = 3."""
+    inside = [e for e in events if window[0] <= e.x <= window[1]]
+    lim = _window_limits(res, xk, yk, window, inside, log)
+    if lim is None or not markers_overlap(inside, window, lim, log):
+        return False
+    inner = cluster_window(inside, window, lim, log)
+    return depth <= 1 or inner is None or _crowded_zoom(res, xk, yk, log, inner, inside,
+                                                        depth - 1)
+
+
 def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure:
     """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
     frequency-energy plot of Fig. 3.2), styled as the module docstring says, located events
@@ -257,6 +278,14 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
     y_range = (float(finite_y.min()), float(finite_y.max())) if finite_y.size else (0.0, 1.0)
     window = (cluster_window(events, x_range, y_range, log)
               if ax is None and not show.two_parameter else None)
+    unmarked: dict[str, int] = {}
+    if window is not None and _crowded_zoom(res, xk, yk, log, window, events):
+        # too crowded for a zoom: the events on phantom orbits and doubled rings left out
+        events, unmarked = declutter(events)
+        window = cluster_window(events, x_range, y_range, log)
+    if window is not None:  # no wider than the data and a margin for the markers
+        margin = 0.01 * (x_range[1] - x_range[0])
+        window = (max(window[0], x_range[0] - margin), min(window[1], x_range[1] + margin))
     extra = {"dpi": 130} if dpi else {}
     zoom = None
     if ax is None and window is not None:
@@ -276,12 +305,16 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
     ax.set_xlabel(xl)
     ax.set_ylabel(yl)
     ax.set_title(show.diagram_title)
-    if left:
-        ax.text(0.005, 0.005, f"{len(left)} event(s) outside the drawn range: see report.md",
-                transform=ax.transAxes, fontsize=7, color="0.35", va="bottom")
+    notes = [f"{len(left)} outside the drawn range"] if left else []
+    notes += [f"{n} {what}" for what, n in unmarked.items()]
+    if notes:  # under the legend, off the data
+        ax.text(1.01, 0.0, "events not marked\n(all in report.md):\n" + "\n".join(notes),
+                transform=ax.transAxes, fontsize=7, color="0.35", va="bottom", ha="left")
     if zoom is not None and window is not None:
-        ax.axvspan(*window, facecolor="none", edgecolor="goldenrod", lw=1.4, ls="--",
-                   zorder=1, label="window zoomed below")
+        xlim = ax.get_xlim()  # the window's frame within the drawn range
+        ax.axvspan(max(window[0], xlim[0]), min(window[1], xlim[1]), facecolor="none",
+                   edgecolor="goldenrod", lw=1.4, ls="--", zorder=1, label="window zoomed below")
+        ax.set_xlim(xlim)
         _draw_all(zoom, res, xk, yk, log, window, events)
         zoom.set_xlim(window)
         lim = _window_limits(res, xk, yk, window, events, log)
@@ -290,7 +323,8 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
         zoom.set_xlabel(xl)
         zoom.set_ylabel(yl)
         zoom.set_title(f"zoom: {xl} from {window[0]:.6g} to {window[1]:.6g}", fontsize=9)
-        _inset(zoom, res, xk, yk, log, events)
+        if not unmarked:  # else no inset parts the crowd (_crowded_zoom)
+            _inset(zoom, res, xk, yk, log, events)
     handles, labels = legend_entries([ax] if zoom is None else [ax, zoom])
     extra_handles = show.legend_handles()  # a plugin's own decorations (declared, not found)
     handles += extra_handles

@@ -36,6 +36,23 @@ class Located:
     style: EventStyle
     x: float
     y: float
+    #: on a phantom (not admissible) stretch of its branch: the branch's points on both sides
+    #: of the event (on its one side at an end of the branch) are not admissible
+    phantom: bool = False
+
+
+def on_phantom(br: Branch, s: float) -> bool:
+    """Whether the branch ``br`` is phantom on both sides of arclength ``s`` (on its one side
+    at an end): the nearest points before and after ``s`` are not admissible. The event's own
+    point is not asked (at a grazing its test is zero, to rounding either side)."""
+    ss = np.array([p.s for p in br.points], dtype=float)
+    tol = 1e-9 * (1.0 + float(np.max(np.abs(ss)))) if ss.size else 0.0
+    near = [int(np.argmax(np.where(ss < s - tol, ss, -np.inf))) if (ss < s - tol).any()
+            else None,
+            int(np.argmin(np.where(ss > s + tol, ss, np.inf))) if (ss > s + tol).any()
+            else None]
+    sides = [br.points[i] for i in near if i is not None]
+    return bool(sides) and not any(p.admissible for p in sides)
 
 
 def declared_styles(problem: Problem) -> dict[str, EventStyle | None]:
@@ -59,8 +76,26 @@ def located(problem: Problem, branches: Sequence[Branch], xk: str, yk: str,
             st = event_style(ev.kind, styles)
             if st is not None:
                 out.append(Located(ev.kind, st, float(ev.point.value(xk, pr.variables)),
-                                   float(ev.point.value(yk, pr.variables))))
+                                   float(ev.point.value(yk, pr.variables)),
+                                   on_phantom(br, ev.point.s)))
     return out
+
+
+def declutter(events: Sequence[Located]) -> tuple[list[Located], dict[str, int]]:
+    """The events a crowded diagram marks, and the counts of those it does not: the events on
+    phantom stretches of their branches (:attr:`Located.phantom`; Legrand et al. 2017,
+    Fig. 3.2, marks none there), and the hollow rings (stability changes) around a filled
+    marker at their point (the branch's line changes style there)."""
+    kept = [e for e in events if not e.phantom]
+    filled = [e for e in kept if e.style.filled]
+    ringed = [e for e in kept if not e.style.filled and any(
+        np.isclose(f.x, e.x, rtol=1e-9, atol=0.0) and np.isclose(f.y, e.y, rtol=1e-9, atol=0.0)
+        for f in filled)]
+    counts = {"on phantom orbits": len(events) - len(kept)}
+    for e in ringed:
+        name = f"{e.style.name}s at a marker\nof another kind"
+        counts[name] = counts.get(name, 0) + 1
+    return [e for e in kept if e not in ringed], {k: v for k, v in counts.items() if v}
 
 
 def drawable(events: Sequence[Located], y_max: float = np.inf, log: bool = False
@@ -111,6 +146,29 @@ def _fractions(v: np.ndarray, lo: float, hi: float, log: bool) -> np.ndarray:
     return (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
 
 
+def _overlapping(pts: Sequence[Located], x_range: tuple[float, float],
+                 y_range: tuple[float, float], ylog: bool) -> np.ndarray:
+    """For each of ``pts``, whether its marker overlaps another's (:data:`OVERLAP`, axes
+    fractions; two at one point, :data:`COINCIDE`, do not count: events located at one point
+    stay together in any zoom, the markers of the second kind drawn smaller instead)."""
+    if len(pts) < 2 or not x_range[1] > x_range[0]:
+        return np.zeros(len(pts), dtype=bool)
+    fx = _fractions(np.array([e.x for e in pts]), *x_range, False)
+    fy = _fractions(np.array([e.y for e in pts]), *y_range, ylog)
+    dx, dy = np.abs(fx[:, None] - fx[None, :]), np.abs(fy[:, None] - fy[None, :])
+    same = (dx < COINCIDE) & (dy < COINCIDE)
+    close = (dx < OVERLAP[0]) & (dy < OVERLAP[1]) & ~same
+    np.fill_diagonal(close, False)
+    return close.any(axis=1)
+
+
+def markers_overlap(events: Sequence[Located], x_range: tuple[float, float],
+                    y_range: tuple[float, float], ylog: bool = False) -> bool:
+    """Whether two filled markers of ``events`` overlap on axes over these ranges."""
+    return bool(_overlapping([e for e in events if e.style.filled], x_range, y_range,
+                             ylog).any())
+
+
 def cluster_window(events: Sequence[Located], x_range: tuple[float, float],
                    y_range: tuple[float, float], ylog: bool = False
                    ) -> tuple[float, float] | None:
@@ -121,20 +179,11 @@ def cluster_window(events: Sequence[Located], x_range: tuple[float, float],
     spans at most :data:`CROWD_SPAN` of the axis, padded by a third of its span (at least
     1 % of the axis). None when no markers overlap."""
     pts = [e for e in events if e.style.filled]
-    if len(pts) < 2 or not x_range[1] > x_range[0]:
+    overlapping = _overlapping(pts, x_range, y_range, ylog)
+    if not overlapping.any():
         return None
     x = np.array([e.x for e in pts])
     fx = _fractions(x, *x_range, False)
-    fy = _fractions(np.array([e.y for e in pts]), *y_range, ylog)
-    dx, dy = np.abs(fx[:, None] - fx[None, :]), np.abs(fy[:, None] - fy[None, :])
-    # events at one point (branches meeting there, two kinds located at one point) stay
-    # together in any zoom: the markers of the second kind are drawn smaller instead
-    same = (dx < COINCIDE) & (dy < COINCIDE)
-    close = (dx < OVERLAP[0]) & (dy < OVERLAP[1]) & ~same
-    np.fill_diagonal(close, False)
-    overlapping = close.any(axis=1)
-    if not overlapping.any():
-        return None
     order = np.argsort(fx)
     crowds: list[list[int]] = [[int(order[0])]]
     for a, b in zip(order, order[1:], strict=False):
@@ -158,5 +207,6 @@ def values_in(xs: Any, ys: Any, window: tuple[float, float]) -> np.ndarray:
     return ys[keep]
 
 
-__all__ = ["Located", "cluster_window", "declared_styles", "draw_events", "draw_located",
-           "drawable", "located", "values_in"]
+__all__ = ["Located", "cluster_window", "declared_styles", "declutter", "draw_events",
+           "draw_located", "drawable", "located", "markers_overlap", "on_phantom",
+           "values_in"]

@@ -173,7 +173,7 @@ def chain_returns(parts: list[SimResult]) -> SimResult:
         min_impact_velocity=float(min(r.min_impact_velocity for r in parts)),
         grazing_margin=float(min(r.grazing_margin for r in parts)),
         chatter_errors=[e for r in parts for e in r.chatter_errors], trajectory=None,
-        n_steps=int(sum(r.n_steps for r in parts)), ended_by=last.ended_by, extremes=ext,
+        n_steps=int(sum(r.n_steps for r in parts)), ended_by=last.ended_by, bounds=ext,
         grazing_margins=margins, grazing_surfaces=surfaces, surface_names=last.surface_names)
 
 

@@ -256,6 +256,9 @@ class ModalFlow:
         self._Zs = self._dZs = np.zeros((0, nd))
         self._forced4 = np.zeros(nd)
         self._size = self._size0
+        #: the dynamic components are the first ones (a mechanical system: ``q, qdot``, then
+        #: the clock): the state-transition block is a slice of the Jacobian
+        self._dyn_first = bool(np.array_equal(fld.dyn, np.arange(fld.dyn.size)))
         #: position of each component of ``X`` among the dynamic ones
         self.pos = np.full(fld.N, -1)
         self.pos[fld.dyn] = np.arange(nd)
@@ -386,18 +389,25 @@ class ModalFlow:
         if self._cell_of is xi:
             return self._cell
         x = Y[self.field.dyn]
-        m4 = float(np.max(self._absVS4 @ np.abs(xi) + self._forced4, initial=0.0))
+        m4 = float(np.max(self.fourth_bounds(Y), initial=0.0))
         size = float(np.max(np.abs(x), initial=0.0)) + self._size
         cell = self.h_growth if m4 == 0.0 else min(
             self.h_growth, (384.0 * HERMITE_TOL * size / m4) ** 0.25)
         self._cell_of, self._cell = xi, cell
         return cell
 
+    def fourth_bounds(self, Y: np.ndarray) -> np.ndarray:
+        """Bounds of ``|x^(4)|`` of each dynamic component along the flow from ``Y`` (over a
+        step no longer than ``h_growth``): ``sum_j w_j |v_j| |lambda_j|^4 |xi_j| + sum_k
+        (k omega)^4 |Z_k|`` (a mode with ``Re lambda > 0`` counted e-fold grown)."""
+        return self._absVS4 @ np.abs(self.modal(Y)[2]) + self._forced4
+
     def grid(self, Y: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The dynamic components and their rates at the times ``t`` from ``Y`` (rows), by
-        one matrix product."""
+        """The dynamic components and their rates at the equally spaced times ``t`` (from 0)
+        from ``Y`` (rows), by one matrix product."""
         omega, phase, xi = self.modal(Y)
-        E = np.exp(np.outer(t, self.lam_s))
+        E = modal_sums.powers(np.exp(t[1] * self.lam_s), t.size) if t.size > 1 else np.exp(
+            np.outer(t, self.lam_s))
         B = self._VS * xi
         vals = (E @ B.T).real + self.xp(phase + omega * t)
         rates = ((E * self.lam_s) @ B.T).real
@@ -448,7 +458,11 @@ class ModalFlow:
         if not jac:
             return Yn, None
         J = np.eye(fld.N)
-        J[np.ix_(dyn, dyn)] = self.phi(dt)
+        nd = dyn.size
+        if self._dyn_first:
+            J[:nd, :nd] = self.phi(dt)
+        else:
+            J[np.ix_(dyn, dyn)] = self.phi(dt)
         if ck is not None and self._k.size:
             we = self._w * e
             dxp0, dxp1 = self._xp_rate(phase), self._xp_rate(phase1)
@@ -480,6 +494,9 @@ class ExactStep:
         self._probe_field, self._probe = probe_field, probe
         self._q_key: tuple[float, ...] | None = None
         self._q: Any = None
+        #: the probe at the columns of a matrix of ``Q_SAMPLES + 2`` states (one CasADi call,
+        #: :func:`.modal_sums.clock_sum`), built on first use
+        self._probe_many: BufferedFunction | None = None
 
     def flat(self, Y: Any, dt: Any) -> np.ndarray:
         Y = np.asarray(Y, dtype=float).ravel()
@@ -491,6 +508,11 @@ class ExactStep:
         if J is not None:
             parts.append(J.ravel(order="F"))
         return np.concatenate(parts)
+
+    def jacobian(self, Y: np.ndarray, dt: float) -> np.ndarray:
+        """``dY(dt)/dY`` of the step of length ``dt`` from ``Y`` alone (the deferred
+        sensitivity product of :meth:`.simulate.Simulator._deferred`)."""
+        return self.flow.step(np.asarray(Y, dtype=float).ravel(), float(dt), True)[1]
 
     def max_step(self, Y: np.ndarray, watched: list[int],
                  section: tuple[int, float, int] | None = None,
@@ -509,14 +531,47 @@ class ExactStep:
             if flow.pos[section[0]] < 0:
                 return cell
             sec = (section[0], section[1])
+        q = self._clock_sum(Y)
+        if q is None:
+            return cell
+        return min(modal_sums.certified_length(flow, Y, watched, cell, q, sec, fired),
+                   flow.h_growth)
+
+    def _clock_sum(self, Y: np.ndarray) -> Any:
+        """:func:`.modal_sums.clock_sum` at the freed parameters of ``Y`` (kept until they
+        change)."""
         key = tuple(Y[self.n:].tolist())
         if key != self._q_key:
-            self._q = modal_sums.clock_sum(flow, Y, self._probe.flat)
+            if self._probe_many is None:
+                self._probe_many = BufferedFunction(
+                    self._probe.function.map(modal_sums.Q_SAMPLES + 2))
+            self._q = modal_sums.clock_sum(self.flow, Y, self._probe_many)
             self._q_key = key
-        if self._q is None:
-            return cell
-        return min(modal_sums.certified_length(flow, Y, watched, cell, self._q, sec, fired),
-                   flow.h_growth)
+        return self._q
+
+    def watched(self, Y: np.ndarray, dt: float, row: int) -> tuple[float, float] | None:
+        """Probe entry ``row`` and its time derivative after the step of length ``dt`` from
+        ``Y``, as the exponential-trigonometric sum of :mod:`.modal_sums` (no state, no CasADi
+        call: the event iterations of :meth:`.simulate.Simulator._refine`); None when the
+        probe is not affine in the state or its clock dependence no such sum."""
+        flow = self.flow
+        if flow.probe_modes is None:
+            return None
+        q = self._clock_sum(Y)
+        if q is None:
+            return None
+        omega, phase, xi = flow.modal(Y)
+        beta = flow.probe_modes[row] * xi
+        e = np.exp(flow.lam_s * dt)
+        be = beta * e
+        g = float(q[0][row]) + float(be.sum().real)
+        dg = float((be @ flow.lam_s).real)
+        orders = q[1]
+        if orders.size:
+            gam = q[2][:, row] * np.exp(1j * orders * (phase + omega * dt))
+            g += float(gam.sum().real)
+            dg += float((gam @ (1j * omega * orders)).real)
+        return g, dg
 
     def extremes(self, Y0: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """The extremes of the system's state components over the step of length ``dt`` from

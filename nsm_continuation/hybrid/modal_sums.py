@@ -48,32 +48,49 @@ def clock_sum(flow: ModalFlow, Y: np.ndarray, probe: Any) -> tuple[np.ndarray, n
     """``q(phi) = probe(x_p(phi), phi)`` (the watched functions on the particular solution, at
     the freed parameters of ``Y``) as ``(constant, orders k, coefficients gamma_k)`` (rows:
     harmonics), from ``Q_SAMPLES`` samples; None when they are not such a sum to rounding (a
-    clock dependence with higher harmonics: no certificate, short steps)."""
+    clock dependence with higher harmonics: no certificate, short steps). ``probe``: the
+    probe at the columns of a matrix of states given column-major (``Q_SAMPLES + 2`` of them
+    in one call: the samples and two checks)."""
     fld = flow.field
-    X = np.array(Y, dtype=float)
+    phases = np.append(2 * math.pi * np.arange(Q_SAMPLES) / Q_SAMPLES,
+                       [0.5772156649015329, 4.669201609102990])
+    X = np.repeat(np.asarray(Y, dtype=float)[:, None], phases.size, axis=1)
     if fld.clock is None:
-        X[fld.dyn] = flow.x0
-        rows = probe(X)
+        X[fld.dyn] = flow.x0[:, None]
+        rows = probe(X.ravel(order="F"))[:, 0]
         return rows, np.zeros(0, int), np.zeros((0, rows.size), complex)
-
-    def sample(phase: float) -> np.ndarray:
-        X[fld.dyn] = flow.xp(phase)
-        X[fld.clock] = phase
-        return probe(X)
-
-    phases = 2 * math.pi * np.arange(Q_SAMPLES) / Q_SAMPLES
-    vals = np.array([sample(p) for p in phases])
+    X[fld.dyn] = flow.xp(phases).T
+    X[fld.clock] = phases
+    allv = probe(X.ravel(order="F")).T                           # phases x functions
+    vals, checks = allv[:Q_SAMPLES], allv[Q_SAMPLES:]
     hat = np.fft.rfft(vals, axis=0) / Q_SAMPLES
     scale = 1.0 + float(np.max(np.abs(vals)))
     const = hat[0].real
     orders = np.arange(1, hat.shape[0] - 1)
     coef = 2.0 * hat[1:-1]
-    for p in (0.5772156649015329, 4.669201609102990):
-        model = const + (coef * np.exp(1j * orders * p)[:, None]).real.sum(axis=0)
-        if float(np.max(np.abs(sample(p) - model))) > 1e-10 * scale:
-            return None
+    model = const + (np.exp(1j * np.outer(phases[Q_SAMPLES:], orders)) @ coef).real
+    if float(np.max(np.abs(checks - model))) > 1e-10 * scale:
+        return None
     keep = np.max(np.abs(coef), axis=1) > 1e-14 * scale
     return const, orders[keep], coef[keep]
+
+
+def powers(z: np.ndarray, count: int) -> np.ndarray:
+    """Rows ``z^0, z^1, ..., z^(count - 1)`` (elementwise) by repeated doubling: ``e^{lambda
+    k h}`` on a grid of equal cells from ``e^{lambda h}`` in ``log2(count)`` products instead of
+    ``count`` complex exponentials (relative error about ``log2(count)`` roundings, far below
+    the margins the sums are used with)."""
+    out = np.empty((count, z.size), dtype=np.result_type(z, 1.0))
+    out[0] = 1.0
+    if count > 1:
+        out[1] = z
+    done, zk = 2, z * z
+    while done < count:
+        k = min(done, count - done)
+        np.multiply(out[:k], zk, out=out[done:done + k])
+        done += k
+        zk = zk * zk
+    return out
 
 
 def _bernstein_clear(g0: np.ndarray, m0: np.ndarray, g1: np.ndarray, m1: np.ndarray,
@@ -112,9 +129,9 @@ def certified_length(flow: ModalFlow, Y: np.ndarray, rows: list[int], cell: floa
     beta = modes * xi
     nf = beta.shape[0]
     t = cell * np.arange(MAX_CELLS + 1)
-    E = np.exp(np.outer(t, flow.lam_s))
-    g = (E @ beta.T).real + const
-    dg = ((E * flow.lam_s) @ beta.T).real
+    E = powers(np.exp(cell * flow.lam_s), MAX_CELLS + 1)
+    both = (E @ np.vstack([beta, beta * flow.lam_s]).T).real    # values, then slopes
+    g, dg = both[:, :nf] + const, both[:, nf:]
     absb = np.abs(beta)
     bound4 = absb @ flow.lam4_grown
     bound2 = absb @ flow.lam2_grown if fired else np.zeros(nf)
@@ -177,6 +194,19 @@ def grid_extremes(flow: ModalFlow, Y0: np.ndarray, dt: float, cell: float, n: in
     c2 = -3 * a - 2 * m0 + 3 * b - m1
     c3 = 2 * a + m0 - 2 * b + m1
     s = _slope_zero(m0, c2, c3)
+    # only the turns that may hold a component's extreme are evaluated on the true flow: the
+    # interpolant is within delta = w^4 / 384 max |x^(4)| of the component on every cell, so
+    # a turn (a maximum where the slope falls, a minimum where it rises) whose interpolated
+    # value is more than 2 delta short of the best turn or grid value of its component
+    # cannot hold the extreme
+    delta = w ** 4 / 384.0 * flow.fourth_bounds(Y0)[comps] * (1.0 + 1e-12)
+    up = m0 > 0
+    score = np.where(up, 1.0, -1.0) * (a + s * (m0 + s * (c2 + s * c3)))
+    best = np.column_stack([-vals.min(axis=0), vals.max(axis=0)])    # components x (min, max)
+    np.maximum.at(best, (comps, up.astype(int)), score)
+    keep = score >= best[comps, up.astype(int)] - 2.0 * delta - 1e-15 * np.abs(score)
+    cells, comps, a, b, m0, m1, c2, c3, s = (v[keep] for v in (cells, comps, a, b, m0, m1, c2,
+                                                               c3, s))
     curv = 2 * c2 + 6 * c3 * s
     times = t[cells] + s * w
     v, r = flow.components(Y0, times, dyn[comps])

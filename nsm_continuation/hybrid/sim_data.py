@@ -57,6 +57,11 @@ class SimOptions:
     record: bool = False
     #: validate r and W at every impact (sec. 2.3-2.4)
     validate: bool = True
+    #: chain the Runge-Kutta steps' sensitivities ``J <- J_step J`` by a sparse product
+    #: (True), a dense one (False), or by the rule of :mod:`.sparse_steps` (None: sparse for
+    #: large systems whose step Jacobian is sparse, dense below, so that small systems'
+    #: numbers stay those of the dense product)
+    sparse_products: bool | None = None
 
 
 @dataclass
@@ -88,9 +93,10 @@ class SimResult:
     trajectory: list[tuple[float, np.ndarray]] | None
     n_steps: int
     ended_by: str
-    #: ``(n, 2)``: minimum and maximum of each state component over the simulated trajectory
-    #: (step ends, events and the interior extrema of each step's cubic Hermite interpolant)
-    extremes: np.ndarray | None = None
+    #: ``(n, 2)``: minimum and maximum of each state component over the steps whose extremes
+    #: were found as they were taken (the Runge-Kutta steps, the step ends and the events);
+    #: :attr:`extremes` adds those of ``deferred_extremes``
+    bounds: np.ndarray | None = None
     #: signed grazing margin of every near approach (its ``H_min > 0``) and of every impact
     #: with ``a > 0`` (``-v^2 / (2a) < 0``: where the free flight continued through the wall
     #: would turn), in time order; each crosses zero where that approach becomes an impact
@@ -99,6 +105,28 @@ class SimResult:
     grazing_surfaces: list[int] = field(default_factory=list)
     #: the surfaces' names of a system with several (None: one surface)
     surface_names: list[str] | None = None
+    #: steps of an exact flow whose interior extremes are found when first asked for
+    #: (:attr:`extremes`): ``(extremes, Y0, dt)`` with ``extremes(Y0, dt) -> (lo, hi)``
+    #: (:meth:`.linear_flow.ExactStep.extremes`). A Newton iteration's simulations that no one
+    #: reports never pay for them.
+    deferred_extremes: list[tuple[Any, np.ndarray, float]] = field(default_factory=list,
+                                                                   repr=False)
+
+    @property
+    def extremes(self) -> np.ndarray | None:
+        """``(n, 2)``: minimum and maximum of each state component over the simulated
+        trajectory (step ends, events and the interior extrema of each step: of its cubic
+        Hermite interpolant for a Runge-Kutta step, :func:`.modal_sums.grid_extremes` for an
+        exact one), those of the deferred steps merged in on first use."""
+        if self.deferred_extremes and self.bounds is not None:
+            lo, hi = self.bounds[:, 0].copy(), self.bounds[:, 1].copy()
+            for extremes, Y0, dt in self.deferred_extremes:
+                a, b = extremes(Y0, dt)
+                np.minimum(lo, a, out=lo)
+                np.maximum(hi, b, out=hi)
+            self.bounds = np.column_stack([lo, hi])
+            self.deferred_extremes = []
+        return self.bounds
 
     def grazing_function(self, separation: float = 4.0) -> float:
         """The signed grazing margin closest to zero, a continuous function of the orbit that

@@ -48,10 +48,17 @@ error to control: it gives the length of its next step itself (as long as the wa
 and a section on a dynamic coordinate, are certified clear of zero, else one cell over which the
 cubic Hermite interpolants are accurate, :func:`.modal_sums.certified_length`), so its steps are
 not checked at the midpoint; it gives the extremes of the state over a step
-(:func:`.modal_sums.grid_extremes`); and since its steps compose exactly, the sensitivity product
-``J <- J_step J`` of its steps is deferred to the next event, where the Jacobian of the flow over
-their total time is one evaluation (:meth:`Simulator._deferred`). Runge-Kutta fields run as
-before, to the bit.
+(:func:`.modal_sums.grid_extremes`); its event iterations run on the watched function's modal
+sum (:meth:`.linear_flow.ExactStep.watched`); and since its steps compose exactly, the
+sensitivity product ``J <- J_step J`` of its steps is deferred to the next event, where the
+Jacobian of the flow over their total time is one evaluation (:meth:`Simulator._deferred`),
+and runs on through a maximum of ``H`` (transition I: no jump, the same field; the next event's
+time alone fixes the end). Runge-Kutta fields run as before, to the bit.
+
+**Extremes when asked for.** The values of the state at the turns inside a step (steps on the
+true flow, the exact flow's grid) are what the extremes of a result cost; they are left to
+:attr:`.sim_data.SimResult.extremes`, computed on first use (the reported orbit), not in the
+Newton iterations whose simulations nobody reports. The same values.
 
 **Work skipped, the same numbers** (``tests/hybrid/test_simulator_shortcuts_equal_plain_code.py,
 tests/hybrid/test_rk_step_functions_equal_stagewise_step.py,
@@ -70,6 +77,7 @@ are called through buffers bound once (:mod:`nsm_continuation.core.casadi_buffer
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from typing import Any
@@ -91,6 +99,7 @@ from nsm_continuation.hybrid.modes import (
     watches,
 )
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
+from nsm_continuation.hybrid.sparse_steps import SparseStep, sparse_steps
 from nsm_continuation.hybrid.surfaces import SurfaceContacts
 from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
@@ -124,6 +133,10 @@ class Simulator(Transitions, SurfaceContacts):
         #: length, extremes of their own, sensitivity products deferred to the next event
         self._exact = {k: fs[0] for k, fs in self.calls.steps.items()
                        if getattr(fs[0], "exact", False)}
+        #: the Runge-Kutta fields whose step sensitivities are chained by sparse products
+        #: (:mod:`.sparse_steps`), for the choice ``o.sparse_products`` they were found for
+        self._sparse: dict[str, SparseStep] = {}
+        self._sparse_choice: Any = "unset"
 
     # ------------------------------------------------------------------ helpers
     def _key(self, modes: list[str], active: int | None) -> str:
@@ -179,7 +192,7 @@ class Simulator(Transitions, SurfaceContacts):
             return n5 / np.sqrt((n5 + 0.01 * n3) * len(scale))
         return float(np.sqrt(e5 @ e5 / len(scale)))
 
-    def _sens_err_norm(self, J: np.ndarray, Jstep: np.ndarray, dE: np.ndarray) -> float:
+    def _sens_err_norm(self, J: np.ndarray, Jn: np.ndarray, dE: np.ndarray) -> float:
         """The error norm of the sensitivities carried over one step, as CVODES' ``errconS``
         controls them: the step integrates the variational equations along with the state, and
         its error estimate for them is the estimate's own derivative, ``d err / dY @ J``
@@ -191,16 +204,20 @@ class Simulator(Transitions, SurfaceContacts):
         leaves the transverse contraction ``dr/dr0`` to a step as long as the period."""
         o = self.o
         scale = np.abs(J)
-        np.maximum(scale, np.abs(Jstep @ J), out=scale)
+        np.maximum(scale, np.abs(Jn), out=scale)
         scale *= o.rtol
         scale += o.atol
         m = J.shape[0]
-        EJ = (dE @ J).reshape(-1, m, J.shape[1])
-        EJ /= scale
-        sq = np.square(EJ, out=EJ).sum(axis=1)      # per estimate and column
-        if sq.shape[0] == 1:
+        # one m x m product per estimate, as the chaining's own (a product twice as tall
+        # crosses BLAS's threading threshold at large m: milliseconds on shared cores)
+        sq = []
+        for k in range(0, dE.shape[0], m):
+            e = dE[k:k + m] @ J
+            e /= scale
+            sq.append(np.square(e, out=e).sum(axis=0))      # per column
+        if len(sq) == 1:
             # DOPRI5: the RMS norm of each column
-            return math.sqrt(float(sq.max()) / m)
+            return math.sqrt(float(sq[0].max()) / m)
         # DOP853: each column's two estimates combined as in _err_norm (scipy's DOP853); a
         # column whose both estimates vanish has norm 0
         n5 = sq[0]
@@ -318,8 +335,8 @@ class Simulator(Transitions, SurfaceContacts):
 
     def _attempt(self, w: _Walk, dt: float) -> tuple[Any, ...] | None:
         """One Runge-Kutta step of length ``dt`` under error control: its outputs
-        ``(Y_new, err, err3, probe, field, J or None, error norm)``, or None (rejected; ``w.h``
-        shrunk).
+        ``(Y_new, err, err3, probe, field, J or None, dE or None, J_step w.J or None, error
+        norm)``, or None (rejected; ``w.h`` shrunk).
 
         In a chattering flight (``s5``, ``s6``) nearly every step ends at an event (the turn of
         ``v``, the next impact), whose sensitivities come from the step to the event
@@ -335,8 +352,10 @@ class Simulator(Transitions, SurfaceContacts):
             outs = (*outs, None, None)
         Yn = outs[0].ravel()
         en = self._err_norm(w.Y, Yn, outs[1], outs[2], dt)
+        Jn = None
         if jac and self.o.sensitivity_error and outs[6] is not None and math.isfinite(en):
-            en = max(en, self._sens_err_norm(w.J, outs[5], outs[6]))
+            Jn = self._chain(w.key, outs[5], w.J)
+            en = max(en, self._sens_err_norm(w.J, Jn, outs[6]))
         if not math.isfinite(en) or not np.isfinite(Yn).all():
             w.h = dt * 0.2
             if w.h < 1e-15 * (1 + abs(w.t)):
@@ -350,7 +369,7 @@ class Simulator(Transitions, SurfaceContacts):
         if en < HERMITE_CHECK_BELOW and not exact and not self._hermite_trustworthy(w, dt, outs):
             w.h = dt * 0.25
             return None
-        return (*outs, en)
+        return (*outs, Jn, en)
 
     def _hermite_trustworthy(self, w: _Walk, dt: float, outs: tuple[Any, ...]) -> bool:
         """Whether the cubic Hermite interpolants of the watched functions over a step whose
@@ -413,8 +432,12 @@ class Simulator(Transitions, SurfaceContacts):
             _key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
             w.defer = (w.key, Y0, T + dt)
         elif w.J is not None:
-            Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
-            w.J = Jstep @ w.J
+            if outs[7] is not None:
+                # chained already for the sensitivities' error test (_attempt)
+                w.J = outs[7]
+            else:
+                Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
+                w.J = self._chain(w.key, Jstep, w.J)
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
         w.Y, w.pr, w.F = Yn, prn, Fn
         w.t += dt
@@ -432,10 +455,15 @@ class Simulator(Transitions, SurfaceContacts):
         value: the extremes are exact to about the integration tolerance."""
         exact = self._exact.get(w.key)
         if exact is not None:
-            # the exact flow's own, on a grid as fine as these interpolants need
-            lo, hi = exact.extremes(Y0, dt)
-            np.minimum(w.lo, lo, out=w.lo)
-            np.maximum(w.hi, hi, out=w.hi)
+            # the exact flow's own, on a grid as fine as these interpolants need, found when
+            # the result's extremes are first asked for (SimResult.extremes); a step that goes
+            # on from the end of the last one (no jump between: the flow composes) extends it
+            runs = w.deferred_extremes
+            if runs and w.extremes_end is Y0 and runs[-1][0] == exact.extremes:
+                runs[-1] = (exact.extremes, runs[-1][1], runs[-1][2] + dt)
+            else:
+                runs.append((exact.extremes, Y0, dt))
+            w.extremes_end = Y1
             return
         n = self.c.n
         a, b = Y0[:n], Y1[:n]
@@ -449,6 +477,20 @@ class Simulator(Transitions, SurfaceContacts):
                    if (f0 * fdt) * (f1 * fdt) < 0]
         if not turning:
             return
+        # the values at the turns need steps on the true flow: found when the result's
+        # extremes are first asked for (SimResult.extremes), not in every Newton iteration
+        w.deferred_extremes.append(
+            (functools.partial(self._turn_extremes, w.key, F0, Y1, F1, turning), Y0, dt))
+
+    def _turn_extremes(self, key: str, F0: np.ndarray, Y1: np.ndarray, F1: np.ndarray,
+                       turning: list[int], Y0: np.ndarray, dt: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """The extremes of the components ``turning`` inside the Runge-Kutta step of the field
+        ``key`` from ``Y0`` to ``Y1`` (:meth:`_extend_extremes`): ``(lo, hi)`` over the system's
+        components, infinite for the others."""
+        n = self.c.n
+        lo, hi = np.full(n, np.inf), np.full(n, -np.inf)
+        a, b = Y0[:n], Y1[:n]
         m0, m1 = F0[:n] * dt, F1[:n] * dt
         for i in turning:
             # p(s) = a + m0 s + c2 s^2 + c3 s^3 on [0, 1]; p'(s) = 0 between the ends
@@ -459,17 +501,18 @@ class Simulator(Transitions, SurfaceContacts):
             for r in roots:
                 if abs(r.imag) < 1e-14 and 0.0 < r.real < 1.0:
                     sr = r.real
-                    out = self._step(w.key, Y0, sr * dt, False)
+                    out = self._step(key, Y0, sr * dt, False)
                     curv = 2 * c2 + 6 * c3 * sr
                     if curv != 0.0:
                         # one Newton step on the true slope: the value is then exact to
                         # O(ds^4) instead of O(ds^2)
                         s1 = sr - float(out[4][i]) * dt / curv
                         if 0.0 < s1 < 1.0:
-                            out = self._step(w.key, Y0, s1 * dt, False)
+                            out = self._step(key, Y0, s1 * dt, False)
                     v = float(out[0][i])
-                    w.lo[i] = min(w.lo[i], v)
-                    w.hi[i] = max(w.hi[i], v)
+                    lo[i] = min(lo[i], v)
+                    hi[i] = max(hi[i], v)
+        return lo, hi
 
     def _fire(self, w: _Walk, dt: float, hit: tuple[float, str, int, int, int],
               section: tuple[int, float, int] | None) -> bool:
@@ -501,10 +544,17 @@ class Simulator(Transitions, SurfaceContacts):
                 name, idx, surface = "section", k, -1
                 tau, Ye, pre, Fe, Jstep = self._refine(key, Y, tau, tau * a0 / (a0 - a1),
                                                        name, idx, section)
-        if w.J is not None:
+        if w.J is not None and key in self._exact and name == "v" and self.c.m == 1 \
+                and w.modes[surface] == S1:
+            # transition I (a maximum of H): no jump, the same field on: the flow composes
+            # through it and the next event's time alone fixes the end (its event-time
+            # correction would cancel there), so the deferred product runs on
+            _key, Y0, T = w.defer if w.defer is not None else (key, Y, 0.0)
+            w.defer = (key, Y0, T + tau)
+        elif w.J is not None:
             if key in self._exact:
                 Jstep = self._deferred(w, tau)
-            Je = Jstep @ w.J
+            Je = Jstep @ w.J if key in self._exact else self._chain(key, Jstep, w.J)
             gx = self._gx(name, idx, Ye, surface)
             dtau = -(gx @ Je) / (gx @ Fe)
             w.J = Je + np.outer(Fe, dtau)
@@ -585,9 +635,25 @@ class Simulator(Transitions, SurfaceContacts):
             sticking_intervals=w.stick_iv, chatter_counts=w.chatter_counts, n_impacts=w.n_imp,
             min_impact_velocity=float(w.vmin), grazing_margin=float(w.graze),
             chatter_errors=w.chatter_errors, trajectory=w.traj, n_steps=w.n_steps,
-            ended_by=ended_by, extremes=np.column_stack([w.lo, w.hi]),
+            ended_by=ended_by, bounds=np.column_stack([w.lo, w.hi]),
+            deferred_extremes=w.deferred_extremes,
             grazing_margins=list(w.margins), grazing_surfaces=list(w.margin_surfaces),
             surface_names=None if self.c.m == 1 else [sf.name for sf in self.c.surfaces])
+
+    def _chain(self, key: str, Jstep: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """``J_step J``: the sensitivities chained through one step of the field ``key``, by a
+        sparse product for the fields of :mod:`.sparse_steps`, else dense."""
+        if self._sparse_choice != self.o.sparse_products:
+            self._sparse_choice = self.o.sparse_products
+            c = self.c
+            keys = [k for k in c.steps if k not in self._exact]
+            self._sparse = sparse_steps(
+                {k: c.steps[k] for k in keys},
+                {k: c.N + (2 if k.startswith("ext") else 0) for k in keys},
+                {k: 4 * (c.N + (2 if k.startswith("ext") else 0)) + self._npr(k)
+                 for k in keys}, self.o.sparse_products)
+        sparse = self._sparse.get(key)
+        return Jstep @ J if sparse is None else sparse.chain(Jstep, J)
 
     def _deferred(self, w: _Walk, tau: float) -> np.ndarray:
         """The Jacobian of an exact flow from the start of the steps deferred since the last
@@ -596,7 +662,7 @@ class Simulator(Transitions, SurfaceContacts):
         :mod:`.linear_flow`). Clears the deferral."""
         key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
         w.defer = None
-        return self._step(key, Y0, T + tau, True)[5]
+        return self._exact[key].jacobian(Y0, T + tau)
 
     def _gx(self, name: str, idx: int, Y: np.ndarray, surface: int) -> np.ndarray:
         """Gradient of the event function ``name`` of ``surface`` with respect to the
@@ -612,6 +678,34 @@ class Simulator(Transitions, SurfaceContacts):
             g[:N] = self.calls.surfaces[surface].grads(Y[:N])[row]
         return g
 
+    def _event_function(self, key: str, Y: np.ndarray, tau0: float, name: str, idx: int,
+                        section: tuple[int, float, int] | None) -> Any:
+        """``tau -> (g, g')``: the event function ``name`` (probe entry ``idx``, or the
+        section's coordinate minus its value) and its time derivative after a step of length
+        ``tau`` from ``Y`` of the field ``key``. Along an exact flow a probe entry is its
+        modal sum (:meth:`.linear_flow.ExactStep.watched`: the same closed form, without the
+        state and the probe's CasADi call) where there is one."""
+        exact = self._exact.get(key)
+        if exact is not None and name != "section" and exact.watched(Y, tau0, idx) is not None:
+            return lambda tau: exact.watched(Y, tau, idx)
+        if name == "section":
+            # the state and the field after the step
+            state = self.calls.steps[key][0].flat
+            idg = 3 * Y.size + self._npr(key) + idx
+            off = section[1] if section is not None else 0.0
+
+            def at_section(tau: float) -> tuple[float, float]:
+                flat = state(Y, tau)
+                return flat[idx] - off, flat[idg]
+            return at_section
+        # the probe after the step: the watched function and its time derivative
+        probe = self.calls.steps[key][2].flat
+
+        def watched(tau: float) -> tuple[float, float]:
+            flat = probe(Y, tau)
+            return flat[idx], flat[idx + 1]
+        return watched
+
     def _refine(self, key: str, Y: np.ndarray, dt: float, tau0: float, name: str, idx: int,
                 section: tuple[int, float, int] | None) -> tuple[Any, ...]:
         """Event time on the true flow: safeguarded Newton from the Hermite root ``tau0``.
@@ -621,17 +715,7 @@ class Simulator(Transitions, SurfaceContacts):
         derivative there. The Jacobian of an exact flow's step is left to the caller
         (:meth:`_deferred`)."""
         sens = self.o.sensitivities and key not in self._exact
-        m = Y.size
-        off = 0.0
-        if name == "section":
-            # the state and the field after the step
-            step = self.calls.steps[key][0].flat
-            ig, idg = idx, 3 * m + self._npr(key) + idx
-            off = section[1]
-        else:
-            # the probe after the step: the watched function and its time derivative
-            step = self.calls.steps[key][2].flat
-            ig, idg = idx, idx + 1
+        sample = self._event_function(key, Y, tau0, name, idx, section)
         lo, hi = 0.0, dt
         tau = tau0
         # the iteration is a function of tau alone: once an iterate repeats (Newton jittering
@@ -645,8 +729,7 @@ class Simulator(Transitions, SurfaceContacts):
                 break
             seen[tau] = k
             taus.append(tau)
-            flat = step(Y, tau)
-            g, dg = (flat[ig] - off if name == "section" else flat[ig]), flat[idg]
+            g, dg = sample(tau)
             if g == 0.0:
                 break
             step_ = -g / dg if dg != 0.0 else 0.0

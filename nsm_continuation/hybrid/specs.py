@@ -22,15 +22,17 @@ class IntegratorSpec(BaseModel):
 
     ``method``: ``dop853`` or ``dopri5`` (Runge-Kutta for every field), ``exact`` (the free
     flight by its closed-form flow, :mod:`.linear_flow`, for a system linear between events;
-    refused with the reason otherwise) or ``auto`` (``exact`` where it applies, else
-    ``dop853``). The default stays ``dop853``: the exact flow changes a run's numbers at the
-    integration tolerance, and the bundled cases keep theirs; ``auto`` or ``exact`` is chosen
-    in the case (``parameters: {integrator: {method: auto}}``)."""
+    refused with the reason otherwise) or ``auto`` (``exact`` where it applies and pays:
+    from six dynamic state components on, ``AUTO_MIN_DYNAMIC`` in :mod:`.system`, else
+    ``dop853``; the report names the flow that ran and why). The default stays ``dop853``:
+    the exact flow changes a run's numbers at the integration tolerance, and the bundled
+    cases keep theirs; ``auto`` or ``exact`` is chosen in the case
+    (``parameters: {integrator: {method: auto}}``)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
     #: the free flight's integrator: ``dop853`` or ``dopri5`` (Runge-Kutta), ``exact`` (the
     #: closed-form flow of a system linear between events) or ``auto`` (``exact`` where it
-    #: applies, else ``dop853``)
+    #: applies and pays, from six dynamic state components on, else ``dop853``)
     method: Literal["dop853", "dopri5", "exact", "auto"] = "dop853"
     #: at least 1e-14: below, the step error test asks for less than the round-off of a step
     rtol: float = Field(1e-10, ge=1e-14, lt=1e-2)

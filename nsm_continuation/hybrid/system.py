@@ -68,8 +68,17 @@ TABLEAUS = {"dop853": _dop853, "dopri5": _dopri5}
 
 #: the choices of free flight besides a tableau: ``exact`` (the closed-form flow of a system
 #: linear between events, :mod:`.linear_flow`; refused with the reason otherwise) and ``auto``
-#: (the exact flow where it applies, else DOP853). Sticking and chattering fields keep DOP853.
+#: (the exact flow where it applies and pays, :data:`AUTO_MIN_DYNAMIC`, else DOP853). Sticking
+#: and chattering fields keep DOP853.
 FLOWS = ("auto", "exact")
+
+#: ``auto`` runs the exact flow from this many dynamic state components on (three degrees of
+#: freedom of a mechanical system). Measured per continuation point, CPU time, on the forced
+#: chain of ``benchmarks/bench_exact_flow.py`` (both paths in one run): 2 masses (4 dynamic
+#: components) 1.0x, 3 masses 1.4x, 5 masses 1.9x, 10 masses 2.3x faster by the exact flow.
+#: Below, a simulation's cost is its per-event and per-step bookkeeping, the same on both
+#: paths, and the Runge-Kutta path (the default, hence the bundled numbers) runs.
+AUTO_MIN_DYNAMIC = 6
 
 
 def rk_step(f: ca.Function, X: ca.SX, dt: ca.SX, method: str) -> tuple[ca.SX, ca.SX, ca.SX]:
@@ -246,6 +255,8 @@ class HybridSystem:
                   clock_index=2 * nq if clock is not None else None,
                   surface_names=list(surfaces) if surfaces is not None else None)
         sys._mass = ca.Function("M", [q, *params.values()], [M])  # type: ignore[attr-defined]
+        #: the inputs ``M`` depends on: a constant mass matrix is checked once per parameter set
+        sys._mass_uses_q = bool(ca.depends_on(ca.SX(M), q))  # type: ignore[attr-defined]
         sys._nq = nq  # type: ignore[attr-defined]
         return sys
 
@@ -308,7 +319,10 @@ class HybridSystem:
             if isinstance(found, str):
                 if method == "exact":
                     raise HybridDeclarationError(f"integrator 'exact': {self.name}: {found}")
-                note = found
+                note = f"the exact flow does not apply: {found}"
+            elif method == "auto" and found.field.dyn.size < AUTO_MIN_DYNAMIC:
+                note = (f"the exact flow applies but does not pay below {AUTO_MIN_DYNAMIC} "
+                        f"dynamic state components (here {found.field.dyn.size})")
             else:
                 modal = found
         fF, steps, probe_field, ext = _step_functions(
@@ -566,11 +580,14 @@ class CompiledHybrid:
     values: dict[str, float] = field(default_factory=dict)
     #: the free flight that runs: ``exact`` (:mod:`.linear_flow`) or the Runge-Kutta tableau
     flow: str = ""
-    #: why the exact flow does not apply (``method: auto`` that fell back to Runge-Kutta)
+    #: why ``method: auto`` runs Runge-Kutta (the exact flow does not apply, or does not pay)
     flow_note: str = ""
     #: the closed-form flow of the free flight (:class:`.linear_flow.ModalFlow`), if it runs
     modal: linear_flow.ModalFlow | None = None
     _calls: HybridCalls | None = field(default=None, init=False, repr=False, compare=False)
+    #: parameter sets at which a mass matrix independent of ``q`` passed :meth:`mass_check`
+    _mass_checked: set[tuple[float, ...]] = field(default_factory=set, init=False, repr=False,
+                                                  compare=False)
 
     # the first surface's Functions (the only surface of a one-surface system)
     @property
@@ -625,12 +642,13 @@ class CompiledHybrid:
 
     def flow_description(self) -> str:
         """The free flight that runs, in words (reports): the exact flow, or the tableau and,
-        for ``method: auto`` that fell back to it, why the exact flow does not apply."""
+        for ``method: auto`` that chose it, why (the exact flow does not apply, or does not
+        pay: :data:`AUTO_MIN_DYNAMIC`)."""
         if self.modal is not None:
             return (f"exact (closed-form modal flow between events; sticking and chattering: "
                     f"{self.method})")
         if self.flow_note:
-            return f"{self.method} (the exact flow does not apply: {self.flow_note})"
+            return f"{self.method} ({self.flow_note})"
         return self.method
 
     def surface_values(self, X: np.ndarray) -> np.ndarray:
@@ -683,6 +701,12 @@ class CompiledHybrid:
                 pars.append(values[k])
             else:
                 pars.append(float(X[self.n + self.free.index(k)]))
+        key = None
+        if not getattr(sys, "_mass_uses_q", True):
+            # M does not depend on q: the check at these parameters holds at every state
+            key = tuple(pars)
+            if key in self._mass_checked:
+                return
         Mq = np.asarray(sys._mass(X[: sys._nq], *pars), dtype=float)
         if not np.allclose(Mq, Mq.T, rtol=1e-12, atol=1e-12):
             raise HybridDeclarationError(f"{sys.name}: mass matrix M(q) is not symmetric")
@@ -692,3 +716,5 @@ class CompiledHybrid:
             raise HybridDeclarationError(
                 f"{sys.name}: mass matrix M(q) is not positive definite at q = "
                 f"{X[: sys._nq].tolist()}") from None
+        if key is not None:
+            self._mass_checked.add(key)

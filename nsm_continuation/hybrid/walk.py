@@ -61,6 +61,11 @@ class _Walk:
     #: the steps of an exact flow taken since the last event: the field, the state they
     #: started from and their total time (:meth:`Simulator._deferred`)
     defer: tuple[str, np.ndarray, float] | None = None
+    #: exact steps whose interior extremes are left to the result (:attr:`.sim_data.SimResult.
+    #: extremes`): ``(extremes, Y0, dt)``
+    deferred_extremes: list[tuple[Any, np.ndarray, float]] = field(default_factory=list)
+    #: the state the last of them ended at (the next step from it extends it)
+    extremes_end: np.ndarray | None = None
 
     @property
     def mode(self) -> str:

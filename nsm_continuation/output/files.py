@@ -278,6 +278,28 @@ def unchecked_note(res: RunResult) -> str | None:
     return None if algorithm is None else algorithm.unchecked
 
 
+def impacts_per_period(points: list[Point]) -> list[int]:
+    """The distinct numbers of impacts per period (the derived ``n_impacts``: over the
+    orbit's whole period, ``2k`` base periods for a family born at a period doubling) of the
+    points that report it, increasing; empty where none does."""
+    counts = {p.derived.get("n_impacts") for p in points}
+    return sorted(int(c) for c in counts if c is not None and np.isfinite(c))
+
+
+def orbit_kinds(points: list[Point], ip: int) -> dict[str, Any]:
+    """What kinds of orbits a branch holds, for its ``report.json`` entry: ``families``, the
+    signature runs it went through, and ``impacts_per_period`` (:func:`impacts_per_period`),
+    each where there is one."""
+    out: dict[str, Any] = {}
+    runs = report_md.family_runs(points, ip)
+    if runs:
+        out["families"] = runs
+    impacts = impacts_per_period(points)
+    if impacts:
+        out["impacts_per_period"] = impacts
+    return out
+
+
 def build_report(res: RunResult, folder: str | None = None,
                  failures: list[str] | None = None) -> dict[str, Any]:
     """The content of ``report.json``; ``folder``: where the run is (or will be) saved, for
@@ -321,9 +343,7 @@ def build_report(res: RunResult, folder: str | None = None,
             "info": {k: _f(v) for k, v in br.info.items()},
             "events": events,
         })
-        runs = report_md.family_runs(br.points, bpr.parameter_index)
-        if runs:  # the families the branch went through (signature runs)
-            branches[-1]["families"] = runs
+        branches[-1].update(orbit_kinds(br.points, bpr.parameter_index))
     s = res.settings
     saved = res.saved_report
     if saved is not None:  # read back: what the problem said at the end of the run

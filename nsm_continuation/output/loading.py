@@ -308,6 +308,12 @@ def _problems(record: RunRecord, case: Case) -> tuple[Problem, dict[int, Problem
     if not per_branch:  # no branch with points
         return _case_problem(record, cls), {}
     main = next(iter(per_branch.values()))
+    if getattr(main, "start_value", None) is not None:
+        # a two-parameter curve rebuilt at one of its points: it started where the run's
+        # parameters are (LocatedCurve.start_value)
+        from nsm_continuation.algorithms.curves import flat_parameters
+
+        main.start_value = flat_parameters(record.restart["parameters"]).get(main.parameter)
     return main, {i: p for i, p in per_branch.items() if p is not main}
 
 

@@ -397,7 +397,30 @@ def _branch_lines(rep: dict[str, Any]) -> list[str]:
                   "row of the CSV is in the chart its `section_*` column names, and a "
                   "restart reads it there):", ""]
         lines += [f"- branch {i}: {m}" for i, m in moves]
-    return [*lines, "", *_family_lines(rep), *_tree_lines(rep)]
+    return [*lines, "", *_family_lines(rep), *_impact_lines(rep), *_tree_lines(rep)]
+
+
+def _impact_lines(rep: dict[str, Any]) -> list[str]:
+    """Impacts per period of each branch of an impacting system (``report.json``'s
+    ``branches[i].impacts_per_period``), the orbits with several marked."""
+    rows = [b for b in rep["branches"] if b.get("impacts_per_period")]
+    if not any(max(b["impacts_per_period"]) > 1 for b in rows):
+        return []
+    lines = ["## Impacts per period", "",
+             "Impacts in one period of each branch's orbits (over the whole period: a family "
+             "born at a period doubling of a period-k orbit has period 2k base periods). "
+             "Paper 000 assumes one impact per period; branches with **several** go beyond "
+             "it.", "", "| branch | period (base periods) | impacts per period | |",
+             "|---|---|---|---|"]
+    for b in rows:
+        n = b["impacts_per_period"]
+        text = ", ".join(str(k) for k in n)
+        mark = "**several impacts per period**" if max(n) > 1 else "one impact per period"
+        if len(n) > 1:
+            mark += " (the count changes along the branch)"
+        lines.append(f"| {b['id']} | {int(b['info'].get('period_multiple', 1))} | {text} | "
+                     f"{mark} |")
+    return [*lines, ""]
 
 
 def _event_lines(rep: dict[str, Any]) -> list[str]:

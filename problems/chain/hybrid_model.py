@@ -20,7 +20,10 @@ the one-impact modes (``tests/chain/test_two_models.py``).
 Starts: ``{omega: w}`` or ``{T: T}``: the closed-form orbit (4.2) at that period (a guess: the
 hybrid model corrects it in its own equations at that frequency), or ``{guess: {...}}`` on the
 section. The section is crossed once per period on branch 1; a start counts the crossings of
-its orbit (``returns``).
+its orbit (``returns``). ``{resonance: {order: k, rotation: m, omega: w}}``: the family of
+period-``k`` orbits born where the one-impact family near ``w`` has the multiplier
+``exp(2 pi i m / k)`` (located on the closed form, :mod:`.resonance`; switched onto in this
+model, :mod:`nsm_continuation.algorithms.resonance_switching`; docs/internal_resonances.md).
 """
 
 from __future__ import annotations
@@ -32,15 +35,22 @@ import numpy as np
 from nsm_continuation.problems.chain.modal import ModalModel
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 from nsm_continuation.problems.chain.parameters import ChainSpec
+from nsm_continuation.problems.chain.resonance import nearest_resonance
 from pydantic import BaseModel, Field, model_validator
 
+from nsm_continuation.algorithms.resonance_switching import resonance_starts
+from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.preflight import STRICT, one_or_many
+from nsm_continuation.core.problem import StartPoint
+from nsm_continuation.core.settings import ContinuationSettings
 from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import ConservativeFamilyProblem, GuessStart
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+#: the highest order of a resonance start (its family's orbits are simulated over k periods)
+MAX_ORDER = 12
 
 
 class HybridChainParameters(BaseModel):
@@ -106,6 +116,39 @@ class ClosedFormStart(BaseModel):
         return self.T if self.T is not None else 2.0 * np.pi / float(self.omega)  # type: ignore[arg-type]
 
 
+class ResonanceSpec(BaseModel):
+    """The resonance of a ``start: {resonance: {...}}``."""
+
+    model_config = STRICT
+    #: ``k``: the order of the resonance (the multiplier ``exp(2 pi i m / k)``, ``k >= 3``;
+    #: ``k = 2`` is a period doubling: ``analysis.branch_switching``)
+    order: int = Field(ge=3, le=MAX_ORDER)
+    #: ``m``: the multiplier's rotation number numerator (``1 <= m < k / 2``, ``gcd(m, k) = 1``)
+    rotation: int = Field(1, ge=1)
+    #: the frequency of the one-impact family near which the resonance lies (the nearest zero
+    #: of the closed-form condition within 1 %)
+    omega: Positive
+
+    @model_validator(mode="after")
+    def _coprime(self) -> ResonanceSpec:
+        if not (2 * self.rotation < self.order and np.gcd(self.rotation, self.order) == 1):
+            raise ValueError(f"rotation = {self.rotation}: need 2 m < k = {self.order} and "
+                             "gcd(m, k) = 1")
+        return self
+
+
+class ResonanceStart(BaseModel):
+    """``start: {resonance: {order: k, rotation: m, omega: w}}``: the family of period-``k``
+    orbits (``k`` impacts per period) born at the ``m/k`` resonance of the one-impact family
+    near ``w``, continued away from it (both sides where it crosses the resonance)."""
+
+    model_config = STRICT
+    #: the resonance: its order, rotation and approximate frequency
+    resonance: ResonanceSpec
+    #: a label for the family's branches
+    label: str | None = None
+
+
 class NDofImpactHybridProblem(ConservativeFamilyProblem):
     """The chain's nonsmooth modes by the hybrid layer (see the module docstring)."""
 
@@ -114,7 +157,7 @@ class NDofImpactHybridProblem(ConservativeFamilyProblem):
     case_parameter: ClassVar[str | None] = "omega"
     setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
                                                  "section_value", "impacts")
-    start_adapter = one_or_many(ClosedFormStart | GuessStart)
+    start_adapter = one_or_many(ClosedFormStart | GuessStart | ResonanceStart)
     model: ClassVar[str] = (
         "hybrid (problem ndof_impact_hybrid): event-driven simulation of the chain between "
         "impacts with the unfolding beta, chosen by the case; the closed form (problem "
@@ -159,3 +202,42 @@ class NDofImpactHybridProblem(ConservativeFamilyProblem):
         u0, du0 = self.chain_problem.closed_form(T)
         label = spec.label or f"omega = {2 * np.pi / T:.6g}"
         return np.concatenate([u0, du0]), T, label, {"start": "closed form (4.2)", "T0": T}
+
+    def start_points(self, start: Any, window: tuple[float | None, float | None] = (None, None)
+                     ) -> list[StartPoint]:
+        """The starts; a :class:`ResonanceStart` (the only start of its case) makes this problem
+        the ``k``-times iterated one and gives the first points of the period-``k`` family."""
+        specs = self._starts(start)
+        res = [s for _, s in specs if isinstance(s, ResonanceStart)]
+        if not res:
+            return super().start_points(start, window)
+        if len(specs) > 1:
+            raise ValueError("start: a resonance start is the only start of its case")
+        return self._resonance_starts(res[0])
+
+    def _resonance_starts(self, s: ResonanceStart) -> list[StartPoint]:
+        """Locate the resonance on the closed form (R1), correct the one-impact orbit there in
+        this model, switch onto the period-``k`` family (in the ``k``-iterated problem)."""
+        k, m = s.resonance.order, s.resonance.rotation
+        try:
+            w_star = nearest_resonance(self.chain_problem, k, m, s.resonance.omega)
+        except ValueError as exc:
+            raise ValueError(f"start.resonance.omega: {exc}") from None
+        base = type(self)(self.params)
+        base.set_parameter(self.parameter, 1)
+        (sp,) = base.start_points({"omega": w_star})
+        settings = ContinuationSettings()
+        e = np.zeros(len(sp.y))
+        e[base.parameter_index] = 1.0
+        yb, _, why = ContinuationEngine(base, settings).correct(sp.y, e, sp.y, 0.0)
+        if yb is None:
+            raise ValueError(f"start.resonance: the one-impact orbit at omega = {w_star:.12g} "
+                             f"did not converge ({why})")
+        self.multiple = k
+        self.set_parameter(self.parameter, base.returns * k)
+        label = s.label or f"{m}/{k} resonance at omega = {w_star:.8g}"
+        info = {"start": f"{m}/{k} resonance of the one-impact family",
+                "resonance_omega_closed_form": w_star, "resonance_order": k,
+                "resonance_rotation": m}
+        starts, _ = resonance_starts(base, self, yb, settings, label, info)
+        return list(starts)

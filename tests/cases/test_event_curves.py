@@ -317,3 +317,75 @@ def test_a_kind_the_problem_does_not_offer_is_refused_naming_its_kinds() -> None
     listed = "Input should be 'period_doubling', 'fold' or 'neimark_sacker'"
     with pytest.raises(ValueError, match=rf"^start\.curve: {listed} .*'monitored'.*'grazing'$"):
         LocatedCurve(base, "grazing", "a", "b")
+
+
+# ---------------------------------------------------------------------- round a sharp tip
+#: the tip of the bowl's curve, b = BOWL_TIP + (a - 1)^2
+BOWL_TIP = 0.5
+
+
+class _BowlParameters(BaseModel):
+    a: float = 1.0
+    b: float = 1.0
+
+
+class _Bowl(Problem):
+    """``x = a`` continued in ``a`` (or, at fixed ``a``, in ``b``), with the event function
+    ``b - BOWL_TIP - (x - 1)^2``: its zeros in ``(b, a)`` are the parabola ``b = BOWL_TIP +
+    (a - 1)^2``, a U with its tip at ``(BOWL_TIP, 1)`` (curvature 2 there)."""
+
+    name: ClassVar[str] = "bowl"
+    Parameters: ClassVar[type[BaseModel]] = _BowlParameters
+    monitors: ClassVar[Monitors] = Problem.monitors.with_(event_function("bowl", "branch_point"))
+
+    def __init__(self, params: BaseModel, parameter: str = "a") -> None:
+        super().__init__(params)
+        self.parameter = parameter
+        self.variables = ["x", parameter]
+
+    def residual(self, y: Any) -> Any:
+        return y[0] - (y[1] if self.parameter == "a" else self.params.a)
+
+    def event_functions(self, y: np.ndarray) -> dict[str, float]:
+        b = float(y[1]) if self.parameter == "b" else self.params.b
+        return {"bowl": b - BOWL_TIP - (float(y[0]) - 1.0) ** 2}
+
+    def parameter_bounds(self, name: str, lo: float | None, hi: float | None
+                         ) -> tuple[float | None, float | None]:
+        if name not in ("a", "b"):
+            return super().parameter_bounds(name, lo, hi)
+        self.parameter, self.variables = name, ["x", name]
+        return lo, hi
+
+    def with_parameters(self, values: dict[str, float]) -> Problem | None:
+        return _Bowl(self.params.model_copy(update=values), self.parameter)
+
+
+def test_curve_goes_round_a_tip_reached_by_a_long_step() -> None:
+    """Steps grown to 0.44 in ``b`` bring the curve to 0.16 above the tip of the U; the next
+    step overshoots it, and the halved steps are predicted along a secant 0.5 long that the
+    curve has turned away from (its error is linear in the step, so halving alone never brings
+    a located point within a quarter step of it). The curve goes round the tip and back up the
+    other arm to the bound, every point on the closed-form parabola."""
+    from types import SimpleNamespace
+
+    from nsm_continuation.algorithms.curves import CurveTracer
+    from nsm_continuation.core.settings import ContinuationSettings
+
+    b0 = 2.0
+    a0 = 1.0 + np.sqrt(b0 - BOWL_TIP)
+    curve = LocatedCurve(_Bowl(_BowlParameters(a=a0, b=b0)), "branch_point", "a", "b",
+                         {"step_initial": 0.05})
+    settings = ContinuationSettings(step_initial=0.2, step_min=1e-7, step_max=1.0,
+                                    max_points=60, param_min=0.0, param_max=b0, direction=-1,
+                                    event_tol=1e-12, stability=False)
+    seed = SimpleNamespace(y=np.array([a0, a0, b0]), direction=-1, label="bowl", info={},
+                           tangent=None)
+    br = CurveTracer(curve, settings).run(seed)
+    assert br.termination == {"backward": "bound reached: b"}
+    a = np.array([p.y[-2] for p in br.points])
+    b = np.array([p.y[-1] for p in br.points])
+    np.testing.assert_allclose(b, BOWL_TIP + (a - 1.0) ** 2, atol=1e-10)
+    assert b.min() < BOWL_TIP + 0.01                       # round the tip
+    assert b[-1] == pytest.approx(b0) and a[-1] == pytest.approx(2.0 - a0)  # the other arm
+    assert np.all(np.diff(a) < 0)                           # one way along the U

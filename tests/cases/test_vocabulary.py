@@ -44,6 +44,8 @@ IDS = [f"{p}:{old}" for p, _, _, old, _ in RENAMES]
 
 def a_point(pb: Any) -> np.ndarray | None:
     """A point of the unknowns where the residual is defined (None: no residual)."""
+    if pb.name == "ndof_two_walls":  # its symmetric orbit at omega = 1.5: two impacts
+        return np.asarray(pb.start_points({"omega": 1.5})[0].y, dtype=float)
     if pb.name == "ndof_impact_hybrid":  # on its section u_c = 0, falling fast: an impact
         return np.concatenate([np.zeros(pb.dim - 3), [-5.0, 0.0, 1.5]])
     if hasattr(pb, "shooting"):  # hybrid: the default initial state on the section

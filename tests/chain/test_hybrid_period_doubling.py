@@ -11,43 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from nsm_continuation.problems.chain.hybrid_model import NDofImpactHybridProblem
-from scipy.integrate import solve_ivp
+from oracles.chain_direct import direct_period
 
 import nsm_continuation as nsm
 
 CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
-
-
-def direct_period(M: np.ndarray, K: np.ndarray, c: int, g: float, x0: np.ndarray, T: float
-                  ) -> tuple[np.ndarray, list[float], list[float]]:
-    """The chain from ``x0`` over ``T``: the end state, the impact times and the energy after
-    each impact (and at the start)."""
-    n = M.shape[0]
-    A = np.linalg.solve(M, K)
-
-    def rhs(_t: float, z: np.ndarray) -> np.ndarray:
-        return np.concatenate([z[n:], -A @ z[:n]])
-
-    def wall(_t: float, z: np.ndarray) -> float:
-        return z[c] - g
-
-    wall.terminal = True  # type: ignore[attr-defined]
-    wall.direction = 1.0  # type: ignore[attr-defined]
-
-    def energy(z: np.ndarray) -> float:
-        return 0.5 * float(z[n:] @ M @ z[n:] + z[:n] @ K @ z[:n])
-
-    t, z, impacts, energies = 0.0, np.asarray(x0, dtype=float), [], [energy(x0)]
-    while True:
-        sol = solve_ivp(rhs, (t, T), z, method="DOP853", rtol=1e-13, atol=1e-15, events=wall,
-                        max_step=0.01)
-        if sol.status != 1:
-            return sol.y[:, -1], impacts, energies
-        t = float(sol.t_events[0][0])
-        z = sol.y_events[0][0].copy()
-        z[c], z[n + c] = g, -z[n + c]
-        impacts.append(t)
-        energies.append(energy(z))
 
 
 @pytest.fixture(scope="module")

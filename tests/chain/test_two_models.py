@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import CASES, msd
+from helpers import CASES, family_orbit, msd
 from nsm_continuation.problems.chain.hybrid_model import NDofImpactHybridProblem
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
 
@@ -41,22 +41,6 @@ def closed_form():
 @pytest.fixture(scope="module")
 def hybrid():
     return NDofImpactHybridProblem(CHAIN)
-
-
-def hybrid_orbit(pb: NDofImpactHybridProblem, omega: float):
-    """The hybrid model's orbit at ``omega`` (Newton in ``(z, beta)`` from the closed-form
-    guess), its tangent along the family and its Floquet data."""
-    (sp,) = pb.start_points({"omega": omega})
-    y = np.asarray(sp.y, dtype=float).copy()
-    for _ in range(6):
-        g, A = pb.evaluate_with_jacobian(y)
-        dy = np.linalg.solve(A[:, :-1], -g)
-        y[:-1] += dy
-        if np.max(np.abs(dy)) < 1e-13:
-            break
-    _, A = pb.evaluate_with_jacobian(y)
-    tangent = np.linalg.svd(A)[2][-1]
-    return y, tangent, pb.floquet(y, tangent)
 
 
 def closed_form_orbit(cp, omega: float):
@@ -93,7 +77,7 @@ def closed_form_section_state(cp, y: np.ndarray, value: float) -> np.ndarray:
 @pytest.mark.parametrize("omega", [1.43, 1.47, 1.52, 1.58])
 def test_same_orbit_energy_section_state_multipliers_and_krein(hybrid, closed_form, omega):
     cp, _ = closed_form
-    y, _, fl = hybrid_orbit(hybrid, omega)
+    y, _, fl = family_orbit(hybrid, omega)
     d = hybrid.derived(y)
     yc, flc = closed_form_orbit(cp, omega)
     assert d["omega"] == pytest.approx(omega, rel=1e-14)
@@ -123,7 +107,7 @@ def test_subharmonic_orbits_agree(hybrid, closed_form, omega, returns):
     period, the returns are chained) and branch 4 (mode 4, T ~ 2 T_4): energy, section state
     and multipliers at the same frequency."""
     cp, _ = closed_form
-    y, _, fl = hybrid_orbit(hybrid, omega)
+    y, _, fl = family_orbit(hybrid, omega)
     yc, flc = closed_form_orbit(cp, omega)
     assert hybrid.returns == returns
     assert abs(hybrid.derived(y)["energy"] - cp.energy(yc)) <= AGREE * cp.energy(yc)
@@ -141,7 +125,7 @@ def collision_in_hybrid(pb: NDofImpactHybridProblem, omega: float, critical: com
     discriminant's values there."""
     f = []
     for w in (omega - h, omega + h):
-        _, _, fl = hybrid_orbit(pb, w)
+        _, _, fl = family_orbit(pb, w)
         m = fl.multipliers
         pair = m[np.argsort(np.abs(m - critical))[:2]]
         f.append(discriminant(*pair))
@@ -178,7 +162,7 @@ def test_point_b_the_nonlinear_grazing_orbit(hybrid, closed_form):
 
     def margin(w: float) -> float | None:
         try:
-            return hybrid.derived(hybrid_orbit(hybrid, w)[0])["grazing_margin"]
+            return hybrid.derived(family_orbit(hybrid, w)[0])["grazing_margin"]
         except (ValueError, EvaluationError):  # beyond B: no one-impact orbit
             return None
 

@@ -6,6 +6,9 @@ Oracles (closed forms):
   stability in a symmetry-breaking pitchfork where the antisymmetric multiplier
   ``0.3 + 1.8 sin(mu)`` is +1: ``mu* = arcsin(7 / 18)``; the parameter never turns there. One
   ``branch_point`` (the bordered determinant and the multiplier, merged), no ``fold``;
+* the same in a conservative family: the area-preserving map ``v' = v + mu u - u^3,
+  u' = u + v'``, whose elliptic fixed point's pair collides at +1 at ``mu = 0`` where
+  ``u = +-sqrt(mu)`` branch off: one ``branch_point``, no ``fold``;
 * the limit point of ``mu = x^2`` of the map ``x + mu - x^2`` (multiplier ``1 - 2 x``): the
   parameter turns at ``mu = 0``, a ``fold``, no ``branch_point``;
 * a complex pair held at ``|lambda| = 1 + 7.9e-5`` while the multipliers' declared noise grows
@@ -150,3 +153,32 @@ def test_resolved_crossing_under_the_same_noise_is_located() -> None:
     (ns,) = [e for e in br.events if e.kind == "neimark_sacker"]
     assert ns.data["located_on"] == "multiplier_modulus"
     assert abs(ns.point.y[1] - 0.5) < 1e-10
+
+
+class SymplecticPitchforkMap(_MapFamily):
+    """The area-preserving map ``v' = v + mu u - u^3, u' = u + v'`` (determinant 1, symmetric
+    under ``(u, v) -> (-u, -v)``): its fixed point ``u = v = 0`` has the multipliers of trace
+    ``2 + mu``, a pair on the unit circle for ``mu < 0`` colliding at +1 at ``mu = 0``, where the
+    fixed points ``u = +-sqrt(mu)`` branch off (a pitchfork); the parameter never turns. In a
+    conservative family this +1 collision is a ``branch_point``, not a ``fold``."""
+
+    name: ClassVar[str] = "symplectic_pitchfork_map"
+
+    @property
+    def conservative(self) -> bool:
+        return True
+
+    def map(self, x: Any, mu: Any) -> Any:
+        v = x[1] + mu * x[0] - x[0] ** 3
+        return ca.vertcat(x[0] + v, v)
+
+
+def test_conservative_pitchfork_is_one_branch_point() -> None:
+    br = _run(SymplecticPitchforkMap(), [0.0, 0.0, -0.4], 1, param_max=0.4)
+    assert br.termination["forward"] == "bound: mu = max"
+    assert not [e for e in br.events if e.kind == "fold"], [e.kind for e in br.events]
+    (bp,) = [e for e in br.events if e.kind == "branch_point"]
+    assert abs(bp.point.y[2]) <= 1e-11, bp.point.y
+    assert bp.data["test"] == "bordered_determinant"
+    # a pair colliding at +1 separates like sqrt|mu|: |lambda - 1| ~ 1e-5 for |mu| ~ 1e-10
+    assert abs(complex(*bp.data["critical_multiplier"]) - 1.0) < 1e-4

@@ -198,17 +198,20 @@ def orbit_pair(problem, params: dict, transient: int) -> tuple:
     (TwoMassChainProblem, {"omega": 0.6}),
 ])
 def test_return_map_of_both_paths_agree(problem, params: dict) -> None:
-    """Residual, exact Jacobian and events of one return to the section, on orbits with
-    impacts, chattering and sticking (whose fields keep their Runge-Kutta steps)."""
+    """Residual, exact Jacobian, events and extremes of one return to the section, on orbits
+    with impacts, chattering and sticking (whose fields keep their Runge-Kutta steps)."""
     rk, ex, y = orbit_pair(problem, params, 40)
     assert ex.shooting.c.flow == "exact"
     ra, Ja = rk.shooting.residual_jacobian(y)
     rb, Jb = ex.shooting.residual_jacobian(y)
     assert np.max(np.abs(ra - rb)) <= 1e-9
     assert np.max(np.abs(Ja - Jb)) <= 1e-7 * np.max(np.abs(Ja))
-    ea, eb = rk.shooting.simulate(y).events, ex.shooting.simulate(y).events
+    sa, sb = rk.shooting.simulate(y), ex.shooting.simulate(y)
+    ea, eb = sa.events, sb.events
     assert [e.kind for e in ea] == [e.kind for e in eb]
     assert np.allclose([e.t for e in ea], [e.t for e in eb], rtol=0, atol=1e-9)
+    # the extremes over the return (the exact flow's found when first asked for)
+    assert np.max(np.abs(sa.extremes - sb.extremes)) <= 1e-8
 
 
 @pytest.mark.parametrize(("problem", "params", "window"), [
@@ -237,15 +240,30 @@ def test_continuations_of_both_paths_agree(problem, params: dict, window: tuple)
 
 def test_integrator_spec_and_report_name_the_flow() -> None:
     """``method`` accepts auto and exact (default dop853, the bundled cases' numbers); the
-    case summary names the flow that ran."""
+    case summary names the flow that ran, and for ``auto`` on Runge-Kutta why: the two-mass
+    chain (4 dynamic components) is below the size where the exact flow pays."""
     assert IntegratorSpec().method == "dop853"
     with pytest.raises(ValueError, match="method"):
         IntegratorSpec(method="rk4")
-    pb = TwoMassChainProblem({"integrator": {"method": "auto"}})
-    summary = pb.presentation_class(pb).summary()
-    assert summary["flow"].startswith("exact")
+    for method, starts in (("exact", "exact"), ("auto", "dop853 (the exact flow applies but "
+                                                       "does not pay below 6")):
+        pb = TwoMassChainProblem({"integrator": {"method": method}})
+        summary = pb.presentation_class(pb).summary()
+        assert summary["flow"].startswith(starts)
     assert "flow" not in TwoMassChainProblem({}).presentation_class(
         TwoMassChainProblem({})).summary()
+
+
+def test_auto_runs_the_exact_flow_where_it_applies_and_pays() -> None:
+    """``auto``: the exact flow for the three-mass chain (6 dynamic components, the size from
+    which it pays, ``AUTO_MIN_DYNAMIC``); Runge-Kutta, with the reason, for the one-mass
+    oscillator (2) and for a system that is not linear between events."""
+    assert chain3().compile({}, free=["omega"], method="auto").flow == "exact"
+    small = oscillator().compile({"gap": -1.0, "zeta": 0.1}, free=["omega"], method="auto")
+    assert small.flow == "dop853" and "does not pay below 6" in small.flow_note
+    cubic = oscillator(lambda q, qd, ph, p: -q - q ** 3 + ca.cos(ph)).compile(
+        {"gap": -1.0, "zeta": 0.1}, free=["omega"], method="auto")
+    assert cubic.flow == "dop853" and "not linear in the state" in cubic.flow_description()
 
 
 def test_autonomous_system_with_a_section_on_a_dynamic_coordinate() -> None:

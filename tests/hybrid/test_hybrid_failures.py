@@ -311,6 +311,19 @@ def test_mass_matrix_not_positive_definite():
         Simulator(c).run(np.array([1.0, 0.0]), t_end=1.0)
 
 
+def test_constant_mass_matrix_is_checked_at_every_parameter_set():
+    """A mass matrix independent of ``q`` is checked once per parameter set, not once for
+    all: a freed mass that turns negative is still refused (and a positive one passes at
+    every state)."""
+    q, qd, m = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("m")
+    sysm = HybridSystem.mechanical("mass", q, qd, {"m": m}, m, -q, q + 1.0, 0.5)
+    c = sysm.compile({}, free=["m"])
+    c.mass_check(np.array([0.3, 0.0, 1.0]))
+    c.mass_check(np.array([-0.7, 2.0, 1.0]))
+    with pytest.raises(HybridDeclarationError, match="not positive definite"):
+        c.mass_check(np.array([0.3, 0.0, -1.0]))
+
+
 def test_W_not_tangent_rejected_at_first_impact():
     """A custom impact law that moves the position (L_W H = 0.1 != 0, sec. 2.4)."""
     x = ca.SX.sym("x", 2)

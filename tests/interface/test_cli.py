@@ -176,6 +176,8 @@ def test_every_bundled_case_validates():
             expected = "wfem_forced_bar"  # the bar's forced response (Figs. 20-22)
         if f.name.startswith("ndof_hybrid"):
             expected = "ndof_impact_hybrid"  # the chain through the hybrid layer
+        if f.name.startswith("ndof_two_walls"):
+            expected = "ndof_two_walls"  # the chain with its last mass between two walls
         assert case.problem == expected
         if case.problem == "ndof_impact":
             assert problem.N == 5

@@ -311,7 +311,10 @@ def test_orbits_that_nearly_coincide_are_told_apart() -> None:
 
 # ---------------------------------------------------------------------- bundled cases
 @pytest.mark.parametrize("case", ["ndof_default", "bar_continuum_subharmonics",
-                                  "ndof_fig7_4_static_grazing_manifolds"])
+                                  "ndof_fig7_4_static_grazing_manifolds",
+                                  "ndof_fig7_3_static_grazing",
+                                  "impact_oscillator_period_doubling",
+                                  "wfem_fig18_two_contact_phases"])
 def test_bundled_case_draws_without_warnings_and_lists_only_drawn_artists(
         case: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Every figure of a bundled case drawn (in this process) with warnings as errors; in
@@ -343,3 +346,46 @@ def test_bundled_case_draws_without_warnings_and_lists_only_drawn_artists(
             assert len(entries) == len(set(entries)), entries
             assert set(entries) <= labels, set(entries) - labels
         assert_labels_readable(fig, case)
+
+
+def test_fig3_2_marks_the_admissible_events_and_counts_the_others(tmp_path: Path) -> None:
+    """Fig. 3.2 (every branch of the 5-dof chain, omega in [1.3, 11]): too many events for one
+    zoom. The diagram marks every event on an admissible stretch of its branch (each at its
+    place, with its kind's marker) and no event on a phantom stretch (Legrand et al. mark
+    none there); it says how many it leaves out, and report.md lists every event."""
+    res = nsm.run(CASES / "ndof_fig3_2_fep.yaml", {"output.plots": False})
+    run = res.run_result
+    pr = run.problem
+    fig = branches.diagram(run)
+    main = fig.axes[0]
+    phantom = kept = rings = 0
+    for br in run.branches:
+        s = np.array([p.s for p in br.points])
+        for ev in br.events:
+            if ev.kind == "endpoint":
+                continue
+            before, after = s[s < ev.point.s - 1e-9], s[s > ev.point.s + 1e-9]
+            sides = [br.points[int(np.argmin(np.abs(s - v)))]
+                     for v in ([before.max()] if before.size else [])
+                     + ([after.min()] if after.size else [])]
+            x, y = ev.point.value("omega", pr.variables), ev.point.value("energy", pr.variables)
+            name = EVENT_STYLES[ev.kind].name
+            at = [ln for ln in event_lines(main, name)
+                  if np.any(np.isclose(ln.get_xdata(), x) & np.isclose(ln.get_ydata(), y))]
+            if sides and not any(p.admissible for p in sides):
+                phantom += 1
+                assert not at, (ev.kind, x, y)
+            elif ev.kind == "stability_change":
+                rings += not at
+            else:
+                kept += 1
+                assert at, (ev.kind, x, y)
+    assert phantom > 0 and kept > 50 and rings > 0
+    note = next(t.get_text() for t in main.texts if t.get_text().startswith("events not"))
+    assert f"{phantom} on phantom orbits" in note
+    assert f"{rings} stability changes at a marker" in note
+    assert_legend_is_what_is_drawn(fig)
+    res.save(tmp_path / "fig3_2", plots=False)
+    rows = [line for line in (tmp_path / "fig3_2" / "report.md").read_text().splitlines()
+            if line.startswith("| ") and line.split("|")[2].strip() in EVENT_STYLES]
+    assert len(rows) >= phantom + kept + rings

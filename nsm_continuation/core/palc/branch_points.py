@@ -23,23 +23,29 @@ and its stability change). In a conservative family a pair colliding at +1 (a Kr
 collision) stays a ``fold``: there the family turns in energy (a saddle-centre, measured on
 the chain of Legrand et al. 2017: the energy has an extremum at each such collision of
 Fig. 3.2, where their sec. 6.2 names it a fold) while the period does not, and the bordered
-determinant of the chain's formulation keeps its sign.
+determinant of the chain's formulation keeps its sign. A +1 collision of a conservative
+family where the bordered determinant does change sign in the same place is a symmetry-breaking
+pitchfork (a second family crosses: the chain between two walls, ``problems/chain/two_walls``,
+where its symmetric mode meets the one-wall mode), a ``branch_point``, merged as in a
+dissipative family.
 
 **Location where the corrector is blind** (:func:`stencil_zero`). At a simple branch point
 ``[G_y; t^T]`` is singular; near it the corrector's error is the residual's noise over the
 smallest singular value ``~ c |sigma - sigma*|``. Within a zone around ``sigma*`` Newton does
 not meet ``newton_tol`` (the impact damper's pitchfork with rtol 1e-10: no point within ~3e-7
 of it), or meets it by chance on a point off the branch (its determinant of the wrong size,
-even of the wrong sign): the Illinois iteration, which bisects where a trial point fails,
-ends inside that zone with a bracket that says nothing about where the zero is (measured:
+even of the wrong sign): the Illinois iteration, which steps round the trial points that fail
+(:func:`~nsm_continuation.core.roots.illinois`), ends with a bracket covering that zone, or
+inside it on a point off the branch (measured before the failed points were stepped round:
 2.6e-7 off with a bracket of 5e-14). The test function is analytic on both sides, so its zero
 is also found from resolved points away from it: the cubic through the determinant at four
 corrected points ``c + r (-2, -1, 1, 2)`` (``c`` the iteration's location, ``r = h / 16``, at
 least 8 widths of the zone where trial points failed) and the cubic through ``c + r (-1,
 -1/2, 1/2, 1)``; the first is the location, the distance between the two its accuracy (the
 truncation ``~ r^4`` and the points' noise, which decays like ``1 / |sigma - sigma*|``). Where
-that accuracy reaches ``multiplier_event_tol`` and the iteration's location differs from it by
-more than both accuracies, the interpolated zero is the event, its point the cubic
+that accuracy reaches ``multiplier_event_tol`` and either beats the iteration's bracket or the
+iteration's location differs from it by more than both accuracies, the interpolated zero is
+the event, its point the cubic
 interpolation of the four points (unknowns and tangent). The check is made only where a trial
 point of the iteration failed: elsewhere the corrector resolved the zero, and the iteration's
 point stands (the stencil, ``r`` wide, is then the less accurate of the two).
@@ -144,9 +150,10 @@ def plus_one_events(events: list[Event], conservative: bool) -> list[Event]:
     """The events of one step with each multiplier crossing at +1 (a ``fold`` of the crossing
     locator, ``data['located_on']`` set) named as the module docstring says: merged into the
     limit point of the tangent test it coincides with; kept as a ``fold`` in a conservative
-    family; else a ``branch_point``, merged into the bordered determinant's branch point
-    of the step (the nearest if several: the determinant's location is kept, the crossing's
-    multiplier is read there, and its stability change is moved there)."""
+    family unless the bordered determinant changes sign there too; else a ``branch_point``,
+    merged into the bordered determinant's branch point of the step (the nearest if several:
+    the determinant's location is kept, the crossing's multiplier is read there, and its
+    stability change is moved there)."""
     folds = [e for e in events if e.kind == "fold" and e.data.get("test") == "tangent"]
     points = [e for e in events if e.kind == "branch_point"
               and e.data.get("test") == "bordered_determinant"]
@@ -159,8 +166,8 @@ def plus_one_events(events: list[Event], conservative: bool) -> list[Event]:
         if twin is not None:
             twin.data.update({k: v for k, v in ev.data.items() if k != "test"})
             continue
-        if conservative:
-            out.append(ev)
+        if conservative and _coincident(ev, points) is None:
+            out.append(ev)  # a Krein collision at +1: the family turns in energy
             continue
         if not points:
             ev.kind, ev.detail = "branch_point", PLUS_ONE_BRANCH_POINT

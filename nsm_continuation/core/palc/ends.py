@@ -131,14 +131,15 @@ class EndLocator(EnginePart):
             self._pending = (crossing, str(name), float(start.event_values.get(name, np.nan)))
 
     def expecting(self, last: Point) -> bool:
-        """Whether a kink located earlier still lies ahead of ``last``: its event function
-        keeps its sign there and is no farther from zero than where the kink was located
-        (else the branch has passed or turned away, and it is forgotten)."""
+        """Whether a kink located earlier still lies ahead of ``last``, or at it: its event
+        function keeps its sign there (or is exactly zero: the steps towards the zero landed on
+        it) and is no farther from zero than where the kink was located (else the branch has
+        passed or turned away, and it is forgotten)."""
         if self._pending is None:
             return False
         _, name, f0 = self._pending
         f = last.event_values.get(name, np.nan)
-        if np.isfinite(f) and np.isfinite(f0) and np.sign(f) == np.sign(f0) \
+        if np.isfinite(f) and np.isfinite(f0) and (np.sign(f) == np.sign(f0) or f == 0.0) \
                 and abs(f) <= abs(f0) * (1.0 + 1e-9):
             return True
         self._pending = None
