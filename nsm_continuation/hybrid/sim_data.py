@@ -51,7 +51,7 @@ class SimOptions:
     max_time: float | None = None
     sensitivities: bool = True
     #: the step error test covers the sensitivities ``J`` too (CVODES' ``errconS``,
-    #: :meth:`.simulate.Simulator._sens_err_norm`), so that the multipliers are as accurate as
+    #: :mod:`.step_error`), so that the multipliers are as accurate as
     #: the state at the same tolerances
     sensitivity_error: bool = True
     record: bool = False

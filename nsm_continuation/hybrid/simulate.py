@@ -35,7 +35,7 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 ``q``) contributes ``J <- E_x J``, ``J_t <- J_t + e_x J``. This is the chain (40) of flows and
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
 equivalence); with a fixed end time the last correction is ``J <- J - F J_t``. The step error
-test covers ``J`` as well as the state (CVODES' ``errconS``, :meth:`Simulator._sens_err_norm`):
+test covers ``J`` as well as the state (CVODES' ``errconS``, :mod:`.step_error`):
 the error estimate of the variational equations integrated by a step is the derivative of the
 step's own estimate, ``d err/dY @ J``; without it an orbit on which the state has no local
 error (a constant amplitude) is crossed in a few long steps that integrate the transverse
@@ -100,6 +100,7 @@ from nsm_continuation.hybrid.modes import (
 )
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
 from nsm_continuation.hybrid.sparse_steps import SparseStep, sparse_steps
+from nsm_continuation.hybrid.step_error import sensitivity_error_norm, state_error_norm
 from nsm_continuation.hybrid.surfaces import SurfaceContacts
 from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
@@ -178,50 +179,6 @@ class Simulator(Transitions, SurfaceContacts):
         both = self.calls.probe_field[key].flat(Y)
         npr = self._npr(key)
         return both[:npr], both[npr:]
-
-    def _err_norm(self, Y: np.ndarray, Yn: np.ndarray, err: np.ndarray, err3: np.ndarray,
-                  dt: float) -> float:
-        o = self.o
-        scale = o.atol + o.rtol * np.maximum(np.abs(Y), np.abs(Yn))
-        e5 = err.ravel() / scale
-        if self.c.method == "dop853":
-            e3 = err3.ravel() / scale
-            n5, n3 = float(e5 @ e5), float(e3 @ e3)
-            if n5 == 0.0 and n3 == 0.0:
-                return 0.0
-            return n5 / np.sqrt((n5 + 0.01 * n3) * len(scale))
-        return float(np.sqrt(e5 @ e5 / len(scale)))
-
-    def _sens_err_norm(self, J: np.ndarray, Jn: np.ndarray, dE: np.ndarray) -> float:
-        """The error norm of the sensitivities carried over one step, as CVODES' ``errconS``
-        controls them: the step integrates the variational equations along with the state, and
-        its error estimate for them is the estimate's own derivative, ``d err / dY @ J``
-        (the step of the variational equations is the derivative of the step); each column
-        (the sensitivity to one initial component or freed parameter) is scaled like the state
-        (``atol + rtol |J|``, CVODES' ``atolS = atol / pbar`` with ``pbar = 1``) and the step
-        is accepted only if the worst column passes. Without it the step size follows the
-        state alone, which on an orbit where the state has no local error (a constant radius)
-        leaves the transverse contraction ``dr/dr0`` to a step as long as the period."""
-        o = self.o
-        scale = np.abs(J)
-        np.maximum(scale, np.abs(Jn), out=scale)
-        scale *= o.rtol
-        scale += o.atol
-        m = J.shape[0]
-        # one m x m product per estimate, as the chaining's own (a product twice as tall
-        # crosses BLAS's threading threshold at large m: milliseconds on shared cores)
-        sq = []
-        for k in range(0, dE.shape[0], m):
-            e = dE[k:k + m] @ J
-            e /= scale
-            sq.append(np.square(e, out=e).sum(axis=0))      # per column
-        if len(sq) == 1:
-            # DOPRI5: the RMS norm of each column
-            return math.sqrt(float(sq[0].max()) / m)
-        # DOP853: each column's two estimates combined as in _err_norm (scipy's DOP853); a
-        # column whose both estimates vanish has norm 0
-        n5 = sq[0]
-        return float(np.max(n5 / np.sqrt(np.maximum(n5 + 0.01 * sq[1], 1e-300) * m)))
 
     # ------------------------------------------------------------------ main loop
     def run(self, X0: np.ndarray, t_end: float | None = None,
@@ -351,11 +308,12 @@ class Simulator(Transitions, SurfaceContacts):
         if not jac:
             outs = (*outs, None, None)
         Yn = outs[0].ravel()
-        en = self._err_norm(w.Y, Yn, outs[1], outs[2], dt)
+        o = self.o
+        en = state_error_norm(w.Y, Yn, outs[1], outs[2], o.rtol, o.atol, self.c.method == "dop853")
         Jn = None
-        if jac and self.o.sensitivity_error and outs[6] is not None and math.isfinite(en):
+        if jac and o.sensitivity_error and outs[6] is not None and math.isfinite(en):
             Jn = self._chain(w.key, outs[5], w.J)
-            en = max(en, self._sens_err_norm(w.J, Jn, outs[6]))
+            en = max(en, sensitivity_error_norm(w.J, Jn, outs[6], o.rtol, o.atol))
         if not math.isfinite(en) or not np.isfinite(Yn).all():
             w.h = dt * 0.2
             if w.h < 1e-15 * (1 + abs(w.t)):

@@ -460,7 +460,7 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         fields = f(Yn)
         prn = ca.substitute([pr], [Y], [Yn])[0]
         # the step's Jacobian and its error estimates' (the error of the variational
-        # equations integrated by the step, ``d err / dY @ J``: Simulator._sens_err_norm)
+        # equations integrated by the step, ``d err / dY @ J``: :mod:`.step_error`)
         JE = ca.jacobian(ca.vertcat(Yn, err, err3) if method == "dop853"
                          else ca.vertcat(Yn, err), Y)
         # one flat output per call (a single DM -> numpy conversion): Yn, err, err3, probe,
