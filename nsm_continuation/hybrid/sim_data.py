@@ -50,6 +50,10 @@ class SimOptions:
     #: trapped at a stable equilibrium on the sticking surface)
     max_time: float | None = None
     sensitivities: bool = True
+    #: the step error test covers the sensitivities ``J`` too (CVODES' ``errconS``,
+    #: :mod:`.step_error`), so that the multipliers are as accurate as
+    #: the state at the same tolerances
+    sensitivity_error: bool = True
     record: bool = False
     #: validate r and W at every impact (sec. 2.3-2.4)
     validate: bool = True

@@ -34,7 +34,13 @@ Runge-Kutta step; each event time ``tau`` (``g(x(tau)) = 0``) contributes
 ``d tau = -(g_x J) / (g_x F)``; each event map ``E`` (impact ``R``, chatter map ``Q``, time jump
 ``q``) contributes ``J <- E_x J``, ``J_t <- J_t + e_x J``. This is the chain (40) of flows and
 saltation matrices (43) written for event-parametrised time (see :mod:`.saltation` for the
-equivalence); with a fixed end time the last correction is ``J <- J - F J_t``.
+equivalence); with a fixed end time the last correction is ``J <- J - F J_t``. The step error
+test covers ``J`` as well as the state (CVODES' ``errconS``, :mod:`.step_error`):
+the error estimate of the variational equations integrated by a step is the derivative of the
+step's own estimate, ``d err/dY @ J``; without it an orbit on which the state has no local
+error (a constant amplitude) is crossed in a few long steps that integrate the transverse
+contraction, and so the multipliers, far less accurately than the state
+(``tests/hybrid/test_multiplier_error_control.py``).
 
 **Exact flows** (:mod:`.linear_flow`, ``integrator: {method: exact | auto}``). A field whose
 steps are an exact flow (the free flight of a system linear between events) has no integration
@@ -94,6 +100,7 @@ from nsm_continuation.hybrid.modes import (
 )
 from nsm_continuation.hybrid.sim_data import SimEvent, SimOptions, SimResult, SimulationError
 from nsm_continuation.hybrid.sparse_steps import SparseStep, sparse_steps
+from nsm_continuation.hybrid.step_error import sensitivity_error_norm, state_error_norm
 from nsm_continuation.hybrid.surfaces import SurfaceContacts
 from nsm_continuation.hybrid.system import CompiledHybrid, probe_layout
 from nsm_continuation.hybrid.transitions import Transitions
@@ -147,14 +154,18 @@ class Simulator(Transitions, SurfaceContacts):
 
     def _step(self, key: str, Y: np.ndarray, dt: float, jac: bool) -> tuple[Any, ...]:
         """One Runge-Kutta step of length ``dt`` from ``Y`` of the field ``key``: ``(Y_new,
-        err, err3, probe, field[, J])`` at the step end (views into one fresh array)."""
+        err, err3, probe, field[, J, dE])`` at the step end (views into one fresh array);
+        ``dE`` stacks the Jacobians ``d err / dY`` (and ``d err3 / dY``) of the error
+        estimates, shape ``(k m, m)`` (None for an exact flow, which has no error)."""
         flat = self.calls.steps[key][1 if jac else 0].flat(Y, dt)
         m = Y.size
         npr = self._npr(key)
         i1, i2, i3, i4, i5 = m, 2 * m, 3 * m, 3 * m + npr, 4 * m + npr
         parts = (flat[:i1], flat[i1:i2], flat[i2:i3], flat[i3:i4], flat[i4:i5])
         if jac:
-            return (*parts, flat[i5:].reshape(m, m, order="F"))
+            i6 = i5 + m * m
+            dE = flat[i6:].reshape(-1, m, order="F") if flat.size > i6 else None
+            return (*parts, flat[i5:i6].reshape(m, m, order="F"), dE)
         return parts
 
     def _step_probe(self, key: str, Y: np.ndarray, dt: float) -> np.ndarray:
@@ -168,19 +179,6 @@ class Simulator(Transitions, SurfaceContacts):
         both = self.calls.probe_field[key].flat(Y)
         npr = self._npr(key)
         return both[:npr], both[npr:]
-
-    def _err_norm(self, Y: np.ndarray, Yn: np.ndarray, err: np.ndarray, err3: np.ndarray,
-                  dt: float) -> float:
-        o = self.o
-        scale = o.atol + o.rtol * np.maximum(np.abs(Y), np.abs(Yn))
-        e5 = err.ravel() / scale
-        if self.c.method == "dop853":
-            e3 = err3.ravel() / scale
-            n5, n3 = float(e5 @ e5), float(e3 @ e3)
-            if n5 == 0.0 and n3 == 0.0:
-                return 0.0
-            return n5 / np.sqrt((n5 + 0.01 * n3) * len(scale))
-        return float(np.sqrt(e5 @ e5 / len(scale)))
 
     # ------------------------------------------------------------------ main loop
     def run(self, X0: np.ndarray, t_end: float | None = None,
@@ -294,8 +292,8 @@ class Simulator(Transitions, SurfaceContacts):
 
     def _attempt(self, w: _Walk, dt: float) -> tuple[Any, ...] | None:
         """One Runge-Kutta step of length ``dt`` under error control: its outputs
-        ``(Y_new, err, err3, probe, field, J or None, error norm)``, or None (rejected; ``w.h``
-        shrunk).
+        ``(Y_new, err, err3, probe, field, J or None, dE or None, J_step w.J or None, error
+        norm)``, or None (rejected; ``w.h`` shrunk).
 
         In a chattering flight (``s5``, ``s6``) nearly every step ends at an event (the turn of
         ``v``, the next impact), whose sensitivities come from the step to the event
@@ -308,9 +306,14 @@ class Simulator(Transitions, SurfaceContacts):
         jac = w.J is not None and w.mode not in EXTENDED and not exact
         outs = self._step(w.key, w.Y, dt, jac)
         if not jac:
-            outs = (*outs, None)
+            outs = (*outs, None, None)
         Yn = outs[0].ravel()
-        en = self._err_norm(w.Y, Yn, outs[1], outs[2], dt)
+        o = self.o
+        en = state_error_norm(w.Y, Yn, outs[1], outs[2], o.rtol, o.atol, self.c.method == "dop853")
+        Jn = None
+        if jac and o.sensitivity_error and outs[6] is not None and math.isfinite(en):
+            Jn = self._chain(w.key, outs[5], w.J)
+            en = max(en, sensitivity_error_norm(w.J, Jn, outs[6], o.rtol, o.atol))
         if not math.isfinite(en) or not np.isfinite(Yn).all():
             w.h = dt * 0.2
             if w.h < 1e-15 * (1 + abs(w.t)):
@@ -324,7 +327,7 @@ class Simulator(Transitions, SurfaceContacts):
         if en < HERMITE_CHECK_BELOW and not exact and not self._hermite_trustworthy(w, dt, outs):
             w.h = dt * 0.25
             return None
-        return (*outs, en)
+        return (*outs, Jn, en)
 
     def _hermite_trustworthy(self, w: _Walk, dt: float, outs: tuple[Any, ...]) -> bool:
         """Whether the cubic Hermite interpolants of the watched functions over a step whose
@@ -387,8 +390,12 @@ class Simulator(Transitions, SurfaceContacts):
             _key, Y0, T = w.defer if w.defer is not None else (w.key, w.Y, 0.0)
             w.defer = (w.key, Y0, T + dt)
         elif w.J is not None:
-            Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
-            w.J = self._chain(w.key, Jstep, w.J)
+            if outs[7] is not None:
+                # chained already for the sensitivities' error test (_attempt)
+                w.J = outs[7]
+            else:
+                Jstep = outs[5] if outs[5] is not None else self._step(w.key, w.Y, dt, True)[5]
+                w.J = self._chain(w.key, Jstep, w.J)
         self._extend_extremes(w, w.Y, w.F, Yn, Fn, dt)
         w.Y, w.pr, w.F = Yn, prn, Fn
         w.t += dt

@@ -42,7 +42,8 @@ class SparseStep:
     def __init__(self, f: ca.Function, m: int, offset: int) -> None:
         sparsity = f.sparsity_out(0)
         rows = np.asarray(sparsity.row(), dtype=np.int64)
-        pos = rows[rows >= offset] - offset                   # r + m c, column-major order
+        # r + m c, column-major order (the error estimates' Jacobians that follow it excluded)
+        pos = rows[(rows >= offset) & (rows < offset + m * m)] - offset
         self.m = m
         #: positions of the nonzeros in ``vec(J_step)``, in compressed-column order
         self.positions = pos

@@ -418,7 +418,8 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
                     free_flight: bool = True) -> tuple[Any, ...]:
     """The fields ``F``, ``F'_i`` of each surface ``i`` (``sticking[i] = (F'_i, v_i)``) and the
     scaled extended field of sec. 4.3, eq. (44) (``(X, h, u)``, ``h' = v_i/u``, ``u' = 0``), with
-    one Runge-Kutta step of each and its exact Jacobian, each with its probe (the blocks
+    one Runge-Kutta step of each and its exact Jacobian (and its error estimates' Jacobians),
+    each with its probe (the blocks
     ``(H, v, a, jerk)`` of every surface in the order of :func:`probe_layout`):
     ``(fF, steps, probe_field, ext)``; ``probe_field[key]`` gives the probe and the field of
     ``key`` at a state in one call; ``ext[i] = (fFs_i, fFe_i, probe_e_i, Xe)``. While sticking
@@ -458,9 +459,13 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         Yn, err, err3 = rk_step(f, Y, dt, method)
         fields = f(Yn)
         prn = ca.substitute([pr], [Y], [Yn])[0]
-        J = ca.jacobian(Yn, Y)
+        # the step's Jacobian and its error estimates' (the error of the variational
+        # equations integrated by the step, ``d err / dY @ J``: :mod:`.step_error`)
+        JE = ca.jacobian(ca.vertcat(Yn, err, err3) if method == "dop853"
+                         else ca.vertcat(Yn, err), Y)
         # one flat output per call (a single DM -> numpy conversion): Yn, err, err3, probe,
-        # field, vec(J) (column-major); split by Simulator._step. The third Function is the
+        # field, vec(J), vec(d (err[, err3]) / dY) (column-major); split by
+        # Simulator._step. The third Function is the
         # probe alone (the event iterations of Simulator._refine need nothing else; 15 % fewer
         # instructions than the whole step). Common-subexpression elimination (``cse``) would
         # save another 5-13 %, but it costs 0.3 s per build, as much as it saves in the
@@ -468,7 +473,8 @@ def _step_functions(X: ca.SX, F: ca.SX, sticking: list[tuple[ca.SX, ca.SX]],
         steps[key] = (
             ca.Function(f"step_{key}", [Y, dt], [ca.vertcat(Yn, err, err3, prn, fields)]),
             ca.Function(f"stepJ_{key}", [Y, dt],
-                        [ca.vertcat(Yn, err, err3, prn, fields, ca.vec(J))]),
+                        [ca.vertcat(Yn, err, err3, prn, fields,
+                                    ca.vec(JE[:Y.numel(), :]), ca.vec(JE[Y.numel():, :]))]),
             ca.Function(f"stepP_{key}", [Y, dt], [prn]),
         )
     return fF, steps, probe_field, ext

@@ -198,12 +198,13 @@ def test_how_far_double_precision_carries_the_period(homoclinic_run) -> None:
 
 # --------------------------------------------------------------------------- multiplier noise
 def test_noise_multiplier_near_minus_one_is_not_a_crossing(homoclinic_run) -> None:
-    """At the default rtol = 1e-10 the orbit of period ~64 has a computed multiplier ~ -0.2
-    (in truth ~ 0: it scales with rtol, the error of the variational equations relative to
-    |Phi_T| ~ 4e10; it reached -1 near period 72 in the issue's run): the multipliers are
-    reported unknown or within their noise, never as outside the circle; at rtol 1e-13 the
-    same orbit's multiplier is ~ 1e-4. (Its torque, from the rtol 1e-13 branch, lies 7e-9
-    below p*: on the periodic side for both tolerances, whose p* differ by 7e-10.)"""
+    """At the default rtol = 1e-10 the orbit of period ~64 has a computed multiplier ~ 0.02
+    (0.14 with the step error test on the state alone; in truth ~ 0: it scales with rtol, the
+    error of the variational equations relative to |Phi_T| ~ 4e10; it reached -1 near period
+    72 in the issue's run): the multipliers are reported unknown or within their noise, never
+    as outside the circle; at rtol 1e-13 the same orbit's multiplier is ~ 3e-5. (Its torque,
+    from the rtol 1e-13 branch, lies 7e-9 below p*: on the periodic side for both tolerances,
+    whose p* differ by 7e-10.)"""
     (br,) = homoclinic_run.branches
     k = int(np.argmin(np.abs(br["y_period"] - 64.0)))
     z = br.y[k, :4]
@@ -221,7 +222,7 @@ def test_noise_multiplier_near_minus_one_is_not_a_crossing(homoclinic_run) -> No
             # the engine's circle tolerance: max(unit_circle_tol, 1e3 eps |P|, noise)
             tol = max(1e3 * EPS * fl.matrix_norm, fl.noise)
             assert fl.noise == pytest.approx(noise) and count_outside(fl.multipliers, tol) == 0
-    assert raw[1e-10] > 0.1 and raw[1e-13] < 0.05
+    assert raw[1e-10] > 100 * raw[1e-13] and raw[1e-13] < 0.05
     # the default-tolerance multiplier is unknown there (inside the noise band of the circle)
     pb = _pendulum()
     pb.set_parameter("torque")
