@@ -149,7 +149,26 @@ class ResonanceStart(BaseModel):
     label: str | None = None
 
 
-class NDofImpactHybridProblem(ConservativeFamilyProblem):
+class ChainFamilyProblem(ConservativeFamilyProblem):
+    """A conservative family of the chain of Legrand et al. (2017) through the hybrid layer:
+    the chain's matrices and modal data from its closed-form problem (``chain_problem``), the
+    case's parameters validated by the subclass's ``Parameters``."""
+
+    def __init__(self, params: BaseModel | dict[str, Any]) -> None:
+        p = params if isinstance(params, BaseModel) else self.Parameters.model_validate(
+            dict(params))
+        self.chain_problem = NDofImpactProblem(
+            {"chain": p.chain.model_dump(), "gap": p.gap,  # type: ignore[attr-defined]
+             "impacting_dof": p.impacting_dof})  # type: ignore[attr-defined]
+        super().__init__(p)
+
+    @property
+    def modal(self) -> ModalModel:
+        """The chain's matrices and modal data (shared with its closed form)."""
+        return self.chain_problem.modal
+
+
+class NDofImpactHybridProblem(ChainFamilyProblem):
     """The chain's nonsmooth modes by the hybrid layer (see the module docstring)."""
 
     name: ClassVar[str] = "ndof_impact_hybrid"
@@ -162,19 +181,6 @@ class NDofImpactHybridProblem(ConservativeFamilyProblem):
         "hybrid (problem ndof_impact_hybrid): event-driven simulation of the chain between "
         "impacts with the unfolding beta, chosen by the case; the closed form (problem "
         "ndof_impact) is the default model of one-impact orbits")
-
-    def __init__(self, params: BaseModel | dict[str, Any]) -> None:
-        p = params if isinstance(params, BaseModel) else HybridChainParameters.model_validate(
-            dict(params))
-        self.chain_problem = NDofImpactProblem(
-            {"chain": p.chain.model_dump(), "gap": p.gap,  # type: ignore[attr-defined]
-             "impacting_dof": p.impacting_dof})  # type: ignore[attr-defined]
-        super().__init__(p)
-
-    @property
-    def modal(self) -> ModalModel:
-        """The chain's matrices and modal data (shared with its closed form)."""
-        return self.chain_problem.modal
 
     def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
         cp = self.chain_problem

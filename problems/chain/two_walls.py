@@ -47,15 +47,13 @@ from typing import Annotated, Any, ClassVar
 
 import casadi as ca
 import numpy as np
-from nsm_continuation.problems.chain.hybrid_model import ClosedFormStart
-from nsm_continuation.problems.chain.modal import ModalModel
-from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem
+from nsm_continuation.problems.chain.hybrid_model import ChainFamilyProblem, ClosedFormStart
 from nsm_continuation.problems.chain.parameters import ChainSpec
 from pydantic import BaseModel, Field, model_validator
 
 from nsm_continuation.core.preflight import STRICT, one_or_many
 from nsm_continuation.hybrid.conservative import CrossingSection
-from nsm_continuation.hybrid.conservative_family import ConservativeFamilyProblem, GuessStart
+from nsm_continuation.hybrid.conservative_family import GuessStart
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 
@@ -103,7 +101,7 @@ class TwoWallChainParameters(BaseModel):
         return self
 
 
-class TwoWallChainProblem(ConservativeFamilyProblem):
+class TwoWallChainProblem(ChainFamilyProblem):
     """The chain's nonsmooth modes with its impacting dof between two walls (see the module
     docstring)."""
 
@@ -117,19 +115,6 @@ class TwoWallChainProblem(ConservativeFamilyProblem):
         "hybrid (problem ndof_two_walls): event-driven simulation of the chain between impacts "
         "on two walls with the unfolding beta; no closed form covers every orbit of two "
         "contacts (the symmetric one-impact-per-wall orbit (W1) is only the start)")
-
-    def __init__(self, params: BaseModel | dict[str, Any]) -> None:
-        p = params if isinstance(params, BaseModel) else TwoWallChainParameters.model_validate(
-            dict(params))
-        self.chain_problem = NDofImpactProblem(
-            {"chain": p.chain.model_dump(), "gap": p.gap,  # type: ignore[attr-defined]
-             "impacting_dof": p.impacting_dof})  # type: ignore[attr-defined]
-        super().__init__(p)
-
-    @property
-    def modal(self) -> ModalModel:
-        """The chain's matrices and modal data (shared with its closed form)."""
-        return self.chain_problem.modal
 
     def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
         cp = self.chain_problem
