@@ -428,10 +428,10 @@ class EventLocator(EnginePart):
         (:meth:`~nsm_continuation.core.palc.crossings.CrossingLocator.ends`)."""
         ip = self.ip
         found: list[Event] = []
-        if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]):
-            fold = self._locate_fold(a, b)
-            if fold is not None:
-                found.append(fold)
+        fold = self._locate_fold(a, b) if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]) \
+            else None
+        if fold is not None:
+            found.append(fold)
         elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
             bp = self._locate_branch_point(a, b)
             if bp is not None:
