@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.hybrid.return_map import Section, ShootingFailure
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationError, HybridSystem
@@ -348,7 +349,7 @@ class ConservativeShooting:
         """Absolute accuracy of ``P_z``: ``(rtol + 10 eps) |Phi_T|_2``
         (:meth:`~.return_map.HybridShooting.monodromy_noise`)."""
         Phi, _, _ = self._monodromy(y)
-        return float((self.sim.o.rtol + 10.0 * np.finfo(float).eps) * np.linalg.norm(Phi, 2))
+        return float((self.sim.o.rtol + 10.0 * np.finfo(float).eps) * spectral_norm(Phi))
 
     def lift(self, w: np.ndarray) -> np.ndarray:
         """Section perturbations (columns of ``w``) as perturbations of the full state (zero

@@ -24,6 +24,7 @@ from pydantic import BaseModel, Field, TypeAdapter
 
 from nsm_continuation.core import monitors as monitor
 from nsm_continuation.core.floquet import KreinFloquetData, deflate_known_eigenvector
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.monitors import Monitors
 from nsm_continuation.core.preflight import STRICT, as_list, one_or_many, start_key
 from nsm_continuation.core.problem import EvaluationError, FloquetData, Problem, StartPoint
@@ -267,7 +268,7 @@ class ConservativeFamilyProblem(HybridShootingProblem):
             return None
         removal = abs(lam - 1.0) + res
         common = {"trivial_error": float(removal + flow),
-                  "matrix_norm": float(np.linalg.norm(P, 2)), "noise": float(noise)}
+                  "matrix_norm": spectral_norm(P), "noise": float(noise)}
         if not self.conservative:
             return FloquetData(np.asarray(mult, dtype=complex), **common)
         X0 = sh.x0(y)

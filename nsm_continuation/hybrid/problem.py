@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsm_continuation.core import monitors as monitor
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.monitors import Monitors
 from nsm_continuation.core.problem import (
     EvaluationError,
@@ -283,7 +284,7 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         if noise >= AMBIGUOUS_NOISE and np.any(np.abs(np.abs(mult) - 1.0) <= noise):
             return None
         return FloquetData(multipliers=mult, trivial_error=triv,
-                           matrix_norm=float(np.linalg.norm(P, 2)), noise=float(noise))
+                           matrix_norm=spectral_norm(P), noise=float(noise))
 
     def sim(self, y: np.ndarray) -> SimResult | None:
         try:

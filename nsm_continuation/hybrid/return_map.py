@@ -62,6 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationError
 
@@ -199,7 +200,7 @@ class HybridShooting:
         FT = np.asarray(c.f(res.X), dtype=float).ravel()[:n]
         Phi = res.J[:n, :n] - np.outer(FT, res.Jt[:n])
         rtol = float(self.sim.o.rtol)
-        return float((rtol + 10.0 * np.finfo(float).eps) * np.linalg.norm(Phi, 2))
+        return float((rtol + 10.0 * np.finfo(float).eps) * spectral_norm(Phi))
 
     def time_resolution(self, y: np.ndarray) -> float:
         """How finely the return time can be set through the unknowns: ``eps sum_j |dt/dX0_j|

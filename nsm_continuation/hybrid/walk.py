@@ -61,6 +61,11 @@ class _Walk:
     #: the steps of an exact flow taken since the last event: the field, the state they
     #: started from and their total time (:meth:`Simulator._deferred`)
     defer: tuple[str, np.ndarray, float] | None = None
+    #: the length of the next step of an exact flow when the last step's certificate fixed it
+    #: (:meth:`.linear_flow.ExactStep.max_step`); cleared when the watched functions change
+    next_exact: float | None = None
+    #: whether the current step of an exact flow is certified free of watched zeros
+    certified: bool = False
     #: exact steps whose interior extremes are left to the result (:attr:`.sim_data.SimResult.
     #: extremes`): ``(extremes, Y0, dt)``
     deferred_extremes: list[tuple[Any, np.ndarray, float]] = field(default_factory=list)
