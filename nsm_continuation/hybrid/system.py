@@ -152,7 +152,12 @@ class HybridSystem:
                 f"system {self.name!r}: F has {self.F.numel()} components, state has {n}")
         if isinstance(self.H, (list, tuple)):
             self.H = ca.vertcat(*[ca.SX(h) for h in self.H])
-        if self.H.size2() != 1 or self.H.numel() < 1:
+        if isinstance(self.W, (list, tuple)) and not self.W:
+            self.W = ca.SX(n, 0)
+        if self.H.numel() == 0:
+            # no contact (:meth:`smooth`): a smooth flow, its sections and multipliers
+            self.H = ca.SX(0, 1)
+        if self.H.size2() != 1:
             raise HybridDeclarationError(
                 f"system {self.name!r}: H must be a scalar or a column (one constraint per "
                 f"surface), not {self.H.size1()}x{self.H.size2()}")
@@ -198,6 +203,20 @@ class HybridSystem:
         return int(self.H.numel())
 
     # ------------------------------------------------------------------ constructors
+    @classmethod
+    def smooth(cls, name: str, x: ca.SX, params: dict[str, ca.SX], F: ca.SX,
+               state_names: Sequence[str], *, periodic: dict[int, float] | None = None,
+               clock_index: int | None = None, forcing_frequency: str | None = None
+               ) -> HybridSystem:
+        """A smooth system ``x' = F(x)`` without contact (no surface: ``H`` and ``W`` empty,
+        ``m = 0``). Its orbits are continued like an impacting system's (a section, the
+        monodromy by the variational equations, the multipliers), with no impact, sticking or
+        grazing to locate: the check of a smooth problem's closed forms (a Hopf family), or a
+        system whose contacts are added later."""
+        return cls(name, x, params, F, ca.SX(0, 1), ca.SX(x.numel(), 0), list(state_names),
+                   dict(periodic or {}), clock_index=clock_index,
+                   forcing_frequency=forcing_frequency)
+
     @classmethod
     def mechanical(cls, name: str, q: ca.SX, qd: ca.SX, params: dict[str, ca.SX], M: ca.SX,
                    force: ca.SX, H: ca.SX | Sequence[ca.SX], e: Any, *,
