@@ -2,13 +2,15 @@
 
 A concrete family (``problems/impacting/``) subclasses :class:`HybridCaseProblem`, sets
 ``name`` and ``Parameters`` (with an ``integrator`` field of type :class:`IntegratorSpec`) and
-declares the system (:meth:`HybridCaseProblem.system`), the section (:class:`Section`) and a
-default initial state; the residual, Jacobian, multipliers, events
+declares the system (:meth:`HybridCaseProblem.system`), the section (:class:`Section` on an
+angle or a clock, or :class:`CrossingSection` crossed in a direction) and a default initial
+state; the residual, Jacobian, multipliers, events
 (:class:`~.problem.HybridShootingProblem`), the preflight (:mod:`.case_preflight`), the
 continuation in the period (:mod:`.case_period`), the starts, brute-force sweeps
 (:mod:`.brute_force`) and restarts are generic::
 
-    from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+    from nsm_continuation.hybrid.case import (CrossingSection, HybridCaseProblem,
+                                              IntegratorSpec, Section)
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from nsm_continuation.hybrid.presentation import HybridCasePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
 from nsm_continuation.hybrid.return_map import (
     PERIOD,
+    CrossingSection,
     HybridShooting,
     Section,
     ShootingFailure,
@@ -39,7 +42,7 @@ from nsm_continuation.hybrid.simulate import SimulationError, Simulator
 from nsm_continuation.hybrid.specs import START_ADAPTER, IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
 
-__all__ = ["HybridCaseProblem", "IntegratorSpec", "Section"]
+__all__ = ["CrossingSection", "HybridCaseProblem", "IntegratorSpec", "Section"]
 
 
 class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem):

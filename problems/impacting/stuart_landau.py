@@ -24,8 +24,7 @@ import numpy as np
 from pydantic import BaseModel, Field
 
 from nsm_continuation.core.preflight import STRICT
-from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec
-from nsm_continuation.hybrid.return_map import CrossingSection
+from nsm_continuation.hybrid.case import CrossingSection, HybridCaseProblem, IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 
 
