@@ -26,6 +26,10 @@ with a nonsmooth operation (``fabs``, ``sign``, ``fmin``/``fmax``, ``if_else``, 
 ``floor``...) is refused (its Lie derivatives, the saltation matrices and the event location
 need continuous derivatives); declare the pieces as separate surfaces instead.
 
+**No surface.** ``H`` may also be empty (:meth:`HybridSystem.smooth`, ``m = 0``): a smooth
+flow, simulated between its Poincaré section's crossings with the same exact sensitivities, no
+event to watch (the check of a smooth system's closed forms, e.g. a Hopf family).
+
 Continuation parameters are *lifted into the state* (``free=`` in :meth:`HybridSystem.compile`):
 they become extra components with zero rate, so the Jacobian of the simulated map with respect to
 them comes out of the same chain of step and saltation Jacobians as the state part (the
