@@ -47,6 +47,35 @@ def test_a_system_without_contact_is_declared_and_simulated() -> None:
         HybridSystem("focus", x, {"mu": mu}, F, [], ca.SX.ones(2), ["x", "y"])
 
 
+def test_a_mechanical_system_without_contact_against_scipy() -> None:
+    """A forced Duffing oscillator declared by ``HybridSystem.mechanical`` with no constraint:
+    one forcing period, the state and the monodromy against SciPy's DOP853 on the same field
+    and its variational equations."""
+    from scipy.integrate import solve_ivp
+
+    q, qd, phase, w = ca.SX.sym("q"), ca.SX.sym("qd"), ca.SX.sym("phase"), ca.SX.sym("w")
+    force = -q - 0.1 * qd - q ** 3 + ca.cos(phase)
+    system = HybridSystem.mechanical("duffing", q, qd, {"w": w}, ca.SX(1), force, [], [],
+                                     clock=phase, clock_rate=w)
+    assert system.m == 0
+    omega = 1.2
+    sim = Simulator(system.compile({"w": omega}), SimOptions(rtol=1e-12, atol=1e-14))
+    res = sim.run(np.array([0.3, 0.0, 0.0]), section=(2, 2 * np.pi, 1))
+
+    def rhs(t: float, z: np.ndarray) -> np.ndarray:
+        x, v, P = z[0], z[1], z[2:].reshape(2, 2)
+        A = np.array([[0.0, 1.0], [-1.0 - 3 * x ** 2, -0.1]])
+        return np.concatenate([[v, -x - 0.1 * v - x ** 3 + np.cos(omega * t)], (A @ P).ravel()])
+
+    T = 2 * np.pi / omega
+    ref = solve_ivp(rhs, (0.0, T), [0.3, 0.0, 1.0, 0.0, 0.0, 1.0], method="DOP853",
+                    rtol=1e-12, atol=1e-14).y[:, -1]
+    assert res.t == pytest.approx(T, rel=1e-12)
+    assert res.X[:2] == pytest.approx(ref[:2], abs=1e-9)
+    # the section is on the clock: the map's Jacobian in (q, qd) is the time-T monodromy
+    assert res.J[:2, :2] == pytest.approx(ref[2:].reshape(2, 2), abs=1e-8)
+
+
 def test_the_crossing_direction_survives_the_continuation_setup() -> None:
     for crossing in (-1, 1):
         pb = StuartLandauProblem({"mu": 0.25, "crossing": crossing})
