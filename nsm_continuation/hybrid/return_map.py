@@ -113,6 +113,9 @@ class CrossingSection(Section):
                              "(rising)")
         if int(self.returns) < 1:
             raise ValueError(f"section.returns: {self.returns} must be at least 1")
+        if self.shift != 0:
+            raise ValueError(f"section.shift: {self.shift}: the coordinate of a crossing section "
+                             "comes back to its value (0; a Section takes a shift)")
 
     @property
     def direction(self) -> int:
