@@ -2,13 +2,15 @@
 
 A concrete family (``problems/impacting/``) subclasses :class:`HybridCaseProblem`, sets
 ``name`` and ``Parameters`` (with an ``integrator`` field of type :class:`IntegratorSpec`) and
-declares the system (:meth:`HybridCaseProblem.system`), the section (:class:`Section`) and a
-default initial state; the residual, Jacobian, multipliers, events
+declares the system (:meth:`HybridCaseProblem.system`), the section (:class:`Section` on an
+angle or a clock, or :class:`CrossingSection` crossed in a direction) and a default initial
+state; the residual, Jacobian, multipliers, events
 (:class:`~.problem.HybridShootingProblem`), the preflight (:mod:`.case_preflight`), the
 continuation in the period (:mod:`.case_period`), the starts, brute-force sweeps
 (:mod:`.brute_force`) and restarts are generic::
 
-    from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+    from nsm_continuation.hybrid.case import (CrossingSection, HybridCaseProblem,
+                                              IntegratorSpec, Section)
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from nsm_continuation.hybrid.presentation import HybridCasePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
 from nsm_continuation.hybrid.return_map import (
     PERIOD,
+    CrossingSection,
     HybridShooting,
     Section,
     ShootingFailure,
@@ -39,7 +42,7 @@ from nsm_continuation.hybrid.simulate import SimulationError, Simulator
 from nsm_continuation.hybrid.specs import START_ADAPTER, IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
 
-__all__ = ["HybridCaseProblem", "IntegratorSpec", "Section"]
+__all__ = ["CrossingSection", "HybridCaseProblem", "IntegratorSpec", "Section"]
 
 
 class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem):
@@ -157,8 +160,10 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         # a problem moved to another chart (rechart) keeps it when continued in another
         # parameter (a two-parameter curve's base problem, swapped round a turn)
         moved = self.chart() if self._compiled_for is not None else None
-        sec = self.section()
-        sec = Section(sec.index, sec.value, sec.shift * returns)
+        # ``returns`` periods: the coordinate of a section on an angle or a clock moves that
+        # many times as far; a crossing section is crossed that many times as often, in its
+        # own direction
+        sec = self.section().repeated(returns)
         self.shooting = HybridShooting(c, sec, self.integrator.options())
         self.declared_section = sec.value
         if moved is not None:
@@ -278,9 +283,10 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         """What the transient from ``start.initial`` settled on, where it explains a start
         that fails: an orbit without impacts (it does not touch the impact surface; where the
         free motion is not isolated, e.g. a body that may rest anywhere between two walls,
-        its Jacobian is singular). None for an orbit with impacts or sticking."""
+        its Jacobian is singular). None for an orbit with impacts or sticking, and for a
+        system without contact."""
         res = self.sim(y)
-        if res is None or res.n_impacts or res.sticking_intervals:
+        if res is None or res.n_impacts or res.sticking_intervals or not self.hybrid.m:
             return None
         near = (f"; its closest approach leaves H = {res.grazing_margin:.3g}"
                 if np.isfinite(res.grazing_margin) else "")

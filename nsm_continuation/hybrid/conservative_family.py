@@ -5,7 +5,7 @@ A concrete family sets ``name`` and ``Parameters`` (a strict pydantic model with
 ``integrator: IntegratorSpec`` field; every other field a parameter of the declaration) and
 implements :meth:`~ConservativeFamilyProblem.conservative_system` (the mechanical declaration,
 elastic impacts, and its energy), :meth:`~ConservativeFamilyProblem.section` (a
-:class:`~.conservative.CrossingSection`) and :meth:`~ConservativeFamilyProblem.start_points`.
+:class:`~.return_map.CrossingSection`) and :meth:`~ConservativeFamilyProblem.start_points`.
 The unfolding (eq. U1 of :mod:`.conservative`), the shooting system (U2) in the period, the
 frequency or the energy, the check that the unfolding vanishes, the multipliers without the
 family's ``+1`` and their Krein signatures, the grazing margin (an event: a near approach that
@@ -33,14 +33,13 @@ from nsm_continuation.hybrid.conservative import (
     UNFOLDING,
     UNFOLDING_TOL,
     ConservativeShooting,
-    CrossingSection,
     krein_definiteness,
     momentum_jacobian,
     unfold,
 )
 from nsm_continuation.hybrid.conservative_presentation import ConservativePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
-from nsm_continuation.hybrid.return_map import AMBIGUOUS_NOISE, ShootingFailure
+from nsm_continuation.hybrid.return_map import AMBIGUOUS_NOISE, CrossingSection, ShootingFailure
 from nsm_continuation.hybrid.simulate import SimulationError, Simulator
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
@@ -150,7 +149,7 @@ class ConservativeFamilyProblem(HybridShootingProblem):
                              "parameters are fixed along a conservative family")
         sec = self.section()
         if returns is not None:
-            sec = CrossingSection(sec.index, sec.value, sec.shift, sec.crossing, int(returns))
+            sec = replace(sec, returns=int(returns))
         self.shooting = ConservativeShooting(self.compiled_system, sec,
                                              self.integrator.options(), name,
                                              self.energy_function, multiple=self.multiple)

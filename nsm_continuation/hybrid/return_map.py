@@ -58,7 +58,7 @@ rtol 1e-10 (Newton and the tangent fail there), ~0.02 at period 77 with rtol 1e-
 from __future__ import annotations
 
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -69,7 +69,9 @@ from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationErro
 
 @dataclass
 class Section:
-    """Poincaré section ``x[index] = value``; one period moves ``x[index]`` by ``shift``."""
+    """Poincaré section ``x[index] = value``; one period moves ``x[index]`` by ``shift`` (an
+    angle or a clock that advances), and the section is met where it reaches ``value +
+    shift``, moving that way."""
 
     index: int
     value: float
@@ -78,6 +80,142 @@ class Section:
     @property
     def direction(self) -> int:
         return 1 if self.shift > 0 else -1
+
+    @property
+    def crossings(self) -> int:
+        """Crossings of the section per period (one: the coordinate reaches ``value +
+        shift`` once)."""
+        return 1
+
+    @property
+    def target(self) -> tuple[int, float, int]:
+        """The end of a return, as :meth:`.simulate.Simulator.run` takes it: ``(index, value
+        + shift, direction)``."""
+        return self.index, self.value + self.shift, self.direction
+
+    def repeated(self, periods: int) -> Section:
+        """The section of an orbit of ``periods`` periods (the iterated return map): the
+        coordinate moves ``periods`` times as far."""
+        return replace(self, shift=self.shift * periods)
+
+
+@dataclass
+class CrossingSection(Section):
+    """A Poincaré section ``x[index] = value`` of an autonomous system crossed in ``crossing``
+    (``-1`` falling, ``+1`` rising); ``returns`` crossings make one period. The section
+    coordinate comes back to its value (``shift = 0``)."""
+
+    crossing: int = -1
+    returns: int = 1
+
+    def __post_init__(self) -> None:
+        if self.crossing not in (-1, 1):
+            raise ValueError(f"section.crossing: {self.crossing} must be -1 (falling) or +1 "
+                             "(rising)")
+        if int(self.returns) < 1:
+            raise ValueError(f"section.returns: {self.returns} must be at least 1")
+        if self.shift != 0:
+            raise ValueError(f"section.shift: {self.shift}: the coordinate of a crossing section "
+                             "comes back to its value (0; a Section takes a shift)")
+
+    @property
+    def direction(self) -> int:
+        return self.crossing
+
+    @property
+    def crossings(self) -> int:
+        return int(self.returns)
+
+    def repeated(self, periods: int) -> CrossingSection:
+        """``periods`` times as many crossings, in the same direction."""
+        return replace(self, returns=int(self.returns) * int(periods))
+
+
+def chain_returns(parts: list[SimResult]) -> SimResult:
+    """One :class:`SimResult` for consecutive returns to a section (each started where the
+    previous one ended): times added, events and intervals shifted, ``J`` and ``J_t`` composed
+    by the caller (:func:`run_returns`), extremes merged."""
+    if len(parts) == 1:
+        return parts[0]
+    t0 = 0.0
+    events, sticking, margins, surfaces = [], [], [], []
+    for res in parts:
+        for ev in res.events:
+            events.append(type(ev)(ev.kind, ev.t + t0, ev.x, ev.info, ev.surface))
+        sticking += [(a + t0, b + t0) for a, b in res.sticking_intervals]
+        margins += list(res.grazing_margins)
+        surfaces += list(res.grazing_surfaces)
+        t0 += float(res.t)
+    last = parts[-1]
+    ext = None
+    if all(r.extremes is not None for r in parts):
+        ext = np.column_stack([np.min([r.extremes[:, 0] for r in parts], axis=0),
+                               np.max([r.extremes[:, 1] for r in parts], axis=0)])
+    return SimResult(
+        X=last.X, t=t0, J=last.J, Jt=last.Jt, events=events, state=last.state,
+        sticking_intervals=sticking,
+        chatter_counts=[k for r in parts for k in r.chatter_counts],
+        n_impacts=int(sum(r.n_impacts for r in parts)),
+        min_impact_velocity=float(min(r.min_impact_velocity for r in parts)),
+        grazing_margin=float(min(r.grazing_margin for r in parts)),
+        chatter_errors=[e for r in parts for e in r.chatter_errors], trajectory=None,
+        n_steps=int(sum(r.n_steps for r in parts)), ended_by=last.ended_by, bounds=ext,
+        grazing_margins=margins, grazing_surfaces=surfaces, surface_names=last.surface_names)
+
+
+def crossing_failure(c: CompiledHybrid, section: Section, X0: np.ndarray, res: SimResult,
+                     atol: float) -> str | None:
+    """Why the orbit from ``X0`` does not cross a section whose coordinate returns to its
+    value (``shift = 0``, :class:`CrossingSection`) as a periodic orbit must, or None. The
+    section coordinate's rate ``F_k(X0)`` must have the section's sign (an orbit through the
+    section the other way returns only after half a turn) and move it by more than the
+    integrator's absolute tolerance over the period, ``|F_k| t > atol``: below that the orbit
+    has shrunk onto an equilibrium on the section (a Hopf point, where the family of a smooth
+    system is born) and the crossing is no longer resolved; past it the shooting would go on
+    along the equilibrium, which the return map fixes without being a periodic orbit."""
+    if section.shift != 0:
+        return None  # the coordinate advances by |shift| a period: a crossing, always
+    rate = section.direction * float(np.asarray(c.calls().f.flat(X0))[section.index])
+    name = c.system.state_names[section.index]
+    if rate <= 0.0:
+        return (f"the state on the section moves against the section's crossing direction "
+                f"(d{name}/dt = {section.direction * rate:.3g}): not on an orbit crossing it "
+                f"{'rising' if section.direction > 0 else 'falling'} (a guess off the orbit, "
+                "or past the equilibrium on the section that the orbit shrinks onto at a Hopf "
+                "point)")
+    if rate * float(res.t) <= atol:
+        return (f"the orbit has shrunk onto an equilibrium on the section (d{name}/dt = "
+                f"{rate:.3g} there, moving {name} by {rate * float(res.t):.3g} over the period, "
+                f"below atol = {atol:.3g}): a Hopf point, where the family is born")
+    return None
+
+
+def run_returns(sim: Simulator, X0: np.ndarray, section: Section) -> SimResult:
+    """One period from ``X0`` on ``section``: its :attr:`~Section.crossings` returns, chained
+    (one simulation for a section met once per period). ``J = J_k ... J_1`` and ``J_t =
+    sum_k J_t,k J_(k-1) ... J_1``; each return restarts exactly on the section, its row of
+    ``J`` zero (the time to the section absorbs it)."""
+    k_all = section.crossings
+    if k_all == 1:
+        return sim.run(X0, section=section.target)
+    parts: list[SimResult] = []
+    X = X0
+    J = Jt = None
+    for k in range(k_all):
+        res = sim.run(X, section=section.target)
+        if res.J is not None:
+            Jt = res.Jt.copy() if J is None else Jt + res.Jt @ J  # type: ignore[operator]
+            J = res.J.copy() if J is None else res.J @ J
+        parts.append(res)
+        if k + 1 < k_all:
+            X = res.X.copy()
+            X[section.index] = section.value
+            if J is not None:
+                J[section.index, :] = 0.0
+    out = chain_returns(parts)
+    if J is not None:
+        out.J, out.Jt = J, Jt
+    return out
 
 
 class ShootingFailure(Exception):
@@ -122,10 +260,12 @@ class HybridShooting:
         key = np.asarray(y, dtype=float).tobytes()
         hit = self._cache.get(key)
         if hit is None:
-            s = self.section
             try:
-                hit = self.sim.run(self.x0(y), section=(s.index, s.value + s.shift,
-                                                          s.direction))
+                X0 = self.x0(y)
+                hit = run_returns(self.sim, X0, self.section)
+                why = crossing_failure(self.c, self.section, X0, hit, self.sim.o.atol)
+                if why is not None:
+                    hit = why
             except SimulationError as exc:
                 hit = exc.reason
                 if hit.startswith("initial state on the inadmissible side"):

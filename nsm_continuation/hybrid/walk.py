@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from nsm_continuation.hybrid.modes import S1
 from nsm_continuation.hybrid.sim_data import SimEvent
 
 
@@ -74,7 +75,10 @@ class _Walk:
 
     @property
     def mode(self) -> str:
-        """The state of the active surface (sticking or chattering), else of the first."""
+        """The state of the active surface (sticking or chattering), else of the first; free
+        flight (``s1``) for a system without contact."""
+        if not self.modes:
+            return S1
         return self.modes[0 if self.active is None else self.active]
 
     def record(self) -> None:

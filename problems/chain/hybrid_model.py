@@ -43,8 +43,8 @@ from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.preflight import STRICT, one_or_many
 from nsm_continuation.core.problem import StartPoint
 from nsm_continuation.core.settings import ContinuationSettings
-from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import ConservativeFamilyProblem, GuessStart
+from nsm_continuation.hybrid.return_map import CrossingSection
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 

@@ -52,8 +52,8 @@ from nsm_continuation.problems.chain.parameters import ChainSpec
 from pydantic import BaseModel, Field, model_validator
 
 from nsm_continuation.core.preflight import STRICT, one_or_many
-from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import GuessStart
+from nsm_continuation.hybrid.return_map import CrossingSection
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 
