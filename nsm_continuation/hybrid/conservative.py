@@ -77,14 +77,30 @@ UNFOLDING_TOL = 1e2
 class CrossingSection(Section):
     """A Poincaré section ``x[index] = value`` of an autonomous system crossed in ``crossing``
     (``-1`` falling, ``+1`` rising); ``returns`` crossings make one period. The section
-    coordinate comes back to its value (``shift = 0``)."""
+    coordinate comes back to its value (``shift = 0``).
+
+    ``surface`` (an index of the system's surfaces, whose impact surface is ``x[index] =
+    value``): the section is that surface's impacts, its points the post-impact states (the
+    flight leaving the surface crosses ``x[index] = value`` in ``crossing``). It is transversal
+    to the flow wherever the impact velocity is not zero, i.e. along a whole family of orbits
+    that impact the surface, where a section between the walls turns tangent to the flow as
+    soon as the section coordinate has a turning point at the section's value."""
 
     crossing: int = -1
     returns: int = 1
+    surface: int | None = None
 
     @property
     def direction(self) -> int:
         return self.crossing
+
+
+def section_return(sim: Simulator, X: np.ndarray, section: CrossingSection) -> SimResult:
+    """The simulation from ``X`` to the next point of ``section`` (its next crossing, or
+    just after the next impact on its surface)."""
+    if section.surface is not None:
+        return sim.run(X, stop_impact=section.surface)
+    return sim.run(X, section=(section.index, section.value, section.direction))
 
 
 def unfold(system: HybridSystem, name: str = UNFOLDING) -> HybridSystem:
@@ -239,13 +255,12 @@ class ConservativeShooting:
         ``J_t = sum_k J_t,k J_(k-1) ... J_1`` (each return restarted exactly on the section,
         its row of ``J`` zero: the time to the section absorbs it)."""
         s = self.section
-        target = (s.index, s.value, s.direction)
         parts: list[SimResult] = []
         X = X0
         J = None
         Jt = None
         for k in range(s.returns):
-            res = self.sim.run(X, section=target)
+            res = section_return(self.sim, X, s)
             if res.J is not None:
                 Jt = res.Jt.copy() if J is None else Jt + res.Jt @ J  # type: ignore[operator]
                 J = res.J.copy() if J is None else res.J @ J

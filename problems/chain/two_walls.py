@@ -95,9 +95,10 @@ class TwoWallChainParameters(BaseModel):
             self.lower_gap = self.gap
         if self.section_value is None:
             self.section_value = 0.5 * self.gap
-        if not -self.lower_gap < self.section_value < self.gap:
+        if not -self.lower_gap < self.section_value <= self.gap:
             raise ValueError(f"section_value = {self.section_value} must lie between the walls "
-                             f"(-lower_gap = {-self.lower_gap}, gap = {self.gap})")
+                             f"or on the upper one (-lower_gap = {-self.lower_gap}, gap = "
+                             f"{self.gap})")
         return self
 
 
@@ -134,8 +135,18 @@ class TwoWallChainProblem(ChainFamilyProblem):
         return self.params.impacts  # type: ignore[attr-defined,no-any-return]
 
     def section(self) -> CrossingSection:
-        return CrossingSection(self.chain_problem.c, float(self.params.section_value),  # type: ignore[attr-defined]
-                               0.0, crossing=-1, returns=1)
+        """``u_c = section_value`` crossed falling; on the upper wall (``section_value =
+        gap``) the impacts on it (the post-impact states)."""
+        value = float(self.params.section_value)  # type: ignore[attr-defined]
+        if value == float(self.params.gap):  # type: ignore[attr-defined]
+            return self.impact_section()
+        return CrossingSection(self.chain_problem.c, value, 0.0, crossing=-1, returns=1)
+
+    def impact_section(self) -> CrossingSection:
+        """The impacts on the upper wall: where a turn of ``u_c`` reaches a section between
+        the walls, the section moves there (:meth:`rechart`)."""
+        return CrossingSection(self.chain_problem.c, float(self.params.gap), 0.0,  # type: ignore[attr-defined]
+                               crossing=-1, returns=1, surface=WALLS.index("upper"))
 
     def symmetric_orbit(self, T: float) -> tuple[np.ndarray, np.ndarray]:
         """The symmetric orbit (W1) of period ``T``: its state just after the impact on the
