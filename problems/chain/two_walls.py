@@ -12,6 +12,15 @@ orbit, shooting on the section ``u_c = section_value`` crossed falling (default 
 the energy ``E = (u'^T M u' + u^T K u) / 2``). Paper 000 names this configuration beyond its
 reach: one impact per period on one wall is its assumption throughout.
 
+**The section.** A section between the walls turns tangent to the flow where a turn of ``u_c``
+inside the period reaches its value (on mode 2 the interior maximum grown from the inflection
+at ``T/4`` reaches ``u_c = gap / 2`` at omega = 5.8870): the return map jumps there, though the
+family goes on. Where a turn comes within ``SECTION_MARGIN`` of the section's value the section
+moves to the impacts on the upper wall (:meth:`impact_section`,
+:mod:`~nsm_continuation.hybrid.conservative_charts`), transversal to the flow as long as the
+orbit hits that wall with a nonzero velocity: the family is followed to its own end (on mode 2
+the grazing of both walls at omega = 5.92312286, where the interior extrema reach them).
+
 **Why this configuration.** A mass moving in a clearance (a loose support, a rattling gear, a
 tube in its baffle) is the two-contact setting met first in practice, and it keeps paper 000's
 impacting dof and modes, so its nonsmooth modes can be set against the one-wall ones at the same
@@ -78,7 +87,10 @@ class TwoWallChainParameters(BaseModel):
     impacting_dof: Annotated[int, Field(ge=1)] | None = None
     #: the section ``u_c = section_value`` (crossed falling), between the walls (null: halfway
     #: to the upper wall, ``gap / 2``; on a symmetric orbit ``u_c = 0`` is crossed at ``T / 4``,
-    #: and that crossing turns tangent where ``u_c`` has an inflection there)
+    #: and that crossing turns tangent where ``u_c`` has an inflection there), or on the upper
+    #: wall (``gap``: the impacts on it, transversal as long as they have a velocity); a
+    #: section between the walls moves to the upper wall's impacts where a turn of ``u_c``
+    #: comes near it (a branch continues through the section's tangency)
     section_value: float | None = Field(None, allow_inf_nan=False)
     #: the impacts per period of the orbits continued (2: one on each wall; a branch ends
     #: where its impact sequence changes); null: any
