@@ -196,7 +196,8 @@ class SectionCharts:
         if not chart:
             new = copy.copy(self)
             new.moved_section = None
-            new.set_parameter(self.parameter)
+            new.set_parameter(self.parameter,
+                              self.section().returns * int(getattr(self, "multiple", 1)))
             return new
         declared = self.section()
         value = chart.get(self.hybrid.state_names[declared.index])

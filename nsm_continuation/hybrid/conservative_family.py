@@ -230,7 +230,9 @@ class ConservativeFamilyProblem(SectionCharts, HybridShootingProblem):
 
     def derived(self, y: np.ndarray) -> dict[str, float]:
         """The hybrid derived quantities (:meth:`HybridShootingProblem.derived`) and the
-        family's: ``period``, ``omega``, ``energy``, ``beta`` and ``unfolding = |beta| T``.
+        family's: ``period``, ``omega``, ``energy``, ``beta`` and ``unfolding = |beta| T``
+        (and ``section_<coordinate>``, the value of the section the unknowns are on, where the
+        section may move: :meth:`impact_section`).
         Raises :class:`EvaluationError` (the branch ends with that reason) where the unfolding
         does not vanish (:meth:`unfolding_tolerance`): the system is not conservative."""
         y = np.asarray(y, dtype=float)
