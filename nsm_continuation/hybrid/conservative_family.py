@@ -92,9 +92,6 @@ class ConservativeFamilyProblem(SectionCharts, HybridShootingProblem):
         # a near approach that becomes an impact (or an impact that vanishes): an event,
         # located; no impact law changes there, the branch goes on if it can
         monitor.event_function("grazing_margin", "grazing"),
-        # a near approach whose distance falls to zero where the branch cannot go on: the
-        # family of its impact sequence ends at that grazing (extrapolated, named)
-        monitor.vanishing("grazing_margin", "grazing"),
         monitor.signature("impact_sequence_change"))
     #: multipliers farther than this from the unit circle have Krein definiteness 0 exactly
     #: (off the circle ``omega(conj v, v) = |lambda|^2 omega(conj v, v)``)

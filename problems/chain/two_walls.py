@@ -60,6 +60,8 @@ from nsm_continuation.problems.chain.hybrid_model import ChainFamilyProblem, Clo
 from nsm_continuation.problems.chain.parameters import ChainSpec
 from pydantic import BaseModel, Field, model_validator
 
+from nsm_continuation.core import monitors as monitor
+from nsm_continuation.core.monitors import Monitors, Source
 from nsm_continuation.core.preflight import STRICT, one_or_many
 from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import GuessStart
@@ -124,6 +126,18 @@ class TwoWallChainProblem(ChainFamilyProblem):
     setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
                                                  "section_value", "impacts")
     start_adapter = one_or_many(ClosedFormStart | GuessStart)
+    #: the symmetric families end where a near approach grazes a wall: its margin is a
+    #: vanishing quantity (the end extrapolated to its zero, named ``grazing``). The energy is
+    #: not watched for an asymptote: the families end at such a grazing before (W1)'s energy
+    #: asymptote (a zero of ``w2(T)``, where ``v -> inf``): as ``v`` grows the flight between
+    #: the impacts (``u_c`` from ``g`` to ``-g``) has interior extrema of size ``~ |v|``, which
+    #: reach a wall first (mode 1 at omega = 1.66836 before 1.68, mode 2 at 5.92312 before
+    #: 5.99); extrapolated from the steep rise of the energy, the asymptote would end mode 2
+    #: at omega ~ 5.90, short of its grazing
+    monitors: ClassVar[Monitors] = Monitors(
+        (*(m for m in ChainFamilyProblem.monitors.declared if m.source is not Source.ASYMPTOTE),
+         monitor.vanishing("grazing_margin", "grazing")),
+        ChainFamilyProblem.monitors.default_kind)
     model: ClassVar[str] = (
         "hybrid (problem ndof_two_walls): event-driven simulation of the chain between impacts "
         "on two walls with the unfolding beta; no closed form covers every orbit of two "
