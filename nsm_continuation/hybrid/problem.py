@@ -315,10 +315,9 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
             # |dH/dt| of the slowest impact (chattering ones included): in units of H per time
             "min_impact_dH_dt": (float(res.min_impact_velocity)
                                  if np.isfinite(res.min_impact_velocity) else np.nan),
-            # signed grazing margin, in units of H: min H of the near approaches (> 0) or
-            # -v^2/(2a) of a decelerating impact (< 0); crosses zero at a grazing bifurcation
-            "grazing_margin": (float(res.grazing_margin) if np.isfinite(res.grazing_margin)
-                               else np.nan),
+            # signed grazing margin closest to zero, in units of H: H_min of a near approach
+            # (> 0) or -v^2/(2a) of a decelerating impact (< 0); crosses zero at a grazing
+            "grazing_margin": res.closest_margin(),
         }
         sec = self._clock_section()
         if sec is not None:  # where the section state was taken (it moves: rechart)
