@@ -103,10 +103,18 @@ class Section:
 class CrossingSection(Section):
     """A Poincaré section ``x[index] = value`` of an autonomous system crossed in ``crossing``
     (``-1`` falling, ``+1`` rising); ``returns`` crossings make one period. The section
-    coordinate comes back to its value (``shift = 0``)."""
+    coordinate comes back to its value (``shift = 0``).
+
+    ``surface`` (an index of the system's surfaces, whose impact surface is ``x[index] =
+    value``): the section is that surface's impacts, its points the post-impact states (the
+    flight leaving the surface crosses ``x[index] = value`` in ``crossing``). It is transversal
+    to the flow wherever the impact velocity is not zero, i.e. along a whole family of orbits
+    that impact the surface, where a section between the walls turns tangent to the flow as
+    soon as the section coordinate has a turning point at the section's value."""
 
     crossing: int = -1
     returns: int = 1
+    surface: int | None = None
 
     def __post_init__(self) -> None:
         if self.crossing not in (-1, 1):
@@ -190,6 +198,14 @@ def crossing_failure(c: CompiledHybrid, section: Section, X0: np.ndarray, res: S
     return None
 
 
+def section_return(sim: Simulator, X: np.ndarray, section: Section) -> SimResult:
+    """The simulation from ``X`` to the next point of ``section``: its next crossing, or, for a
+    :class:`CrossingSection` on a surface, just after the next impact on it."""
+    if isinstance(section, CrossingSection) and section.surface is not None:
+        return sim.run(X, stop_impact=section.surface)
+    return sim.run(X, section=section.target)
+
+
 def run_returns(sim: Simulator, X0: np.ndarray, section: Section) -> SimResult:
     """One period from ``X0`` on ``section``: its :attr:`~Section.crossings` returns, chained
     (one simulation for a section met once per period). ``J = J_k ... J_1`` and ``J_t =
@@ -197,12 +213,12 @@ def run_returns(sim: Simulator, X0: np.ndarray, section: Section) -> SimResult:
     ``J`` zero (the time to the section absorbs it)."""
     k_all = section.crossings
     if k_all == 1:
-        return sim.run(X0, section=section.target)
+        return section_return(sim, X0, section)
     parts: list[SimResult] = []
     X = X0
     J = Jt = None
     for k in range(k_all):
-        res = sim.run(X, section=section.target)
+        res = section_return(sim, X, section)
         if res.J is not None:
             Jt = res.Jt.copy() if J is None else Jt + res.Jt @ J  # type: ignore[operator]
             J = res.J.copy() if J is None else res.J @ J

@@ -183,10 +183,13 @@ class Simulator(Transitions, SurfaceContacts):
     # ------------------------------------------------------------------ main loop
     def run(self, X0: np.ndarray, t_end: float | None = None,
             section: tuple[int, float, int] | None = None, t_min_section: float = 0.0,
-            max_time: float | None = None) -> SimResult:
+            max_time: float | None = None, stop_impact: int | None = None) -> SimResult:
         """Simulate from ``X0`` (state followed by freed parameters) until ``t_end`` or until
         component ``section[0]`` crosses ``section[1]`` in direction ``section[2]`` (after time
-        ``t_min_section``). Raises :class:`SimulationError` with a reason on failure.
+        ``t_min_section``), or (``stop_impact``) just after the first impact on that surface
+        from which the flight leaves it (an impact section: the post-impact state, its
+        sensitivities through the impact's saltation, ``ended_by`` "impact"). Raises
+        :class:`SimulationError` with a reason on failure.
 
         Each pass of the loop tries one Runge-Kutta step (:meth:`_attempt`), looks for the first
         watched crossing inside it (:meth:`_first_crossing`), and either accepts the whole step
@@ -223,8 +226,13 @@ class Simulator(Transitions, SurfaceContacts):
                 if last:
                     break
                 continue
+            impacts = w.n_imp
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
+            if stop_impact is not None and w.n_imp > impacts and w.modes[stop_impact] == S1 \
+                    and w.events and w.events[-1].kind == "impact" \
+                    and w.events[-1].surface == stop_impact:
+                return self._result(w, "impact")
         if w.defer is not None:
             w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
