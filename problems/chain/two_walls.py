@@ -52,7 +52,6 @@ from nsm_continuation.problems.chain.parameters import ChainSpec
 from pydantic import BaseModel, Field, model_validator
 
 from nsm_continuation.core.preflight import STRICT, one_or_many
-from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import GuessStart
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
@@ -108,8 +107,6 @@ class TwoWallChainProblem(ChainFamilyProblem):
     name: ClassVar[str] = "ndof_two_walls"
     Parameters: ClassVar[type[BaseModel]] = TwoWallChainParameters
     case_parameter: ClassVar[str | None] = "omega"
-    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
-                                                 "section_value", "impacts")
     start_adapter = one_or_many(ClosedFormStart | GuessStart)
     model: ClassVar[str] = (
         "hybrid (problem ndof_two_walls): event-driven simulation of the chain between impacts "
@@ -117,25 +114,14 @@ class TwoWallChainProblem(ChainFamilyProblem):
         "contacts (the symmetric one-impact-per-wall orbit (W1) is only the start)")
 
     def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
-        cp = self.chain_problem
-        N, c = cp.N, cp.c
-        M, K = ca.DM(cp.M), ca.DM(cp.K)
-        q, qd = ca.SX.sym("u", N), ca.SX.sym("du", N)
+        M, K, q, qd, names, energy = self.chain_mechanics()
         p = {k: ca.SX.sym(k) for k in ("gap", "lower_gap")}
-        names = [f"u{i + 1}" for i in range(N)] + [f"du{i + 1}" for i in range(N)]
+        c = self.chain_problem.c
         system = HybridSystem.mechanical(
             "chain_two_walls", q, qd, p, M, -ca.mtimes(K, q),
             [p["gap"] - q[c], q[c] + p["lower_gap"]], [1.0, 1.0], surfaces=WALLS,
             state_names=names)
-        energy = 0.5 * (ca.dot(qd, ca.mtimes(M, qd)) + ca.dot(q, ca.mtimes(K, q)))
         return system, energy
-
-    def impacts_per_period(self) -> int | None:
-        return self.params.impacts  # type: ignore[attr-defined,no-any-return]
-
-    def section(self) -> CrossingSection:
-        return CrossingSection(self.chain_problem.c, float(self.params.section_value),  # type: ignore[attr-defined]
-                               0.0, crossing=-1, returns=1)
 
     def symmetric_orbit(self, T: float) -> tuple[np.ndarray, np.ndarray]:
         """The symmetric orbit (W1) of period ``T``: its state just after the impact on the
