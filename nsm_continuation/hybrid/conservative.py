@@ -52,18 +52,16 @@ dE(v)``), so the form is the same on the section and on the quotient by the flow
 
 from __future__ import annotations
 
-from collections import OrderedDict
-
 import casadi as ca
 import numpy as np
 
 from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.hybrid.return_map import (
     CrossingSection,
-    ShootingFailure,
+    SimulationCache,
     run_returns,
 )
-from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
+from nsm_continuation.hybrid.simulate import SimOptions, SimResult, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationError, HybridSystem
 
 #: the name of the unfolding parameter (:func:`unfold`)
@@ -167,9 +165,7 @@ class ConservativeShooting:
         #: at a period doubling): the period and the frequency are the base period's
         self.multiple = int(multiple)
         self.free_idx = [i for i in range(c.n) if i != section.index]
-        self._cache: OrderedDict[bytes, SimResult | str] = OrderedDict()
-        self.cache_size = cache_size
-        self.n_simulations = 0
+        self._cache = SimulationCache(cache_size)
 
     @staticmethod
     def quantities(has_energy: bool) -> list[str]:
@@ -201,22 +197,7 @@ class ConservativeShooting:
         """The simulated period from ``y`` (``(z, beta)`` or ``(z, beta, s)``), cached;
         :class:`~.return_map.ShootingFailure` with the simulator's reason."""
         yy = np.asarray(y, dtype=float)[: self.c.n]
-        key = yy.tobytes()
-        hit = self._cache.get(key)
-        if hit is None:
-            try:
-                hit = self._run(self.x0(yy))
-            except SimulationError as exc:
-                hit = exc.reason
-            except HybridDeclarationError as exc:
-                hit = str(exc)
-            self.n_simulations += 1
-            self._cache[key] = hit
-            if len(self._cache) > self.cache_size:
-                self._cache.popitem(last=False)
-        if isinstance(hit, str):
-            raise ShootingFailure(hit)
-        return hit
+        return self._cache.get(yy, lambda: self._run(self.x0(yy)))
 
     def energy_gradient(self, y: np.ndarray) -> tuple[float, np.ndarray]:
         """``E`` and ``grad E`` at the section state of ``y`` (``energy`` declared)."""

@@ -58,6 +58,7 @@ rtol 1e-10 (Newton and the tangent fail there), ~0.02 at period 77 with rtol 1e-
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -238,6 +239,44 @@ class ShootingFailure(Exception):
     pass
 
 
+class SimulationCache:
+    """The last ``size`` simulations by the unknowns they were run from: the run, or the reason
+    it failed (a :class:`ShootingFailure` at each lookup, without simulating again), so that
+    the residual, its Jacobian and the derived quantities at one point simulate once."""
+
+    def __init__(self, size: int = 16) -> None:
+        self.size = size
+        #: simulations run (lookups that found nothing)
+        self.n_simulations = 0
+        self._runs: OrderedDict[bytes, SimResult | str] = OrderedDict()
+
+    def clear(self) -> None:
+        """Forget every simulation."""
+        self._runs.clear()
+
+    def get(self, y: np.ndarray, run: Callable[[], SimResult],
+            explain: Callable[[str], str] | None = None) -> SimResult:
+        """The simulation from the unknowns ``y``: kept, else ``run()`` (a
+        :class:`SimulationError`'s reason, completed by ``explain``, or a
+        :class:`HybridDeclarationError` is kept as the failure)."""
+        key = np.asarray(y, dtype=float).tobytes()
+        hit = self._runs.get(key)
+        if hit is None:
+            try:
+                hit = run()
+            except SimulationError as exc:
+                hit = exc.reason if explain is None else explain(exc.reason)
+            except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
+                hit = str(exc)
+            self.n_simulations += 1
+            self._runs[key] = hit
+            if len(self._runs) > self.size:
+                self._runs.popitem(last=False)
+        if isinstance(hit, str):
+            raise ShootingFailure(hit)
+        return hit
+
+
 def wrap_periodic(values: np.ndarray, indices: list[int], periodic: dict[int, float]
                   ) -> np.ndarray:
     """``values[j]`` (state component ``indices[j]``) wrapped to ``[-per/2, per/2)`` for the
@@ -259,9 +298,17 @@ class HybridShooting:
         self.section = section
         self.sim = Simulator(c, opts)
         self.free_idx = [i for i in range(c.n) if i != section.index]
-        self._cache: OrderedDict[bytes, SimResult | str] = OrderedDict()
-        self.cache_size = cache_size
-        self.n_simulations = 0
+        self._cache = SimulationCache(cache_size)
+
+    @property
+    def cache_size(self) -> int:
+        """How many simulations are kept (a copy of this shooting keeps as many)."""
+        return self._cache.size
+
+    @property
+    def n_simulations(self) -> int:
+        """Simulations run."""
+        return self._cache.n_simulations
 
     def x0(self, y: np.ndarray) -> np.ndarray:
         """Full initial state (with the freed parameters) from the unknowns ``y``."""
@@ -273,28 +320,24 @@ class HybridShooting:
         return X
 
     def simulate(self, y: np.ndarray) -> SimResult:
-        key = np.asarray(y, dtype=float).tobytes()
-        hit = self._cache.get(key)
-        if hit is None:
-            try:
-                X0 = self.x0(y)
-                hit = run_returns(self.sim, X0, self.section)
-                why = crossing_failure(self.c, self.section, X0, hit, self.sim.o.atol)
-                if why is not None:
-                    hit = why
-            except SimulationError as exc:
-                hit = exc.reason
-                if hit.startswith("initial state on the inadmissible side"):
-                    hit += self._inadmissible_start(y)
-            except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
-                hit = str(exc)
-            self.n_simulations += 1
-            self._cache[key] = hit
-            if len(self._cache) > self.cache_size:
-                self._cache.popitem(last=False)
-        if isinstance(hit, str):
-            raise ShootingFailure(hit)
-        return hit
+        """The return from ``y`` (:class:`SimulationCache`): :func:`run_returns` on the
+        section, refused with the reason of :func:`crossing_failure`; a start inside the
+        obstacle says how far (:meth:`_inadmissible_start`)."""
+
+        def run() -> SimResult:
+            X0 = self.x0(y)
+            res = run_returns(self.sim, X0, self.section)
+            why = crossing_failure(self.c, self.section, X0, res, self.sim.o.atol)
+            if why is not None:
+                raise SimulationError(why)
+            return res
+
+        def explain(reason: str) -> str:
+            if reason.startswith("initial state on the inadmissible side"):
+                return reason + self._inadmissible_start(y)
+            return reason
+
+        return self._cache.get(y, run, explain)
 
     #: an initial state this far inside the obstacle (relative to its size) is a guess off
     #: any orbit; closer, an orbit on the surface at the section's time

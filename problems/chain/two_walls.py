@@ -123,8 +123,6 @@ class TwoWallChainProblem(ChainFamilyProblem):
     name: ClassVar[str] = "ndof_two_walls"
     Parameters: ClassVar[type[BaseModel]] = TwoWallChainParameters
     case_parameter: ClassVar[str | None] = "omega"
-    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
-                                                 "section_value", "impacts")
     start_adapter = one_or_many(ClosedFormStart | GuessStart)
     #: the symmetric families end where a near approach grazes a wall: its margin is a
     #: vanishing quantity (the end extrapolated to its zero, named ``grazing``). The energy is
@@ -144,21 +142,14 @@ class TwoWallChainProblem(ChainFamilyProblem):
         "contacts (the symmetric one-impact-per-wall orbit (W1) is only the start)")
 
     def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
-        cp = self.chain_problem
-        N, c = cp.N, cp.c
-        M, K = ca.DM(cp.M), ca.DM(cp.K)
-        q, qd = ca.SX.sym("u", N), ca.SX.sym("du", N)
+        M, K, q, qd, names, energy = self.chain_mechanics()
         p = {k: ca.SX.sym(k) for k in ("gap", "lower_gap")}
-        names = [f"u{i + 1}" for i in range(N)] + [f"du{i + 1}" for i in range(N)]
+        c = self.chain_problem.c
         system = HybridSystem.mechanical(
             "chain_two_walls", q, qd, p, M, -ca.mtimes(K, q),
             [p["gap"] - q[c], q[c] + p["lower_gap"]], [1.0, 1.0], surfaces=WALLS,
             state_names=names)
-        energy = 0.5 * (ca.dot(qd, ca.mtimes(M, qd)) + ca.dot(q, ca.mtimes(K, q)))
         return system, energy
-
-    def impacts_per_period(self) -> int | None:
-        return self.params.impacts  # type: ignore[attr-defined,no-any-return]
 
     def section(self) -> CrossingSection:
         """``u_c = section_value`` crossed falling; on the upper wall (``section_value =
@@ -166,7 +157,7 @@ class TwoWallChainProblem(ChainFamilyProblem):
         value = float(self.params.section_value)  # type: ignore[attr-defined]
         if value == float(self.params.gap):  # type: ignore[attr-defined]
             return self.impact_section()
-        return CrossingSection(self.chain_problem.c, value, 0.0, crossing=-1, returns=1)
+        return super().section()
 
     def impact_section(self) -> CrossingSection:
         """The impacts on the upper wall: where a turn of ``u_c`` reaches a section between
