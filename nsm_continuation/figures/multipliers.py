@@ -173,7 +173,7 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
     ax.set_ylabel(r"Im $\lambda$")
     ax.set_title("\n".join(["Floquet multipliers in the complex plane (unit circle)",
                              *(textwrap.fill(n, 70) for n in drawn_notes)]),
-                 **({"fontsize": 10} if drawn_notes else {}))
+                 fontsize=10 if drawn_notes else None)
     ax.grid(alpha=0.25)
     fig.tight_layout()
     save(fig, path)
