@@ -122,14 +122,6 @@ class Presentation:
         ``csv_head``)."""
         return list(self.csv_head)
 
-    def diagram_branches(self, branches: list[Any], problems: dict[int, Any]
-                         ) -> tuple[list[Any], list[str]]:
-        """The branches as the branch diagram and the multipliers along its horizontal axis
-        draw them (``problems``: the problem of a branch computed with another one than
-        :attr:`problem`, by id), and one note (shown under the axis) per change from the
-        computed values (the CSV files keep those). Default: as computed, no note."""
-        return list(branches), []
-
     def legend_handles(self) -> list[Any]:
         """Extra legend entries (matplotlib artists) for what :meth:`plot_decorations`
         draws."""

@@ -27,7 +27,6 @@ panel repeats the diagram over that window.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -78,16 +77,6 @@ ZOOM_SIZE = (11, 8.8)
 def fep(res: RunResult, path: Path) -> None:
     """The branch diagram of a run (:func:`diagram`) saved to ``path``."""
     save(diagram(res, dpi=True), path)
-
-
-def drawn_result(res: RunResult) -> tuple[RunResult, list[str]]:
-    """``res`` with its branches as the problem's presentation draws them along the diagram's
-    axes (:meth:`~nsm_continuation.core.presentation.Presentation.diagram_branches`: e.g. a
-    period-``k`` family at its parent's frequency), and the notes that say how they differ
-    from the computed values."""
-    branches, notes = res.problem.presentation.diagram_branches(
-        res.branches, getattr(res, "branch_problems", {}))  # a run's stand-in may have none
-    return (replace(res, branches=branches) if notes else res), notes
 
 
 def computed_stability(branches: list[Branch]) -> bool:
@@ -270,9 +259,7 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
     """Every branch of a run in the problem's diagram axes (``fep_axes``: for the chain the
     frequency-energy plot of Fig. 3.2), styled as the module docstring says, located events
     marked, on ``ax`` (a new figure if None, at the files' resolution with ``dpi``; with a
-    zoom panel where events crowd), the branches as the presentation draws them
-    (:func:`drawn_result`, its notes under the horizontal axis). Returns the figure."""
-    res, drawn_notes = drawn_result(res)
+    zoom panel where events crowd). Returns the figure."""
     pr = res.problem
     show = pr.presentation
     xk, yk = show.fep_axes
@@ -315,8 +302,7 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
         ax.text(0.5, 0.5, f"no finite values of {show.label(yk)} on the branches",
                 transform=ax.transAxes, ha="center", va="center", color="0.4")
     xl, yl = show.fep_labels
-    # how the drawn branches differ from the computed values, under the axis
-    ax.set_xlabel("\n".join([xl, *drawn_notes]))
+    ax.set_xlabel(xl)
     ax.set_ylabel(yl)
     ax.set_title(show.diagram_title)
     notes = [f"{len(left)} outside the drawn range"] if left else []
@@ -334,7 +320,7 @@ def diagram(res: RunResult, ax: Axes | None = None, dpi: bool = False) -> Figure
         lim = _window_limits(res, xk, yk, window, events, log)
         if lim is not None:
             zoom.set_ylim(lim)
-        zoom.set_xlabel("\n".join([xl, *drawn_notes]))
+        zoom.set_xlabel(xl)
         zoom.set_ylabel(yl)
         zoom.set_title(f"zoom: {xl} from {window[0]:.6g} to {window[1]:.6g}", fontsize=9)
         if not unmarked:  # else no inset parts the crowd (_crowded_zoom)

@@ -11,7 +11,6 @@ The colour of a point is a value, with its colourbar; clipped axes say what they
 
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +19,6 @@ from matplotlib.axes import Axes
 
 from nsm_continuation.core.problem import Problem
 from nsm_continuation.core.records import Branch, Point
-from nsm_continuation.figures.branches import drawn_result
 from nsm_continuation.figures.kit import (
     new_figure,
     quantity,
@@ -80,9 +78,7 @@ def _note(ax: Axes, text: str) -> None:
 def multipliers_along(res: RunResult, path: Path) -> bool:
     """The multipliers (modulus, real and imaginary parts) against the diagram's horizontal
     quantity ``fep_axes[0]`` (module docstring), saved to ``path``; False (nothing written)
-    when no point has multipliers. The branches as the branch diagram draws them
-    (:func:`~nsm_continuation.figures.branches.drawn_result`, its notes under the axis)."""
-    res, drawn_notes = drawn_result(res)
+    when no point has multipliers."""
     pr = res.problem
     show = pr.presentation
     xk = show.fep_axes[0]
@@ -133,7 +129,7 @@ def multipliers_along(res: RunResult, path: Path) -> bool:
     axes[1].set_ylabel(r"Re $\lambda$")
     axes[2].set_ylabel(r"Im $\lambda$")
     set_scale(axes[2], "x", False)
-    axes[2].set_xlabel("\n".join([show.fep_labels[0], *drawn_notes]))
+    axes[2].set_xlabel(show.fep_labels[0])
     fig.suptitle("Floquet multipliers (trivial 0 and 1 removed); unstable zones shaded")
     for ax in axes:
         ax.grid(alpha=0.25)
@@ -144,10 +140,7 @@ def multipliers_along(res: RunResult, path: Path) -> bool:
 
 def multipliers_plane(res: RunResult, path: Path) -> bool:
     """The multipliers in the complex plane, coloured by ``fep_axes[0]`` (its colourbar),
-    those zero to rounding at 0; False (nothing written) when no point has multipliers. The
-    branches as the branch diagram draws them
-    (:func:`~nsm_continuation.figures.branches.drawn_result`, its notes under the title)."""
-    res, drawn_notes = drawn_result(res)
+    those zero to rounding at 0; False (nothing written) when no point has multipliers."""
     pr = res.problem
     show = pr.presentation
     xk = show.fep_axes[0]
@@ -171,9 +164,7 @@ def multipliers_plane(res: RunResult, path: Path) -> bool:
     ax.set_xlabel(r"Re $\lambda$" + (f"   (clipped at ±{r:.2g}: {outside} multipliers outside)"
                                      if outside else ""))
     ax.set_ylabel(r"Im $\lambda$")
-    ax.set_title("\n".join(["Floquet multipliers in the complex plane (unit circle)",
-                             *(textwrap.fill(n, 70) for n in drawn_notes)]),
-                 fontsize=10 if drawn_notes else None)
+    ax.set_title("Floquet multipliers in the complex plane (unit circle)")
     ax.grid(alpha=0.25)
     fig.tight_layout()
     save(fig, path)

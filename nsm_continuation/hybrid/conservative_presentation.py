@@ -18,27 +18,9 @@ from nsm_continuation.hybrid.orbit_trace import orbit_trace
 from nsm_continuation.hybrid.presentation import HybridPresentation
 
 
-def at_base_period(point: Any, k: int) -> Any:
-    """``point`` (a :class:`~nsm_continuation.core.records.Point`) of an orbit spanning ``k``
-    base periods, with its ``omega`` and ``period`` those of the base period: ``2 pi k /
-    period`` and ``period / k`` (the other values as computed)."""
-    derived = dict(point.derived)
-    if "omega" in derived:
-        derived["omega"] = k * derived["omega"]
-    if "period" in derived:
-        derived["period"] = derived["period"] / k
-    return replace(point, derived=derived)
-
-
 class ConservativePresentation(HybridPresentation):
     """The frequency-energy plot: the energy (the period when none is declared) against the
-    frequency ``omega = 2 pi / T``. A family of orbits of ``k`` base periods (born at a
-    period doubling: ``k = 2``) is drawn at the frequency of the orbit it is born from,
-    ``2 pi k / period`` (:meth:`diagram_branches`), so that it leaves its parent where it is
-    born; the axis label says so, since the usual convention (Legrand et al. 2017, Remark 3,
-    quoting Kerschen et al. 2009) draws a motion at the frequency of its minimal period,
-    where the family would start at half its parent's frequency. The CSV files keep
-    ``omega = 2 pi / period``."""
+    frequency ``omega = 2 pi / T``."""
 
     diagram_title = "Frequency-energy plot"  # type: ignore[assignment]
     diagram_yscale = "log"  # type: ignore[assignment]
@@ -55,26 +37,6 @@ class ConservativePresentation(HybridPresentation):
     def fep_labels(self) -> tuple[str, str]:  # type: ignore[override]
         return (r"frequency $\omega = 2\pi/T$",
                 "energy E" if self._has_energy else "period T")
-
-    def diagram_branches(self, branches: list[Any], problems: dict[int, Any]
-                         ) -> tuple[list[Any], list[str]]:
-        """Each branch of orbits spanning ``k > 1`` base periods
-        (:meth:`~nsm_continuation.core.capabilities.Derivable.period_multiple` of its problem)
-        with its points and events at the base period (:func:`at_base_period`), and a note
-        per ``k``; the others as computed."""
-        drawn, multiples = [], set()
-        for br in branches:
-            k = int((problems.get(br.id) or self.problem).period_multiple())
-            if k > 1 and br.points:
-                multiples.add(k)
-                br = replace(br, points=[at_base_period(p, k) for p in br.points],
-                             events=[replace(ev, point=at_base_period(ev.point, k))
-                                     for ev in br.events])
-            drawn.append(br)
-        notes = [f"period-{k} ({k}T) families: drawn at 2\u03c0\u00b7{k} / period"
-                 + ("" if self._has_energy else f" and period / {k}")
-                 + ", the frequency of the orbit they are born from" for k in sorted(multiples)]
-        return drawn, notes
 
     @property
     def csv_head(self) -> list[str]:  # type: ignore[override]

@@ -14,7 +14,6 @@ from nsm_continuation.problems.chain.hybrid_model import NDofImpactHybridProblem
 from oracles.chain_direct import direct_period
 
 import nsm_continuation as nsm
-from nsm_continuation.figures import branches
 
 CHAIN = {"chain": {"dofs": 5, "mass": 0.2, "stiffness": 5.0}, "gap": 1.0}
 
@@ -53,26 +52,3 @@ def test_period_two_family_born_at_the_doubling(diagram):
         assert np.max(np.abs(xh - x0)) > 1e-6
     # the family leaves the doubling point (along the eigenvector of -1: flat in omega)
     assert np.linalg.norm(child.points[-1].y - pd.point.y) > 1e-3
-
-
-def test_the_period_two_family_leaves_its_parent_on_the_frequency_energy_plot(diagram):
-    """``fep.png`` draws the period-2 family at the frequency of the orbit it is born from,
-    ``2 pi * 2 / period``: its first orbit is drawn where the parent's located doubling is (to
-    the square of the switch's distance from it: the family leaves the doubling as a
-    pitchfork of the doubled map, its frequency moving quadratically), not at half that
-    frequency (``2 pi / period``, what the CSV keeps)."""
-    _, run = diagram
-    parent, child = run.branches
-    (pd,) = [ev for ev in parent.events if ev.kind == "period_doubling"]
-    first = min(child.points, key=lambda p: abs(p.s))
-    fig = branches.diagram(run)
-    drawn = np.concatenate([line.get_xydata() for ax in fig.axes for line in ax.lines
-                            if len(line.get_xydata())])
-    at_first = drawn[drawn[:, 1] == first.derived["energy"], 0]
-    assert at_first.size, "the family's first orbit is not drawn"
-    omega_pd = pd.point.derived["omega"]
-    tol = np.linalg.norm(first.y - pd.point.y) ** 2
-    assert np.all(np.abs(at_first - omega_pd) <= tol), (at_first, omega_pd, tol)
-    # the CSV's frequency of the family is its own, 2 pi / its period: half the parent's
-    assert first.derived["omega"] == pytest.approx(omega_pd / 2, rel=1e-6)
-    assert "period-2 (2T) families: drawn at 2\u03c0\u00b72 / period" in fig.axes[0].get_xlabel()
