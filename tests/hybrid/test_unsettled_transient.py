@@ -71,3 +71,24 @@ def test_settled_transient_gives_no_warning():
     assert np.allclose(start.y[:2], section_state(omega, GAP, R, 0.0), atol=1e-8)
     assert start.n_unstable == 0
     assert not [w for w in warnings if "settled" in w], warnings
+
+
+def test_the_command_line_prints_the_warning_even_quiet(tmp_path, capsys):
+    """The YAML run of the unsettled start: the warning is a ``warning:`` line on stderr
+    (with ``--quiet``) and a line of report.md's Warnings."""
+    from nsm_continuation import cli
+
+    case = tmp_path / "unsettled.yaml"
+    case.write_text(
+        "name: unsettled\nproblem: impact_oscillator\n"
+        f"parameters: {{zeta: 0.0, omega: 1.05, gap: {GAP}, restitution: {R}, "
+        "section_phase: 0.0}\nstart: {transient: 40}\n"
+        "continuation: {parameter: omega, min: 1.04, max: 1.06, max_points: 2}\n"
+        "output: {plots: false}\n")
+    assert cli.main(["run", str(case), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    line = "warning: branch 0 (period-1 orbit): the transient (40 periods from the initial state)"
+    assert line in err
+    assert "it converged to an orbit that is unstable" in err
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "has not settled on a period-1 orbit" in report.split("## Warnings", 1)[1]
