@@ -102,6 +102,9 @@ def register_event_kinds(kinds: dict[str, str], owner: str) -> None:
 
 #: the termination reason of a direction whose start lies outside the parameter window
 START_OUTSIDE = "start outside parameter bounds"
+#: the termination reason of a half-branch that closed a loop (it returned to its start, or met
+#: the end of its other half: :mod:`nsm_continuation.core.palc.loops`) begins with these words
+CLOSED_LOOP = "closed loop"
 #: the key of :attr:`Branch.info` (and of a start's ``info``) that holds a warning about how
 #: the start was found (e.g. a transient that has not settled on a periodic orbit): the
 #: report lists it among its warnings, with the start orbit's stability

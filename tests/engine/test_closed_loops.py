@@ -18,8 +18,8 @@ from helpers import NoParameters
 from pydantic import BaseModel
 
 from nsm_continuation.core.palc import ContinuationEngine
-from nsm_continuation.core.palc.loops import CLOSED_LOOP
 from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.records import CLOSED_LOOP
 from nsm_continuation.core.settings import ContinuationSettings
 
 

@@ -71,10 +71,10 @@ from nsm_continuation.core.palc.errors import (
 )
 from nsm_continuation.core.palc.kinks import KinkCrosser, KinkCrossing
 from nsm_continuation.core.palc.locate import EventLocator
-from nsm_continuation.core.palc.loops import CLOSED_LOOP, LoopCloser
+from nsm_continuation.core.palc.loops import LoopCloser
 from nsm_continuation.core.palc.step_control import StepController
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
-from nsm_continuation.core.records import START_OUTSIDE, Branch, Event, Point
+from nsm_continuation.core.records import CLOSED_LOOP, START_OUTSIDE, Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 
 

@@ -32,8 +32,9 @@ The curve through a regular point with a given tangent direction is unique, so a
 passes through such a target walks on exactly the way it came: the half-branch ends at the
 target (a copy of it appended at the arclength of the closing, the step's point beyond it
 dropped), and the events that the step located beyond the closing (repeats of the events of
-the branch's first steps) are dropped. The reason names the closing (:data:`CLOSED_LOOP`). A
-forward half that closed the loop leaves no backward half to compute.
+the branch's first steps) are dropped. The reason names the closing
+(:data:`~nsm_continuation.core.records.CLOSED_LOOP`). A forward half that closed the loop
+leaves no backward half to compute.
 
 Peers: BifurcationKit's ``ContinuationPar(detect_loop = true)`` compares each newly located
 *special point* with those already found (``norminf`` within ``rtol = 1e-3``): a loop is
@@ -51,10 +52,8 @@ import numpy as np
 
 from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS
 from nsm_continuation.core.palc.part import EnginePart
-from nsm_continuation.core.records import Event, Point
+from nsm_continuation.core.records import CLOSED_LOOP, Event, Point
 
-#: the termination reason of a half-branch that closed a loop begins with these words
-CLOSED_LOOP = "closed loop"
 #: a half-branch must have this many points before it can close a loop
 MIN_POINTS = 4
 #: the half-branch has left a target's neighbourhood once a point lay farther from it than this
