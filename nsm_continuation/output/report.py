@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from nsm_continuation.core.records import CLOSED_LOOP, CORE_EVENT_KINDS
+from nsm_continuation.core.records import CORE_EVENT_KINDS
 from nsm_continuation.runs.diagrams import link_text
 
 #: meanings of the core event kinds; a run's report adds its problem's (``event_kinds`` of
@@ -205,9 +205,6 @@ def continue_hints(restart: dict[str, Any], folder: str, doubling: bool = True,
                     extra = {"parameter": second}
                     what = (f"the grazing curve in ({continued}, {second}) through this "
                             f"orbit (set continuation.min/max of {second})")
-            elif kind == "endpoint" and CLOSED_LOOP in str(ev.get("detail", "")):
-                what = ("this orbit of the closed branch, restarted in another parameter "
-                        "(continuation.parameter)")
             elif kind == "endpoint":
                 what = "this end of the branch, restarted (e.g. with a wider window)"
             else:
