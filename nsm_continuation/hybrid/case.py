@@ -23,6 +23,7 @@ from pydantic import BaseModel, TypeAdapter
 
 from nsm_continuation.core.preflight import as_list
 from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.records import START_WARNING
 from nsm_continuation.core.vocabulary import as_parameters
 from nsm_continuation.hybrid import brute_force
 from nsm_continuation.hybrid.case_period import PeriodContinuation
@@ -41,6 +42,12 @@ from nsm_continuation.hybrid.return_map import (
 from nsm_continuation.hybrid.simulate import SimulationError, Simulator
 from nsm_continuation.hybrid.specs import START_ADAPTER, IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
+
+#: a transient has settled on a periodic orbit when its last return to the section and the next
+#: one (one more period) differ by at most this, relative to ``1 + |z|`` (in the infinity norm
+#: of the section coordinates); beyond, the report warns that Newton started from a transient
+#: that had not settled (:meth:`HybridCaseProblem.transient_unsettled`)
+SETTLED = 1e-3
 
 __all__ = ["CrossingSection", "HybridCaseProblem", "IntegratorSpec", "Section"]
 
@@ -276,8 +283,37 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
             found = None if s.guess is not None else self.transient_found(y, s.transient)
             if found is not None:  # said if the start fails
                 info["found"] = found
+            if s.guess is None and s.transient > 0:
+                unsettled = self.transient_unsettled(Xs, s.transient, s.returns)
+                if unsettled is not None:  # a warning of the report
+                    info[START_WARNING] = unsettled
             out.append(StartPoint(y, label, d, info))
         return out
+
+    def transient_unsettled(self, X: np.ndarray, periods: int, returns: int) -> str | None:
+        """Whether the transient's end ``X`` (on the section) has settled on a
+        period-``returns`` orbit: the distance between it and its next period-return
+        ``P^returns(X)`` (the section coordinates, angles wrapped) at most ``SETTLED`` relative
+        to ``1 + |z|``. If not, what the report says (the distance, the states); None if it
+        has, or if the next return cannot be simulated (the start then says why)."""
+        fi = self.shooting.free_idx
+        periodic = self.hybrid.periodic
+        try:
+            Xn = self.transient(X, returns)
+        except (SimulationError, HybridDeclarationError):
+            return None
+        z, zn = X[fi], Xn[fi]
+        d = float(np.linalg.norm(wrap_periodic(zn - z, fi, periodic), np.inf))
+        scale = 1.0 + float(np.linalg.norm(z, np.inf))
+        if d <= SETTLED * scale:
+            return None
+        names = self.hybrid.state_names
+        states = ", ".join(f"{names[k]} {a:.6g} -> {b:.6g}" for k, a, b in zip(
+            fi, wrap_periodic(z, fi, periodic), wrap_periodic(zn, fi, periodic), strict=True))
+        kind = "period-1" if returns == 1 else f"period-{returns}"
+        return (f"the transient ({periods} periods from the initial state) has not settled on a "
+                f"{kind} orbit: its last return to the section and the next one differ by "
+                f"{d:.3g} ({d / scale:.2g} relative; {states}); Newton started from it")
 
     def transient_found(self, y: np.ndarray, periods: int) -> str | None:
         """What the transient from ``start.initial`` settled on, where it explains a start
