@@ -10,12 +10,9 @@ Sections (``--sections``; each prints a table, all feed one chart):
 1. **Stuart-Landau** ``x' = mu x - y - x r^2``, ``y' = x + mu y - y r^2``: periodic orbits of
    radius ``sqrt(mu)``, period ``2 pi``, non-trivial multiplier ``exp(-4 pi mu)``, continued in
    ``mu`` from 0.1 to 1. AUTO: the Cartesian field, ``IPS=2``, free ``(mu, T)``, several NTST.
-   Ours: the hybrid layer cannot declare a system without a surface (``H`` must depend on the
-   state), and an autonomous system's Poincare section must lie on an angle that advances by
-   ``2 pi`` per period (``Section(index, value, shift != 0)``; the crossing sections of
-   :mod:`nsm_continuation.hybrid.conservative` are for conservative families only). So the
-   oscillator is declared in polar form ``r' = r (mu - r^2)``, ``theta' = 1`` (section
-   ``theta = 0`` mod ``2 pi``) with a wall at ``r = 10`` it never reaches; several ``rtol``.
+   Ours: the same Cartesian field through the hybrid layer
+   (:mod:`nsm_continuation.problems.impacting.stuart_landau`: no contact, the section ``x = 0``
+   crossed with ``x`` rising), several ``rtol``.
 2. **The paper-000 5-dof chain** (``chain: {dofs: 5, mass: 0.2, stiffness: 5}``, ``gap: 1``),
    branch 1 over ``T in [0.90, 0.99] T_1``. Ours: the exact closed-form branch (problem
    ``ndof_impact``, engine with event detection). AUTO, as its user would pose it: the wall
@@ -66,7 +63,7 @@ import warnings  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from dataclasses import dataclass, field  # noqa: E402
 from pathlib import Path  # noqa: E402
-from typing import Any, ClassVar  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -208,59 +205,26 @@ def sl_auto(ntst: int, transpile: bool) -> Row:
                 "ended": ended(pts, 0)})
 
 
-def sl_problem_class() -> type:
-    """The Stuart-Landau oscillator in polar form as a hybrid case (a wall it never reaches)."""
-    import casadi as ca
-    from pydantic import BaseModel
-
-    from nsm_continuation.core.preflight import STRICT
-    from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
-    from nsm_continuation.hybrid.system import HybridSystem
-
-    class Params(BaseModel):
-        model_config = STRICT
-        mu: float = MU0
-        wall: float = 10.0
-        integrator: IntegratorSpec = IntegratorSpec()
-
-    class StuartLandauPolar(HybridCaseProblem):
-        name: ClassVar[str] = "stuart_landau_polar"
-        Parameters: ClassVar[type[BaseModel]] = Params
-        default_parameter: ClassVar[str] = "mu"
-
-        def system(self) -> HybridSystem:
-            x, mu, wall = ca.SX.sym("x", 2), ca.SX.sym("mu"), ca.SX.sym("wall")
-            F = ca.vertcat(x[0] * (mu - x[0] ** 2), ca.SX(1.0))
-            return HybridSystem("stuart_landau_polar", x, {"mu": mu, "wall": wall}, F,
-                                wall - x[0], ca.vertcat(ca.SX(-1.0), ca.SX(0.0)),
-                                ["r", "theta"], periodic={1: 2 * np.pi})
-
-        def section(self) -> Section:
-            return Section(1, 0.0, 2 * np.pi)
-
-        def default_initial(self) -> np.ndarray:
-            return np.array([np.sqrt(self.values["mu"]), 0.0])
-
-    return StuartLandauPolar
-
-
 def sl_ours(rtol: float) -> Row:
+    from nsm_continuation.problems.impacting.stuart_landau import StuartLandauProblem
+
     import nsm_continuation as nsm
-    cls = sl_problem_class()
-    problem = cls({"mu": MU0, "integrator": {"rtol": rtol, "atol": rtol * 1e-2}})
+    problem = StuartLandauProblem({"mu": MU0, "integrator": {"rtol": rtol, "atol": rtol * 1e-2}})
 
     def go() -> Any:
-        return nsm.continuation(problem, {"guess": {"r": np.sqrt(MU0)}}, parameter="mu",
+        # on the section x = 0 crossed rising the orbit is at y = -sqrt(mu)
+        return nsm.continuation(problem, {"guess": {"y": -np.sqrt(MU0)}}, parameter="mu",
                                 min=MU0, max=MU1, max_points=400)
 
     res, wall, cpu = timed(go)
     b = res.branches[0]
-    mu, r, T = (np.asarray(b[k], dtype=float) for k in ("mu", "y_r", "period"))
+    mu, y, T = (np.asarray(b[k], dtype=float) for k in ("mu", "y_y", "period"))
+    r = np.abs(y)
     m = np.asarray(b["mu1_re"], dtype=float) + 1j * np.asarray(b["mu1_im"], dtype=float)
     rad = float(np.max(np.abs(r - np.sqrt(mu)) / np.sqrt(mu)))
     per = float(np.max(np.abs(T - 2 * np.pi)) / (2 * np.pi))
     mult = float(np.max(np.abs(m - np.exp(-4 * np.pi * mu))))
-    return Row("stuart_landau", "ours (hybrid layer, polar)", f"rtol {rtol:.0e}", wall, cpu,
+    return Row("stuart_landau", "ours (hybrid layer)", f"rtol {rtol:.0e}", wall, cpu,
                max(rad, per, mult), len(mu), {"radius": rad, "period": per,
                                               "multiplier": mult, "ended": termination(b)})
 

@@ -94,6 +94,13 @@ def main() -> int:
             print(f"  {name}: max {err[k]:.2e} at omega = {om[k]:.6f} (impact velocity "
                   f"{v[k]:.2e}); max {err[far].max():.2e} where the impact velocity >= 0.1")
         print(f"  stability differs from the closed form's at {disagree} points")
+        moved = np.asarray(cols.get("section_u5", np.full(len(om), 0.5))) == oracle.g
+        if moved.any():
+            # the rows on the section at the impacts on the upper wall (moved there before the
+            # section u5 = 1/2 turns tangent to the flow)
+            print(f"  on the impacts' section: {int(moved.sum())} points, omega "
+                  f"{om[moved].min():.6f} .. {om[moved].max():.6f}; energy max "
+                  f"{e_err[moved].max():.2e}, multipliers max {m_err[moved].max():.2e}")
         reported = sorted(ev.parameter for ev in res.events
                           if ev.branch == b.id and ev.kind in CROSSINGS)
         for w in oracle_changes(oracle, float(om.min()), float(om.max())):

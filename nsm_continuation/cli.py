@@ -211,6 +211,7 @@ def _run(args: argparse.Namespace, path: str) -> int:
         is_no_space,
         keep_elsewhere,
         presentation_warnings,
+        start_warnings,
         termination_text,
         unchecked_note,
         write_files,
@@ -259,6 +260,8 @@ def _run(args: argparse.Namespace, path: str) -> int:
 
         for w in spec_warnings(res):  # also in report.md; stderr even with --quiet
             print(f"warning: {w}", file=sys.stderr)
+    for w in start_warnings(res.branches):  # also in report.md; stderr even with --quiet
+        print(f"warning: {w}", file=sys.stderr)
     if not args.quiet:
         print(_summary(build_report(res, failures=[]), out))
         for w in presentation_warnings(problem, []):

@@ -45,3 +45,16 @@ def write_case(tmp_path: Path) -> Callable[..., Path]:
         return path
 
     return write
+
+
+@pytest.fixture()
+def fresh_registry() -> Any:
+    """The problem registry's scan of the entry points forgotten before and after the test
+    (:func:`nsm_continuation.cases.registry.refresh`): for a test that replaces
+    ``registry.entry_points`` or edits a plugin's metadata in place, which the scan's key
+    (``sys.path`` and its folders' modification times) does not see."""
+    from nsm_continuation.cases import registry
+
+    registry.refresh()
+    yield registry
+    registry.refresh()

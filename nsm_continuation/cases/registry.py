@@ -17,12 +17,20 @@ hooks fails before computing, the one line says so (:func:`plugin_fault`, a
 ``module:Class`` and the exception, instead of reporting a bug of this package. A name
 registered twice is resolved in favour of the bundled problem (else the first registration
 found on ``sys.path``), with a :class:`DuplicateProblemWarning` naming both targets.
+
+Scanning the installed distributions takes milliseconds, so the scan is kept
+(:func:`registrations`) while ``sys.path`` and the modification times of its folders are
+unchanged: installing a package (a new ``*.dist-info`` folder in ``site-packages``) or putting
+a folder on ``sys.path`` is seen by the next call. What this key cannot see (an installed
+package's ``entry_points.txt`` edited in place) is read again after :func:`refresh`.
 """
 
 from __future__ import annotations
 
 import importlib
+import os
 import re
+import sys
 import warnings
 from dataclasses import dataclass
 from importlib.metadata import entry_points
@@ -96,9 +104,34 @@ def plugin_fault(name: str, target: str | type, what: str,
                        "plugin, not of nsm-continuation)")
 
 
-def registrations() -> dict[str, list[Registration]]:
-    """Every registration of each name, the one used first: the bundled problem if one is
-    registered under the name, else the first found (``sys.path`` order)."""
+#: the last scan of the entry points: (its key, :func:`_path_key`; the registrations)
+_scan: tuple[tuple[tuple[str, int], ...], dict[str, list[Registration]]] | None = None
+
+
+def _path_key() -> tuple[tuple[str, int], ...]:
+    """What the installed distributions depend on, cheaply: each ``sys.path`` entry with the
+    modification time of its folder (-1 when it is not one), which changes when a
+    distribution is installed or removed there."""
+    key = []
+    for entry in sys.path:
+        folder = entry or os.getcwd()  # '' is the working directory
+        try:
+            mtime = os.stat(folder).st_mtime_ns
+        except (OSError, ValueError):
+            mtime = -1
+        key.append((folder, mtime))
+    return tuple(key)
+
+
+def refresh() -> None:
+    """Forget the scan of the entry points: the next :func:`registrations` reads them again
+    (after a plugin's metadata changed in place while this process runs)."""
+    global _scan
+    _scan = None
+
+
+def _scan_entry_points() -> dict[str, list[Registration]]:
+    """Every registration of each name found in the installed distributions' metadata."""
     found: dict[str, list[Registration]] = {}
     for ep in entry_points(group=GROUP):
         dist = ep.dist.name if ep.dist is not None else "unknown distribution"
@@ -108,6 +141,17 @@ def registrations() -> dict[str, list[Registration]]:
     for entries in found.values():
         entries.sort(key=lambda e: not is_bundled(e.target))  # stable: else the path's order
     return dict(sorted(found.items()))
+
+
+def registrations() -> dict[str, list[Registration]]:
+    """Every registration of each name, the one used first: the bundled problem if one is
+    registered under the name, else the first found (``sys.path`` order). The scan is kept
+    while :func:`_path_key` is unchanged (:func:`refresh` forgets it)."""
+    global _scan
+    key = _path_key()
+    if _scan is None or _scan[0] != key:
+        _scan = (key, _scan_entry_points())
+    return {name: list(entries) for name, entries in _scan[1].items()}
 
 
 def describe(target: str, width: int = 90) -> str:

@@ -82,7 +82,8 @@ class RestartSpec(BaseModel):
     #: first of a scan 1e-4 .. 3e-2 times 1 + |y| that gives a new solution)
     amplitude: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     #: along the continued parameter, as ``continuation.direction``; default: both ways
-    #: (away from the period doubling for a switch there)
+    #: (away from the period doubling for a switch there; onwards, out of the branch, from an
+    #: ``endpoint``)
     direction: Literal["both", "increase", "decrease"] | None = None
     #: the new branch's label in the report (default: where it was born)
     label: str | None = None
@@ -632,6 +633,11 @@ def start_points(r: Restart, problem: Problem, settings: Any) -> tuple[list[Any]
     if t is not None and ev is not None and ev["kind"] == "branch_point":
         # the tangent is not unique at a branch point: start just beside it on this branch
         y = y + BRANCH_POINT_NUDGE * (1.0 + float(np.linalg.norm(y, np.inf))) * t
+    if t is not None and ev is not None and ev["kind"] == "endpoint" and r.direction is None:
+        # from a branch's end, onwards: the saved tangent of an end points the way its half of
+        # the branch was going (out of the branch), so the branch is extended, not walked again
+        # back over the saved points; ``start.direction`` asks for both ways or one explicitly
+        return [TangentStart(y, r.label(), 1, r.info(), tangent=t, forward_only=True)], {}
     direction = r.direction if r.direction is not None else 0
     return [TangentStart(y, r.label(), direction, r.info(), tangent=t)], {}
 

@@ -81,6 +81,7 @@ from pydantic import BaseModel, TypeAdapter
 from nsm_continuation.core.bordered import BorderedFactor, DenseBorderedFactor
 from nsm_continuation.core.capabilities import Derivable, Sweepable
 from nsm_continuation.core.casadi_buffers import BufferedFunction
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.monitors import Monitors, legacy_monitors
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import CORE_EVENT_KINDS, register_event_kinds
@@ -88,6 +89,7 @@ from nsm_continuation.core.records import CORE_EVENT_KINDS, register_event_kinds
 #: :meth:`Problem.jacobian_noise` of a Jacobian evaluated in closed form, in units of
 #: ``eps |G_y|_2``: the rounding of a few operations per entry
 JACOBIAN_ROUNDING = 10.0
+
 
 class EvaluationError(RuntimeError):
     """A problem cannot evaluate its residual (or Jacobian, multipliers, ...) at a point, for a
@@ -301,7 +303,7 @@ class Problem(Sweepable, Derivable, ABC):
         rounding of a Jacobian evaluated in closed form, ``JACOBIAN_ROUNDING eps |G_y|_2``; a
         problem whose Jacobian is integrated (a shooting problem: the integrator's tolerance)
         overrides it."""
-        return JACOBIAN_ROUNDING * float(np.finfo(float).eps) * float(np.linalg.norm(jacobian, 2))
+        return JACOBIAN_ROUNDING * float(np.finfo(float).eps) * spectral_norm(jacobian)
 
     def bordered_factor(self, y: np.ndarray, row: np.ndarray,
                         jacobian: np.ndarray | None = None) -> BorderedFactor:

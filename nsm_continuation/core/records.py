@@ -79,7 +79,8 @@ CORE_EVENT_LOCATION: dict[str, str] = {
                "(``Problem.continue_beyond``). The lattice engine: where the number of grazing "
                "instants changes between two consecutive points",
     "endpoint": "where the branch ends: an edge of the ``continuation`` window or a "
-                "``continuation.bounds`` entry, located on the bound; ``max_points``; or a "
+                "``continuation.bounds`` entry, located on the bound; ``max_points``; a "
+                "closed loop (the branch returned to its start, walked once); or a "
                 "numerical termination, at the last point, with its reason",
     "asymptote": "not located: a monitored quantity fits ``|p - p*|^(-k)`` over the last "
                  "points and has grown a hundredfold; ``p*`` is extrapolated "
@@ -101,6 +102,13 @@ def register_event_kinds(kinds: dict[str, str], owner: str) -> None:
 
 #: the termination reason of a direction whose start lies outside the parameter window
 START_OUTSIDE = "start outside parameter bounds"
+#: the termination reason of a half-branch that closed a loop (it returned to its start, or met
+#: the end of its other half: :mod:`nsm_continuation.core.palc.loops`) begins with these words
+CLOSED_LOOP = "closed loop"
+#: the key of :attr:`Branch.info` (and of a start's ``info``) that holds a warning about how
+#: the start was found (e.g. a transient that has not settled on a periodic orbit): the
+#: report lists it among its warnings, with the start orbit's stability
+START_WARNING = "start_warning"
 
 @dataclass
 class Event:

@@ -161,7 +161,7 @@ class ReturnMap:
         self.sim = Simulator(self.c, replace(opts, sensitivities=False, record=False))
         sec = problem.section()
         self.index, self.value, self.shift = sec.index, sec.value, sec.shift
-        self.direction = 1 if self.shift > 0 else -1
+        self.direction = sec.direction
         self.n = self.c.n
         self.free_idx = [i for i in range(self.n) if i != self.index]
         self.periodic = {k: p for k, p in problem.hybrid.periodic.items()

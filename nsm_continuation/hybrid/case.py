@@ -2,13 +2,15 @@
 
 A concrete family (``problems/impacting/``) subclasses :class:`HybridCaseProblem`, sets
 ``name`` and ``Parameters`` (with an ``integrator`` field of type :class:`IntegratorSpec`) and
-declares the system (:meth:`HybridCaseProblem.system`), the section (:class:`Section`) and a
-default initial state; the residual, Jacobian, multipliers, events
+declares the system (:meth:`HybridCaseProblem.system`), the section (:class:`Section` on an
+angle or a clock, or :class:`CrossingSection` crossed in a direction) and a default initial
+state; the residual, Jacobian, multipliers, events
 (:class:`~.problem.HybridShootingProblem`), the preflight (:mod:`.case_preflight`), the
 continuation in the period (:mod:`.case_period`), the starts, brute-force sweeps
 (:mod:`.brute_force`) and restarts are generic::
 
-    from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+    from nsm_continuation.hybrid.case import (CrossingSection, HybridCaseProblem,
+                                              IntegratorSpec, Section)
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pydantic import BaseModel, TypeAdapter
 
 from nsm_continuation.core.preflight import as_list
 from nsm_continuation.core.problem import Problem, StartPoint
+from nsm_continuation.core.records import START_WARNING
 from nsm_continuation.core.vocabulary import as_parameters
 from nsm_continuation.hybrid import brute_force
 from nsm_continuation.hybrid.case_period import PeriodContinuation
@@ -30,6 +33,7 @@ from nsm_continuation.hybrid.presentation import HybridCasePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
 from nsm_continuation.hybrid.return_map import (
     PERIOD,
+    CrossingSection,
     HybridShooting,
     Section,
     ShootingFailure,
@@ -39,7 +43,13 @@ from nsm_continuation.hybrid.simulate import SimulationError, Simulator
 from nsm_continuation.hybrid.specs import START_ADAPTER, IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
 
-__all__ = ["HybridCaseProblem", "IntegratorSpec", "Section"]
+#: a transient has settled on a periodic orbit when its last return to the section and the next
+#: one (one more period) differ by at most this, relative to ``1 + |z|`` (in the infinity norm
+#: of the section coordinates); beyond, the report warns that Newton started from a transient
+#: that had not settled (:meth:`HybridCaseProblem.transient_unsettled`)
+SETTLED = 1e-3
+
+__all__ = ["CrossingSection", "HybridCaseProblem", "IntegratorSpec", "Section"]
 
 
 class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem):
@@ -157,8 +167,10 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
         # a problem moved to another chart (rechart) keeps it when continued in another
         # parameter (a two-parameter curve's base problem, swapped round a turn)
         moved = self.chart() if self._compiled_for is not None else None
-        sec = self.section()
-        sec = Section(sec.index, sec.value, sec.shift * returns)
+        # ``returns`` periods: the coordinate of a section on an angle or a clock moves that
+        # many times as far; a crossing section is crossed that many times as often, in its
+        # own direction
+        sec = self.section().repeated(returns)
         self.shooting = HybridShooting(c, sec, self.integrator.options())
         self.declared_section = sec.value
         if moved is not None:
@@ -271,16 +283,46 @@ class HybridCaseProblem(CasePreflight, PeriodContinuation, HybridShootingProblem
             found = None if s.guess is not None else self.transient_found(y, s.transient)
             if found is not None:  # said if the start fails
                 info["found"] = found
+            if s.guess is None and s.transient > 0:
+                unsettled = self.transient_unsettled(Xs, s.transient, s.returns)
+                if unsettled is not None:  # a warning of the report
+                    info[START_WARNING] = unsettled
             out.append(StartPoint(y, label, d, info))
         return out
+
+    def transient_unsettled(self, X: np.ndarray, periods: int, returns: int) -> str | None:
+        """Whether the transient's end ``X`` (on the section) has settled on a
+        period-``returns`` orbit: the distance between it and its next period-return
+        ``P^returns(X)`` (the section coordinates, angles wrapped) at most ``SETTLED`` relative
+        to ``1 + |z|``. If not, what the report says (the distance, the states); None if it
+        has, or if the next return cannot be simulated (the start then says why)."""
+        fi = self.shooting.free_idx
+        periodic = self.hybrid.periodic
+        try:
+            Xn = self.transient(X, returns)
+        except (SimulationError, HybridDeclarationError):
+            return None
+        z, zn = X[fi], Xn[fi]
+        d = float(np.linalg.norm(wrap_periodic(zn - z, fi, periodic), np.inf))
+        scale = 1.0 + float(np.linalg.norm(z, np.inf))
+        if d <= SETTLED * scale:
+            return None
+        names = self.hybrid.state_names
+        states = ", ".join(f"{names[k]} {a:.6g} -> {b:.6g}" for k, a, b in zip(
+            fi, wrap_periodic(z, fi, periodic), wrap_periodic(zn, fi, periodic), strict=True))
+        kind = "period-1" if returns == 1 else f"period-{returns}"
+        return (f"the transient ({periods} periods from the initial state) has not settled on a "
+                f"{kind} orbit: its last return to the section and the next one differ by "
+                f"{d:.3g} ({d / scale:.2g} relative; {states}); Newton started from it")
 
     def transient_found(self, y: np.ndarray, periods: int) -> str | None:
         """What the transient from ``start.initial`` settled on, where it explains a start
         that fails: an orbit without impacts (it does not touch the impact surface; where the
         free motion is not isolated, e.g. a body that may rest anywhere between two walls,
-        its Jacobian is singular). None for an orbit with impacts or sticking."""
+        its Jacobian is singular). None for an orbit with impacts or sticking, and for a
+        system without contact."""
         res = self.sim(y)
-        if res is None or res.n_impacts or res.sticking_intervals:
+        if res is None or res.n_impacts or res.sticking_intervals or not self.hybrid.m:
             return None
         near = (f"; its closest approach leaves H = {res.grazing_margin:.3g}"
                 if np.isfinite(res.grazing_margin) else "")

@@ -49,7 +49,6 @@ from nsm_continuation.core.problem import EvaluationError
 from nsm_continuation.hybrid.grazing import margin_gradient
 from nsm_continuation.hybrid.return_map import (
     HybridShooting,
-    Section,
     ShootingFailure,
     shooting_jacobian_noise,
 )
@@ -141,8 +140,8 @@ class GrazingCurve(CodimOneCurve):
         c = base.hybrid.compile(base.values, free=[free, parameter],
                                 method=base.integrator.method)
         sec = base.section()
-        # an orbit of ``returns`` base periods: the section's coordinate shifts that many times
-        self.section = Section(sec.index, sec.value, sec.shift * self.returns)
+        # an orbit of ``returns`` base periods (:meth:`~.return_map.Section.repeated`)
+        self.section = sec.repeated(self.returns)
         self.shooting = HybridShooting(c, self.section, base.integrator.options())
         names = base.hybrid.state_names
         self.variables = [names[i] for i in self.shooting.free_idx] + [free, parameter]

@@ -52,14 +52,16 @@ dE(v)``), so the form is the same on the section and on the quotient by the flow
 
 from __future__ import annotations
 
-from collections import OrderedDict
-from dataclasses import dataclass
-
 import casadi as ca
 import numpy as np
 
-from nsm_continuation.hybrid.return_map import Section, ShootingFailure
-from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
+from nsm_continuation.core.floquet.norms import spectral_norm
+from nsm_continuation.hybrid.return_map import (
+    CrossingSection,
+    SimulationCache,
+    run_returns,
+)
+from nsm_continuation.hybrid.simulate import SimOptions, SimResult, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationError, HybridSystem
 
 #: the name of the unfolding parameter (:func:`unfold`)
@@ -71,20 +73,6 @@ QUANTITIES = ("period", "omega", "energy")
 #: ``rtol`` 1e-10 .. 1e-13 (500 times below the bound); a damping ``1e-10 K`` gives ``|beta| T =
 #: 1.3e-9``, caught at ``rtol`` 1e-12
 UNFOLDING_TOL = 1e2
-
-
-@dataclass
-class CrossingSection(Section):
-    """A Poincaré section ``x[index] = value`` of an autonomous system crossed in ``crossing``
-    (``-1`` falling, ``+1`` rising); ``returns`` crossings make one period. The section
-    coordinate comes back to its value (``shift = 0``)."""
-
-    crossing: int = -1
-    returns: int = 1
-
-    @property
-    def direction(self) -> int:
-        return self.crossing
 
 
 def unfold(system: HybridSystem, name: str = UNFOLDING) -> HybridSystem:
@@ -145,38 +133,6 @@ def krein_definiteness(vectors: np.ndarray, dqp: np.ndarray) -> np.ndarray:
     return np.where(norm > 0, g / np.where(norm > 0, norm, 1.0), 0.0)
 
 
-def chain_returns(parts: list[SimResult]) -> SimResult:
-    """One :class:`SimResult` for consecutive returns to a section (each started where the
-    previous one ended): times added, events and intervals shifted, ``J`` and ``J_t`` composed
-    by the caller (:meth:`ConservativeShooting.simulate`), extremes merged."""
-    if len(parts) == 1:
-        return parts[0]
-    t0 = 0.0
-    events, sticking, margins, surfaces = [], [], [], []
-    for res in parts:
-        for ev in res.events:
-            events.append(type(ev)(ev.kind, ev.t + t0, ev.x, ev.info, ev.surface))
-        sticking += [(a + t0, b + t0) for a, b in res.sticking_intervals]
-        margins += list(res.grazing_margins)
-        surfaces += list(res.grazing_surfaces)
-        t0 += float(res.t)
-    last = parts[-1]
-    ext = None
-    if all(r.extremes is not None for r in parts):
-        ext = np.column_stack([np.min([r.extremes[:, 0] for r in parts], axis=0),
-                               np.max([r.extremes[:, 1] for r in parts], axis=0)])
-    return SimResult(
-        X=last.X, t=t0, J=last.J, Jt=last.Jt, events=events, state=last.state,
-        sticking_intervals=sticking,
-        chatter_counts=[k for r in parts for k in r.chatter_counts],
-        n_impacts=int(sum(r.n_impacts for r in parts)),
-        min_impact_velocity=float(min(r.min_impact_velocity for r in parts)),
-        grazing_margin=float(min(r.grazing_margin for r in parts)),
-        chatter_errors=[e for r in parts for e in r.chatter_errors], trajectory=None,
-        n_steps=int(sum(r.n_steps for r in parts)), ended_by=last.ended_by, bounds=ext,
-        grazing_margins=margins, grazing_surfaces=surfaces, surface_names=last.surface_names)
-
-
 class ConservativeShooting:
     """The unfolded shooting problem (U2) of a compiled, unfolded system (``c.free`` is
     ``[beta]``) on a :class:`CrossingSection`.
@@ -209,9 +165,7 @@ class ConservativeShooting:
         #: at a period doubling): the period and the frequency are the base period's
         self.multiple = int(multiple)
         self.free_idx = [i for i in range(c.n) if i != section.index]
-        self._cache: OrderedDict[bytes, SimResult | str] = OrderedDict()
-        self.cache_size = cache_size
-        self.n_simulations = 0
+        self._cache = SimulationCache(cache_size)
 
     @staticmethod
     def quantities(has_energy: bool) -> list[str]:
@@ -235,51 +189,15 @@ class ConservativeShooting:
         return X
 
     def _run(self, X0: np.ndarray) -> SimResult:
-        """``returns`` crossings of the section from ``X0``, chained: ``J = J_k ... J_1`` and
-        ``J_t = sum_k J_t,k J_(k-1) ... J_1`` (each return restarted exactly on the section,
-        its row of ``J`` zero: the time to the section absorbs it)."""
-        s = self.section
-        target = (s.index, s.value, s.direction)
-        parts: list[SimResult] = []
-        X = X0
-        J = None
-        Jt = None
-        for k in range(s.returns):
-            res = self.sim.run(X, section=target)
-            if res.J is not None:
-                Jt = res.Jt.copy() if J is None else Jt + res.Jt @ J  # type: ignore[operator]
-                J = res.J.copy() if J is None else res.J @ J
-            parts.append(res)
-            if k + 1 < s.returns:
-                X = res.X.copy()
-                X[s.index] = s.value
-                if J is not None:
-                    J[s.index, :] = 0.0
-        out = chain_returns(parts)
-        if J is not None:
-            out.J, out.Jt = J, Jt
-        return out
+        """``returns`` crossings of the section from ``X0``, chained
+        (:func:`~.return_map.run_returns`)."""
+        return run_returns(self.sim, X0, self.section)
 
     def simulate(self, y: np.ndarray) -> SimResult:
         """The simulated period from ``y`` (``(z, beta)`` or ``(z, beta, s)``), cached;
         :class:`~.return_map.ShootingFailure` with the simulator's reason."""
         yy = np.asarray(y, dtype=float)[: self.c.n]
-        key = yy.tobytes()
-        hit = self._cache.get(key)
-        if hit is None:
-            try:
-                hit = self._run(self.x0(yy))
-            except SimulationError as exc:
-                hit = exc.reason
-            except HybridDeclarationError as exc:
-                hit = str(exc)
-            self.n_simulations += 1
-            self._cache[key] = hit
-            if len(self._cache) > self.cache_size:
-                self._cache.popitem(last=False)
-        if isinstance(hit, str):
-            raise ShootingFailure(hit)
-        return hit
+        return self._cache.get(yy, lambda: self._run(self.x0(yy)))
 
     def energy_gradient(self, y: np.ndarray) -> tuple[float, np.ndarray]:
         """``E`` and ``grad E`` at the section state of ``y`` (``energy`` declared)."""
@@ -348,7 +266,7 @@ class ConservativeShooting:
         """Absolute accuracy of ``P_z``: ``(rtol + 10 eps) |Phi_T|_2``
         (:meth:`~.return_map.HybridShooting.monodromy_noise`)."""
         Phi, _, _ = self._monodromy(y)
-        return float((self.sim.o.rtol + 10.0 * np.finfo(float).eps) * np.linalg.norm(Phi, 2))
+        return float((self.sim.o.rtol + 10.0 * np.finfo(float).eps) * spectral_norm(Phi))
 
     def lift(self, w: np.ndarray) -> np.ndarray:
         """Section perturbations (columns of ``w``) as perturbations of the full state (zero

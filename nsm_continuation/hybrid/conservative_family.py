@@ -5,7 +5,7 @@ A concrete family sets ``name`` and ``Parameters`` (a strict pydantic model with
 ``integrator: IntegratorSpec`` field; every other field a parameter of the declaration) and
 implements :meth:`~ConservativeFamilyProblem.conservative_system` (the mechanical declaration,
 elastic impacts, and its energy), :meth:`~ConservativeFamilyProblem.section` (a
-:class:`~.conservative.CrossingSection`) and :meth:`~ConservativeFamilyProblem.start_points`.
+:class:`~.return_map.CrossingSection`) and :meth:`~ConservativeFamilyProblem.start_points`.
 The unfolding (eq. U1 of :mod:`.conservative`), the shooting system (U2) in the period, the
 frequency or the energy, the check that the unfolding vanishes, the multipliers without the
 family's ``+1`` and their Krein signatures, the grazing margin (an event: a near approach that
@@ -24,6 +24,7 @@ from pydantic import BaseModel, Field, TypeAdapter
 
 from nsm_continuation.core import monitors as monitor
 from nsm_continuation.core.floquet import KreinFloquetData, deflate_known_eigenvector
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.monitors import Monitors
 from nsm_continuation.core.preflight import STRICT, as_list, one_or_many, start_key
 from nsm_continuation.core.problem import EvaluationError, FloquetData, Problem, StartPoint
@@ -32,14 +33,19 @@ from nsm_continuation.hybrid.conservative import (
     UNFOLDING,
     UNFOLDING_TOL,
     ConservativeShooting,
-    CrossingSection,
     krein_definiteness,
     momentum_jacobian,
     unfold,
 )
+from nsm_continuation.hybrid.conservative_charts import SectionCharts
 from nsm_continuation.hybrid.conservative_presentation import ConservativePresentation
 from nsm_continuation.hybrid.problem import HybridShootingProblem
-from nsm_continuation.hybrid.return_map import AMBIGUOUS_NOISE, ShootingFailure
+from nsm_continuation.hybrid.return_map import (
+    AMBIGUOUS_NOISE,
+    CrossingSection,
+    ShootingFailure,
+    section_return,
+)
 from nsm_continuation.hybrid.simulate import SimulationError, Simulator
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
@@ -68,7 +74,7 @@ MAX_RETURNS = 64
 START_CLOSURE = 0.05
 
 
-class ConservativeFamilyProblem(HybridShootingProblem):
+class ConservativeFamilyProblem(SectionCharts, HybridShootingProblem):
     """Families of periodic orbits of a conservative impacting system (see the module
     docstring). Unknowns ``(z, beta, s)``: the section coordinates, the unfolding and the
     continued quantity ``s`` (``period``, ``omega`` or ``energy``; :attr:`parameter`)."""
@@ -147,9 +153,9 @@ class ConservativeFamilyProblem(HybridShootingProblem):
             raise ValueError(f"continuation.parameter: {name!r} is not a quantity of "
                              f"{self.name!r} (one of {self.quantities}): its physical "
                              "parameters are fixed along a conservative family")
-        sec = self.section()
+        sec = self.current_section()
         if returns is not None:
-            sec = CrossingSection(sec.index, sec.value, sec.shift, sec.crossing, int(returns))
+            sec = replace(sec, returns=int(returns))
         self.shooting = ConservativeShooting(self.compiled_system, sec,
                                              self.integrator.options(), name,
                                              self.energy_function, multiple=self.multiple)
@@ -203,12 +209,16 @@ class ConservativeFamilyProblem(HybridShootingProblem):
         y = np.asarray(y, dtype=float)
         try:
             out = self.shooting.residual_jacobian(y)
-            n = self.shooting.simulate(y).n_impacts
+            res = self.shooting.simulate(y)
         except ShootingFailure as exc:
             raise EvaluationError(f"simulation: {exc}") from None
+        n = res.n_impacts
         k = self.impacts_per_period()
         k = None if k is None else k * self.multiple
         if k is not None and n != k:
+            tangent = self.tangency_reason(y, res, n, k)
+            if tangent is not None:
+                raise EvaluationError(tangent)
             raise EvaluationError(
                 f"impact sequence: {n} impacts per period where the family has {k}: a near "
                 "approach grazes the surface and becomes an impact (or an impact grazes and "
@@ -221,7 +231,9 @@ class ConservativeFamilyProblem(HybridShootingProblem):
 
     def derived(self, y: np.ndarray) -> dict[str, float]:
         """The hybrid derived quantities (:meth:`HybridShootingProblem.derived`) and the
-        family's: ``period``, ``omega``, ``energy``, ``beta`` and ``unfolding = |beta| T``.
+        family's: ``period``, ``omega``, ``energy``, ``beta`` and ``unfolding = |beta| T``
+        (and ``section_<coordinate>``, the value of the section the unknowns are on, where the
+        section may move: :meth:`impact_section`).
         Raises :class:`EvaluationError` (the branch ends with that reason) where the unfolding
         does not vanish (:meth:`unfolding_tolerance`): the system is not conservative."""
         y = np.asarray(y, dtype=float)
@@ -230,6 +242,9 @@ class ConservativeFamilyProblem(HybridShootingProblem):
         T = float(out.get("period", np.nan))
         out[UNFOLDING] = beta
         out["unfolding"] = abs(beta) * T
+        if self.impact_section() is not None:  # where the section state was taken (rechart)
+            sec = self.shooting.section
+            out[f"section_{self.hybrid.state_names[sec.index]}"] = float(sec.value)
         out["omega"] = 2.0 * np.pi / T if T > 0 else np.nan
         if self.energy_function is not None:
             out["energy"] = self.shooting.energy_gradient(y)[0]
@@ -267,7 +282,7 @@ class ConservativeFamilyProblem(HybridShootingProblem):
             return None
         removal = abs(lam - 1.0) + res
         common = {"trivial_error": float(removal + flow),
-                  "matrix_norm": float(np.linalg.norm(P, 2)), "noise": float(noise)}
+                  "matrix_norm": spectral_norm(P), "noise": float(noise)}
         if not self.conservative:
             return FloquetData(np.asarray(mult, dtype=complex), **common)
         X0 = sh.x0(y)
@@ -314,6 +329,8 @@ class ConservativeFamilyProblem(HybridShootingProblem):
         new = type(self)(self.params)
         new.multiple = int(multiple)
         new.set_parameter(self.parameter, self.returns * int(multiple) // self.multiple)
+        if self.moved_section is not None:  # the same chart (a moved section)
+            new = new._with_section(replace(self.moved_section, returns=new.returns))
         return new
 
     # -- starts ------------------------------------------------------------------------------
@@ -348,15 +365,14 @@ class ConservativeFamilyProblem(HybridShootingProblem):
         sh = self.shooting
         sec = sh.section
         sim = Simulator(sh.c, replace(sh.sim.o, sensitivities=False))
-        target = (sec.index, sec.value, sec.direction)
         Xs = np.append(np.asarray(X, dtype=float)[: sh.c.n], 0.0)
-        Xs = sim.run(Xs, section=target).X.copy()
+        Xs = section_return(sim, Xs, sec).X.copy()
         Xs[sec.index] = sec.value
         if period is None:
             return Xs, sec.returns
         X, t, k = Xs.copy(), 0.0, 0
         while k < MAX_RETURNS:
-            res = sim.run(X, section=target)
+            res = section_return(sim, X, sec)
             X = res.X.copy()
             X[sec.index] = sec.value
             t, k = t + float(res.t), k + 1

@@ -96,7 +96,11 @@ class NormalForm:
 def normal_form(sh: HybridShooting, y: np.ndarray, tangent: np.ndarray) -> NormalForm | None:
     """Eqs. (G1)-(G2) at the grazing point ``y`` (located; ``tangent``: the branch's direction
     there, used only to find a non-impacting evaluation point next to ``y``); None when the
-    grazing cannot be resolved (no near approach next to ``y``, a failed simulation)."""
+    grazing cannot be resolved (no near approach next to ``y``, a failed simulation), and for
+    a section crossed several times a period (the flow from the touch to the end of the period
+    would need the crossings left after it, which the chained returns do not keep)."""
+    if sh.section.crossings > 1:
+        return None
     found = _non_impacting_point(sh, y, tangent)
     if found is None:
         return None

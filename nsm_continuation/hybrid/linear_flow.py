@@ -516,26 +516,32 @@ class ExactStep:
 
     def max_step(self, Y: np.ndarray, watched: list[int],
                  section: tuple[int, float, int] | None = None,
-                 fired: tuple[int, ...] = ()) -> float:
+                 fired: tuple[int, ...] = ()) -> tuple[float, float | None, bool]:
         """The next step from ``Y``: one Hermite cell (:meth:`ModalFlow.hermite_cell`), or,
         when the probe is affine in the state, as many cells as the ``watched`` probe entries
         (and the coordinate of a ``section`` on a dynamic component) are certified clear of
         zero (:func:`.modal_sums.certified_length`; ``fired``: the positions in ``watched`` of
-        those that fired at ``Y``)."""
+        those that fired at ``Y``). Also the step after it when this certificate already fixes
+        it (else None): the one cell it could not clear, which the simulator's Hermite search
+        then examines with the cell's accuracy, as it would after a new certificate from the
+        step's end (whose first cell that is); and whether the step is certified (no watched
+        function has a zero in it: the simulator need not search it)."""
         flow = self.flow
         cell = flow.hermite_cell(Y)
         if flow.probe_modes is None or not watched or not np.isfinite(cell):
-            return cell
+            return cell, None, False
         sec = None
         if section is not None and section[0] != flow.field.clock:
             if flow.pos[section[0]] < 0:
-                return cell
+                return cell, None, False
             sec = (section[0], section[1])
         q = self._clock_sum(Y)
         if q is None:
-            return cell
-        return min(modal_sums.certified_length(flow, Y, watched, cell, q, sec, fired),
-                   flow.h_growth)
+            return cell, None, False
+        length, first = modal_sums.certified_length(flow, Y, watched, cell, q, sec, fired)
+        if length >= flow.h_growth:
+            return flow.h_growth, None, first > 0
+        return length, (cell if 0 < first < modal_sums.MAX_CELLS else None), first > 0
 
     def _clock_sum(self, Y: np.ndarray) -> Any:
         """:func:`.modal_sums.clock_sum` at the freed parameters of ``Y`` (kept until they

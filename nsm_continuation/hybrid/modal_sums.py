@@ -106,11 +106,13 @@ def _bernstein_clear(g0: np.ndarray, m0: np.ndarray, g1: np.ndarray, m1: np.ndar
 def certified_length(flow: ModalFlow, Y: np.ndarray, rows: list[int], cell: float,
                      q: tuple[np.ndarray, np.ndarray, np.ndarray],
                      section: tuple[int, float] | None = None,
-                     fired: tuple[int, ...] = ()) -> float:
+                     fired: tuple[int, ...] = ()) -> tuple[float, int]:
     """The longest step from ``Y`` (whole ``cell`` widths, at least one, at most
     ``MAX_CELLS``) before the first cell where a watched function (probe ``rows``; and the
     section's coordinate minus its value, ``section``, when it is a dynamic component) is not
-    certified clear of zero (module docstring). ``q``: :func:`clock_sum`.
+    certified clear of zero (module docstring), and the index of that cell (``MAX_CELLS`` when
+    every cell is clear; 0 when the first is not, and the step is that one cell).
+    ``q``: :func:`clock_sum`.
 
     ``fired``: positions in ``rows`` of functions that fired at ``Y`` (zero there, for the
     simulator): their first cell is clear when ``g`` leaves zero at a rate ``|g'(0)|`` that its
@@ -153,7 +155,7 @@ def certified_length(flow: ModalFlow, Y: np.ndarray, rows: list[int], cell: floa
                        and slope * end > 0.0)
     clear = clear.all(axis=1)
     first = int(np.argmin(clear)) if not clear.all() else MAX_CELLS
-    return cell * max(first, 1)
+    return cell * max(first, 1), first
 
 
 def _merge(o1: np.ndarray, g1: np.ndarray, o2: np.ndarray, g2: np.ndarray

@@ -125,7 +125,8 @@ def orbit_trace(problem: HybridShootingProblem, y: np.ndarray, periods: int = 1)
     marks: list[tuple[float, str]] = []
     intervals: list[tuple[float, float, str]] = []
     t0, target = 0.0, sec.value
-    for _ in range(int(periods)):
+    # one run per return to the section: a crossing section is met ``crossings`` times a period
+    for _ in range(int(periods) * sec.crossings):
         target += sec.shift
         try:
             run = sim.run(X, section=(sec.index, target, sec.direction))
@@ -142,6 +143,11 @@ def orbit_trace(problem: HybridShootingProblem, y: np.ndarray, periods: int = 1)
         intervals += [(t0 + a, t0 + b, "sticking") for a, b in run.sticking_intervals]
         t0 += float(run.t)
         X = run.X
+        if sec.shift == 0:
+            # a crossing section: the next return starts exactly on it (its round-off on the
+            # far side would end the next run where it starts)
+            X = X.copy()
+            X[sec.index] = sec.value
     marks.sort(key=lambda m: m[0])
     S = np.array(states, dtype=float).reshape(len(states), c.n)
     names = problem.hybrid.state_names

@@ -226,6 +226,12 @@ class HybridCasePresentation(HybridPresentation):
                "section": {"coordinate": pr.hybrid.state_names[sec.index],
                            "value": sec.value, "shift_per_period": sec.shift},
                "unknowns": list(pr.variables)}
+        if sec.shift == 0:
+            # a crossing section: the direction it is crossed in, and the crossings a period
+            out["section"].update(crossing="rising" if sec.direction > 0 else "falling",
+                                  crossings_per_period=sec.crossings)
+        if not pr.hybrid.m:
+            out["contacts"] = "none (a smooth system)"
         if pr.integrator.method in FLOWS:
             out["flow"] = pr.shooting.c.flow_description()
         if pr.parameter == PERIOD:

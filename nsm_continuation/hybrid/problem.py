@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from nsm_continuation.core import monitors as monitor
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.monitors import Monitors
 from nsm_continuation.core.problem import (
     EvaluationError,
@@ -291,7 +292,7 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         if noise >= AMBIGUOUS_NOISE and np.any(np.abs(np.abs(mult) - 1.0) <= noise):
             return None
         return FloquetData(multipliers=mult, trivial_error=triv,
-                           matrix_norm=float(np.linalg.norm(P, 2)), noise=float(noise))
+                           matrix_norm=spectral_norm(P), noise=float(noise))
 
     def sim(self, y: np.ndarray) -> SimResult | None:
         try:
@@ -323,10 +324,9 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
             # |dH/dt| of the slowest impact (chattering ones included): in units of H per time
             "min_impact_dH_dt": (float(res.min_impact_velocity)
                                  if np.isfinite(res.min_impact_velocity) else np.nan),
-            # signed grazing margin, in units of H: min H of the near approaches (> 0) or
-            # -v^2/(2a) of a decelerating impact (< 0); crosses zero at a grazing bifurcation
-            "grazing_margin": (float(res.grazing_margin) if np.isfinite(res.grazing_margin)
-                               else np.nan),
+            # signed grazing margin closest to zero, in units of H: H_min of a near approach
+            # (> 0) or -v^2/(2a) of a decelerating impact (< 0); crosses zero at a grazing
+            "grazing_margin": res.closest_margin(),
         }
         sec = self._clock_section()
         if sec is not None:  # where the section state was taken (it moves: rechart)

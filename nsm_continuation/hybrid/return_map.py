@@ -58,18 +58,22 @@ rtol 1e-10 (Newton and the tangent fail there), ~0.02 at period 77 with rtol 1e-
 from __future__ import annotations
 
 from collections import OrderedDict
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
 
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.hybrid.simulate import SimOptions, SimResult, SimulationError, Simulator
 from nsm_continuation.hybrid.system import CompiledHybrid, HybridDeclarationError
 
 
 @dataclass
 class Section:
-    """Poincaré section ``x[index] = value``; one period moves ``x[index]`` by ``shift``."""
+    """Poincaré section ``x[index] = value``; one period moves ``x[index]`` by ``shift`` (an
+    angle or a clock that advances), and the section is met where it reaches ``value +
+    shift``, moving that way."""
 
     index: int
     value: float
@@ -79,9 +83,199 @@ class Section:
     def direction(self) -> int:
         return 1 if self.shift > 0 else -1
 
+    @property
+    def crossings(self) -> int:
+        """Crossings of the section per period (one: the coordinate reaches ``value +
+        shift`` once)."""
+        return 1
+
+    @property
+    def target(self) -> tuple[int, float, int]:
+        """The end of a return, as :meth:`.simulate.Simulator.run` takes it: ``(index, value
+        + shift, direction)``."""
+        return self.index, self.value + self.shift, self.direction
+
+    def repeated(self, periods: int) -> Section:
+        """The section of an orbit of ``periods`` periods (the iterated return map): the
+        coordinate moves ``periods`` times as far."""
+        return replace(self, shift=self.shift * periods)
+
+
+@dataclass
+class CrossingSection(Section):
+    """A Poincaré section ``x[index] = value`` of an autonomous system crossed in ``crossing``
+    (``-1`` falling, ``+1`` rising); ``returns`` crossings make one period. The section
+    coordinate comes back to its value (``shift = 0``).
+
+    ``surface`` (an index of the system's surfaces, whose impact surface is ``x[index] =
+    value``): the section is that surface's impacts, its points the post-impact states (the
+    flight leaving the surface crosses ``x[index] = value`` in ``crossing``). It is transversal
+    to the flow wherever the impact velocity is not zero, i.e. along a whole family of orbits
+    that impact the surface, where a section between the walls turns tangent to the flow as
+    soon as the section coordinate has a turning point at the section's value."""
+
+    crossing: int = -1
+    returns: int = 1
+    surface: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.crossing not in (-1, 1):
+            raise ValueError(f"section.crossing: {self.crossing} must be -1 (falling) or +1 "
+                             "(rising)")
+        if int(self.returns) < 1:
+            raise ValueError(f"section.returns: {self.returns} must be at least 1")
+        if self.shift != 0:
+            raise ValueError(f"section.shift: {self.shift}: the coordinate of a crossing section "
+                             "comes back to its value (0; a Section takes a shift)")
+
+    @property
+    def direction(self) -> int:
+        return self.crossing
+
+    @property
+    def crossings(self) -> int:
+        return int(self.returns)
+
+    def repeated(self, periods: int) -> CrossingSection:
+        """``periods`` times as many crossings, in the same direction."""
+        return replace(self, returns=int(self.returns) * int(periods))
+
+
+def chain_returns(parts: list[SimResult]) -> SimResult:
+    """One :class:`SimResult` for consecutive returns to a section (each started where the
+    previous one ended): times added, events and intervals shifted, ``J`` and ``J_t`` composed
+    by the caller (:func:`run_returns`), extremes merged."""
+    if len(parts) == 1:
+        return parts[0]
+    t0 = 0.0
+    events, sticking, margins, surfaces = [], [], [], []
+    for res in parts:
+        for ev in res.events:
+            events.append(type(ev)(ev.kind, ev.t + t0, ev.x, ev.info, ev.surface))
+        sticking += [(a + t0, b + t0) for a, b in res.sticking_intervals]
+        margins += list(res.grazing_margins)
+        surfaces += list(res.grazing_surfaces)
+        t0 += float(res.t)
+    last = parts[-1]
+    ext = None
+    if all(r.extremes is not None for r in parts):
+        ext = np.column_stack([np.min([r.extremes[:, 0] for r in parts], axis=0),
+                               np.max([r.extremes[:, 1] for r in parts], axis=0)])
+    return SimResult(
+        X=last.X, t=t0, J=last.J, Jt=last.Jt, events=events, state=last.state,
+        sticking_intervals=sticking,
+        chatter_counts=[k for r in parts for k in r.chatter_counts],
+        n_impacts=int(sum(r.n_impacts for r in parts)),
+        min_impact_velocity=float(min(r.min_impact_velocity for r in parts)),
+        grazing_margin=float(min(r.grazing_margin for r in parts)),
+        chatter_errors=[e for r in parts for e in r.chatter_errors], trajectory=None,
+        n_steps=int(sum(r.n_steps for r in parts)), ended_by=last.ended_by, bounds=ext,
+        grazing_margins=margins, grazing_surfaces=surfaces, surface_names=last.surface_names)
+
+
+def crossing_failure(c: CompiledHybrid, section: Section, X0: np.ndarray, res: SimResult,
+                     atol: float) -> str | None:
+    """Why the orbit from ``X0`` does not cross a section whose coordinate returns to its
+    value (``shift = 0``, :class:`CrossingSection`) as a periodic orbit must, or None. The
+    section coordinate's rate ``F_k(X0)`` must have the section's sign (an orbit through the
+    section the other way returns only after half a turn) and move it by more than the
+    integrator's absolute tolerance over the period, ``|F_k| t > atol``: below that the orbit
+    has shrunk onto an equilibrium on the section (a Hopf point, where the family of a smooth
+    system is born) and the crossing is no longer resolved; past it the shooting would go on
+    along the equilibrium, which the return map fixes without being a periodic orbit."""
+    if section.shift != 0:
+        return None  # the coordinate advances by |shift| a period: a crossing, always
+    rate = section.direction * float(np.asarray(c.calls().f.flat(X0))[section.index])
+    name = c.system.state_names[section.index]
+    if rate <= 0.0:
+        return (f"the state on the section moves against the section's crossing direction "
+                f"(d{name}/dt = {section.direction * rate:.3g}): not on an orbit crossing it "
+                f"{'rising' if section.direction > 0 else 'falling'} (a guess off the orbit, "
+                "or past the equilibrium on the section that the orbit shrinks onto at a Hopf "
+                "point)")
+    if rate * float(res.t) <= atol:
+        return (f"the orbit has shrunk onto an equilibrium on the section (d{name}/dt = "
+                f"{rate:.3g} there, moving {name} by {rate * float(res.t):.3g} over the period, "
+                f"below atol = {atol:.3g}): a Hopf point, where the family is born")
+    return None
+
+
+def section_return(sim: Simulator, X: np.ndarray, section: Section) -> SimResult:
+    """The simulation from ``X`` to the next point of ``section``: its next crossing, or, for a
+    :class:`CrossingSection` on a surface, just after the next impact on it."""
+    if isinstance(section, CrossingSection) and section.surface is not None:
+        return sim.run(X, stop_impact=section.surface)
+    return sim.run(X, section=section.target)
+
+
+def run_returns(sim: Simulator, X0: np.ndarray, section: Section) -> SimResult:
+    """One period from ``X0`` on ``section``: its :attr:`~Section.crossings` returns, chained
+    (one simulation for a section met once per period). ``J = J_k ... J_1`` and ``J_t =
+    sum_k J_t,k J_(k-1) ... J_1``; each return restarts exactly on the section, its row of
+    ``J`` zero (the time to the section absorbs it)."""
+    k_all = section.crossings
+    if k_all == 1:
+        return section_return(sim, X0, section)
+    parts: list[SimResult] = []
+    X = X0
+    J = Jt = None
+    for k in range(k_all):
+        res = section_return(sim, X, section)
+        if res.J is not None:
+            Jt = res.Jt.copy() if J is None else Jt + res.Jt @ J  # type: ignore[operator]
+            J = res.J.copy() if J is None else res.J @ J
+        parts.append(res)
+        if k + 1 < k_all:
+            X = res.X.copy()
+            X[section.index] = section.value
+            if J is not None:
+                J[section.index, :] = 0.0
+    out = chain_returns(parts)
+    if J is not None:
+        out.J, out.Jt = J, Jt
+    return out
+
 
 class ShootingFailure(Exception):
     pass
+
+
+class SimulationCache:
+    """The last ``size`` simulations by the unknowns they were run from: the run, or the reason
+    it failed (a :class:`ShootingFailure` at each lookup, without simulating again), so that
+    the residual, its Jacobian and the derived quantities at one point simulate once."""
+
+    def __init__(self, size: int = 16) -> None:
+        self.size = size
+        #: simulations run (lookups that found nothing)
+        self.n_simulations = 0
+        self._runs: OrderedDict[bytes, SimResult | str] = OrderedDict()
+
+    def clear(self) -> None:
+        """Forget every simulation."""
+        self._runs.clear()
+
+    def get(self, y: np.ndarray, run: Callable[[], SimResult],
+            explain: Callable[[str], str] | None = None) -> SimResult:
+        """The simulation from the unknowns ``y``: kept, else ``run()`` (a
+        :class:`SimulationError`'s reason, completed by ``explain``, or a
+        :class:`HybridDeclarationError` is kept as the failure)."""
+        key = np.asarray(y, dtype=float).tobytes()
+        hit = self._runs.get(key)
+        if hit is None:
+            try:
+                hit = run()
+            except SimulationError as exc:
+                hit = exc.reason if explain is None else explain(exc.reason)
+            except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
+                hit = str(exc)
+            self.n_simulations += 1
+            self._runs[key] = hit
+            if len(self._runs) > self.size:
+                self._runs.popitem(last=False)
+        if isinstance(hit, str):
+            raise ShootingFailure(hit)
+        return hit
 
 
 def wrap_periodic(values: np.ndarray, indices: list[int], periodic: dict[int, float]
@@ -105,9 +299,17 @@ class HybridShooting:
         self.section = section
         self.sim = Simulator(c, opts)
         self.free_idx = [i for i in range(c.n) if i != section.index]
-        self._cache: OrderedDict[bytes, SimResult | str] = OrderedDict()
-        self.cache_size = cache_size
-        self.n_simulations = 0
+        self._cache = SimulationCache(cache_size)
+
+    @property
+    def cache_size(self) -> int:
+        """How many simulations are kept (a copy of this shooting keeps as many)."""
+        return self._cache.size
+
+    @property
+    def n_simulations(self) -> int:
+        """Simulations run."""
+        return self._cache.n_simulations
 
     def x0(self, y: np.ndarray) -> np.ndarray:
         """Full initial state (with the freed parameters) from the unknowns ``y``."""
@@ -119,26 +321,24 @@ class HybridShooting:
         return X
 
     def simulate(self, y: np.ndarray) -> SimResult:
-        key = np.asarray(y, dtype=float).tobytes()
-        hit = self._cache.get(key)
-        if hit is None:
-            s = self.section
-            try:
-                hit = self.sim.run(self.x0(y), section=(s.index, s.value + s.shift,
-                                                          s.direction))
-            except SimulationError as exc:
-                hit = exc.reason
-                if hit.startswith("initial state on the inadmissible side"):
-                    hit += self._inadmissible_start(y)
-            except HybridDeclarationError as exc:  # e.g. r >= 1 at an impact (e past 1)
-                hit = str(exc)
-            self.n_simulations += 1
-            self._cache[key] = hit
-            if len(self._cache) > self.cache_size:
-                self._cache.popitem(last=False)
-        if isinstance(hit, str):
-            raise ShootingFailure(hit)
-        return hit
+        """The return from ``y`` (:class:`SimulationCache`): :func:`run_returns` on the
+        section, refused with the reason of :func:`crossing_failure`; a start inside the
+        obstacle says how far (:meth:`_inadmissible_start`)."""
+
+        def run() -> SimResult:
+            X0 = self.x0(y)
+            res = run_returns(self.sim, X0, self.section)
+            why = crossing_failure(self.c, self.section, X0, res, self.sim.o.atol)
+            if why is not None:
+                raise SimulationError(why)
+            return res
+
+        def explain(reason: str) -> str:
+            if reason.startswith("initial state on the inadmissible side"):
+                return reason + self._inadmissible_start(y)
+            return reason
+
+        return self._cache.get(y, run, explain)
 
     #: an initial state this far inside the obstacle (relative to its size) is a guess off
     #: any orbit; closer, an orbit on the surface at the section's time
@@ -200,7 +400,7 @@ class HybridShooting:
         FT = np.asarray(c.f(res.X), dtype=float).ravel()[:n]
         Phi = res.J[:n, :n] - np.outer(FT, res.Jt[:n])
         rtol = float(self.sim.o.rtol)
-        return float((rtol + 10.0 * np.finfo(float).eps) * np.linalg.norm(Phi, 2))
+        return float((rtol + 10.0 * np.finfo(float).eps) * spectral_norm(Phi))
 
     def time_resolution(self, y: np.ndarray) -> float:
         """How finely the return time can be set through the unknowns: ``eps sum_j |dt/dX0_j|
@@ -271,7 +471,7 @@ def shooting_jacobian_noise(shooting: IntegratedShooting, y: np.ndarray,
     (:meth:`HybridShooting.monodromy_noise`) and the Jacobian itself (its parameter column),
     ``(rtol + 10 eps) max(|Phi_T|_2, |G_y|_2)``."""
     rtol = float(shooting.sim.o.rtol)
-    scaled = (rtol + 10.0 * np.finfo(float).eps) * float(np.linalg.norm(jacobian, 2))
+    scaled = (rtol + 10.0 * np.finfo(float).eps) * spectral_norm(jacobian)
     return max(float(shooting.monodromy_noise(y)), scaled)
 
 

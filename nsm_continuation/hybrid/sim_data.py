@@ -128,18 +128,26 @@ class SimResult:
             self.deferred_extremes = []
         return self.bounds
 
-    def grazing_function(self, separation: float = 4.0) -> float:
-        """The signed grazing margin closest to zero, a continuous function of the orbit that
-        vanishes at a grazing (smooth in the parameter: ``-v^2/(2a)`` is linear in the depth
-        where ``v`` has the square-root singularity). NaN if there is none, or if a margin of
-        the opposite sign lies within ``separation`` times its distance to zero (the closest
-        one could then switch sides without any grazing: no event is raised on it)."""
+    def closest_margin(self) -> float:
+        """The signed grazing margin closest to zero (of a near approach, ``H_min > 0``, or of
+        a decelerating impact, ``-v^2/(2a) < 0``): the ``grazing_margin`` of a point; NaN if
+        there is none."""
         m = np.asarray(self.grazing_margins, dtype=float)
         m = m[np.isfinite(m)]
-        if not m.size:
-            return float("nan")
-        k = int(np.argmin(np.abs(m)))
-        g = float(m[k])
+        return float(m[int(np.argmin(np.abs(m)))]) if m.size else float("nan")
+
+    def grazing_function(self, separation: float = 4.0) -> float:
+        """The signed grazing margin closest to zero (:meth:`closest_margin`), a continuous
+        function of the orbit that vanishes at a grazing (smooth in the parameter: ``-v^2/(2a)``
+        is linear in the depth where ``v`` has the square-root singularity). NaN if there is
+        none, or if a margin of the opposite sign lies within ``separation`` times its distance
+        to zero (the closest one could then switch sides without any grazing: no event is
+        raised on it)."""
+        g = self.closest_margin()
+        if not np.isfinite(g):
+            return g
+        m = np.asarray(self.grazing_margins, dtype=float)
+        m = m[np.isfinite(m)]
         rivals = m[np.sign(m) != np.sign(g)]
         if rivals.size and np.min(np.abs(rivals)) < separation * abs(g):
             return float("nan")

@@ -183,10 +183,13 @@ class Simulator(Transitions, SurfaceContacts):
     # ------------------------------------------------------------------ main loop
     def run(self, X0: np.ndarray, t_end: float | None = None,
             section: tuple[int, float, int] | None = None, t_min_section: float = 0.0,
-            max_time: float | None = None) -> SimResult:
+            max_time: float | None = None, stop_impact: int | None = None) -> SimResult:
         """Simulate from ``X0`` (state followed by freed parameters) until ``t_end`` or until
         component ``section[0]`` crosses ``section[1]`` in direction ``section[2]`` (after time
-        ``t_min_section``). Raises :class:`SimulationError` with a reason on failure.
+        ``t_min_section``), or (``stop_impact``) just after the first impact on that surface
+        from which the flight leaves it (an impact section: the post-impact state, its
+        sensitivities through the impact's saltation, ``ended_by`` "impact"). Raises
+        :class:`SimulationError` with a reason on failure.
 
         Each pass of the loop tries one Runge-Kutta step (:meth:`_attempt`), looks for the first
         watched crossing inside it (:meth:`_first_crossing`), and either accepts the whole step
@@ -198,11 +201,17 @@ class Simulator(Transitions, SurfaceContacts):
         while True:
             self._guard(w, clock0)
             dt = min(w.h, self.o.h_max)
+            w.certified = False
             if w.key in self._exact:
                 # no integration error to control: the flow says how far it may go
-                dt = min(self.o.h_max, self._exact[w.key].max_step(
-                    w.Y, [wa[0] for wa in w.watch], section,
-                    tuple(i for i, wa in enumerate(w.watch) if (wa[2], wa[3]) in w.just)))
+                if w.next_exact is not None:
+                    dt, w.next_exact = w.next_exact, None
+                else:
+                    dt, w.next_exact, w.certified = self._exact[w.key].max_step(
+                        w.Y, [wa[0] for wa in w.watch], section,
+                        tuple(i for i, wa in enumerate(w.watch) if (wa[2], wa[3]) in w.just))
+                if dt > self.o.h_max:
+                    dt, w.next_exact = self.o.h_max, None
             last = False
             if t_stop is not None and w.t + dt >= t_stop:
                 dt, last = t_stop - w.t, True
@@ -217,8 +226,13 @@ class Simulator(Transitions, SurfaceContacts):
                 if last:
                     break
                 continue
+            impacts = w.n_imp
             if self._fire(w, dt, hit, section):
                 return self._result(w, "section")
+            if stop_impact is not None and w.n_imp > impacts and w.modes[stop_impact] == S1 \
+                    and w.events and w.events[-1].kind == "impact" \
+                    and w.events[-1].surface == stop_impact:
+                return self._result(w, "impact")
         if w.defer is not None:
             w.J = self._deferred(w, 0.0) @ w.J
         if w.J is not None and t_end is not None:
@@ -273,6 +287,7 @@ class Simulator(Transitions, SurfaceContacts):
         functions, the probe offsets and (``probe``) the probe and field at ``w.Y``."""
         w.key = self._key(w.modes, w.active)
         w.watch = watches(w.modes, w.active)
+        w.next_exact = None
         w.offsets = probe_layout(self.c.m, w.active, w.key != "free" and w.mode in EXTENDED)
         if probe:
             w.pr, w.F = self._probe_field(w.key, w.Y)
@@ -309,7 +324,8 @@ class Simulator(Transitions, SurfaceContacts):
             outs = (*outs, None, None)
         Yn = outs[0].ravel()
         o = self.o
-        en = state_error_norm(w.Y, Yn, outs[1], outs[2], o.rtol, o.atol, self.c.method == "dop853")
+        en = 0.0 if exact else state_error_norm(w.Y, Yn, outs[1], outs[2], o.rtol, o.atol,
+                                                self.c.method == "dop853")
         Jn = None
         if jac and o.sensitivity_error and outs[6] is not None and math.isfinite(en):
             Jn = self._chain(w.key, outs[5], w.J)
@@ -358,7 +374,8 @@ class Simulator(Transitions, SurfaceContacts):
         pr, prn = w.pr.tolist(), outs[3].tolist()
         best: tuple[float, str, int, int, int] | None = None
         fdt = float(dt)
-        for idx, direction, name, surface in w.watch:
+        # (a step of an exact flow certified clear of the watched functions' zeros has none)
+        for idx, direction, name, surface in ([] if w.certified else w.watch):
             # the function that just fired is exactly zero at the step start (its round-off
             # sign must not fire it again): its derivative decides
             g0 = 0.0 if (name, surface) in w.just else pr[idx]
@@ -644,8 +661,10 @@ class Simulator(Transitions, SurfaceContacts):
         modal sum (:meth:`.linear_flow.ExactStep.watched`: the same closed form, without the
         state and the probe's CasADi call) where there is one."""
         exact = self._exact.get(key)
-        if exact is not None and name != "section" and exact.watched(Y, tau0, idx) is not None:
-            return lambda tau: exact.watched(Y, tau, idx)
+        first = exact.watched(Y, tau0, idx) if exact is not None and name != "section" else None
+        if first is not None:
+            # (the first iterate is tau0: its value is the one just computed)
+            return lambda tau: first if tau == tau0 else exact.watched(Y, tau, idx)
         if name == "section":
             # the state and the field after the step
             state = self.calls.steps[key][0].flat

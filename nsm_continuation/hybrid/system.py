@@ -26,6 +26,10 @@ with a nonsmooth operation (``fabs``, ``sign``, ``fmin``/``fmax``, ``if_else``, 
 ``floor``...) is refused (its Lie derivatives, the saltation matrices and the event location
 need continuous derivatives); declare the pieces as separate surfaces instead.
 
+**No surface.** ``H`` may also be empty (:meth:`HybridSystem.smooth`, ``m = 0``): a smooth
+flow, simulated between its Poincaré section's crossings with the same exact sensitivities, no
+event to watch (the check of a smooth system's closed forms, e.g. a Hopf family).
+
 Continuation parameters are *lifted into the state* (``free=`` in :meth:`HybridSystem.compile`):
 they become extra components with zero rate, so the Jacobian of the simulated map with respect to
 them comes out of the same chain of step and saltation Jacobians as the state part (the
@@ -152,7 +156,12 @@ class HybridSystem:
                 f"system {self.name!r}: F has {self.F.numel()} components, state has {n}")
         if isinstance(self.H, (list, tuple)):
             self.H = ca.vertcat(*[ca.SX(h) for h in self.H])
-        if self.H.size2() != 1 or self.H.numel() < 1:
+        if isinstance(self.W, (list, tuple)) and not self.W:
+            self.W = ca.SX(n, 0)
+        if self.H.numel() == 0:
+            # no contact (:meth:`smooth`): a smooth flow, its sections and multipliers
+            self.H = ca.SX(0, 1)
+        if self.H.size2() != 1:
             raise HybridDeclarationError(
                 f"system {self.name!r}: H must be a scalar or a column (one constraint per "
                 f"surface), not {self.H.size1()}x{self.H.size2()}")
@@ -198,6 +207,20 @@ class HybridSystem:
         return int(self.H.numel())
 
     # ------------------------------------------------------------------ constructors
+    @classmethod
+    def smooth(cls, name: str, x: ca.SX, params: dict[str, ca.SX], F: ca.SX,
+               state_names: Sequence[str], *, periodic: dict[int, float] | None = None,
+               clock_index: int | None = None, forcing_frequency: str | None = None
+               ) -> HybridSystem:
+        """A smooth system ``x' = F(x)`` without contact (no surface: ``H`` and ``W`` empty,
+        ``m = 0``). Its orbits are continued like an impacting system's (a section, the
+        monodromy by the variational equations, the multipliers), with no impact, sticking or
+        grazing to locate: the check of a smooth problem's closed forms (a Hopf family), or a
+        system whose contacts are added later."""
+        return cls(name, x, params, F, ca.SX(0, 1), ca.SX(x.numel(), 0), list(state_names),
+                   dict(periodic or {}), clock_index=clock_index,
+                   forcing_frequency=forcing_frequency)
+
     @classmethod
     def mechanical(cls, name: str, q: ca.SX, qd: ca.SX, params: dict[str, ca.SX], M: ca.SX,
                    force: ca.SX, H: ca.SX | Sequence[ca.SX], e: Any, *,

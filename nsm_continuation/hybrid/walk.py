@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from nsm_continuation.hybrid.modes import S1
 from nsm_continuation.hybrid.sim_data import SimEvent
 
 
@@ -61,6 +62,11 @@ class _Walk:
     #: the steps of an exact flow taken since the last event: the field, the state they
     #: started from and their total time (:meth:`Simulator._deferred`)
     defer: tuple[str, np.ndarray, float] | None = None
+    #: the length of the next step of an exact flow when the last step's certificate fixed it
+    #: (:meth:`.linear_flow.ExactStep.max_step`); cleared when the watched functions change
+    next_exact: float | None = None
+    #: whether the current step of an exact flow is certified free of watched zeros
+    certified: bool = False
     #: exact steps whose interior extremes are left to the result (:attr:`.sim_data.SimResult.
     #: extremes`): ``(extremes, Y0, dt)``
     deferred_extremes: list[tuple[Any, np.ndarray, float]] = field(default_factory=list)
@@ -69,7 +75,10 @@ class _Walk:
 
     @property
     def mode(self) -> str:
-        """The state of the active surface (sticking or chattering), else of the first."""
+        """The state of the active surface (sticking or chattering), else of the first; free
+        flight (``s1``) for a system without contact."""
+        if not self.modes:
+            return S1
         return self.modes[0 if self.active is None else self.active]
 
     def record(self) -> None:

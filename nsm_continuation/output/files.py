@@ -20,7 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from nsm_continuation.core.errors import short_text
-from nsm_continuation.core.records import Branch, Event, Point
+from nsm_continuation.core.records import START_WARNING, Branch, Event, Point
 from nsm_continuation.output import report as report_md
 from nsm_continuation.output.folders import IfExists, OutputTarget
 from nsm_continuation.runs.diagrams import parent_link, summary
@@ -261,12 +261,39 @@ def _problem_parts(res: RunResult, branches: list[dict[str, Any]], failures: lis
         from nsm_continuation.figures.orbit_selection import spec_warnings
 
         warnings += spec_warnings(res)
+    warnings += start_warnings(res.branches)
     for b in branches:
         err = b["max_trivial_multiplier_error"]
         if err is not None and err > 1e-6:
             warnings.append(f"branch {b['id']}: the trivial multiplier drifts from 1 by {err:.1e}:"
                             " multipliers near the unit circle are not reliable there")
     return summary_part, extras, warnings
+
+
+def start_warnings(branches: list[Branch]) -> list[str]:
+    """The warnings about how the branches' starts were found (:data:`START_WARNING` of their
+    info, e.g. a transient that has not settled), each with the stability of the orbit the
+    start's Newton converged to (the branch's point at arclength 0)."""
+    out = []
+    for br in branches:
+        note = br.info.get(START_WARNING)
+        if not note:
+            continue
+        if br.points:
+            p = min(br.points, key=lambda q: abs(q.s))
+            if p.multipliers is None:
+                note += "; the stability of the orbit it converged to is not known"
+            elif p.n_unstable:
+                n = p.n_unstable
+                note += (f"; it converged to an orbit that is unstable ({n} multiplier"
+                         f"{'s' if n > 1 else ''} outside the unit circle, the largest "
+                         f"|lambda| = {p.max_abs_multiplier:.4g}): not the attractor the "
+                         "simulation approaches")
+            else:
+                note += (f"; it converged to a stable orbit (the largest |lambda| = "
+                         f"{p.max_abs_multiplier:.4g})")
+        out.append(f"branch {br.id} ({br.label}): {note}")
+    return out
 
 
 def unchecked_note(res: RunResult) -> str | None:

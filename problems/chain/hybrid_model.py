@@ -43,8 +43,8 @@ from nsm_continuation.core.palc import ContinuationEngine
 from nsm_continuation.core.preflight import STRICT, one_or_many
 from nsm_continuation.core.problem import StartPoint
 from nsm_continuation.core.settings import ContinuationSettings
-from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import ConservativeFamilyProblem, GuessStart
+from nsm_continuation.hybrid.return_map import CrossingSection
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 
@@ -154,6 +154,9 @@ class ChainFamilyProblem(ConservativeFamilyProblem):
     the chain's matrices and modal data from its closed-form problem (``chain_problem``), the
     case's parameters validated by the subclass's ``Parameters``."""
 
+    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
+                                                 "section_value", "impacts")
+
     def __init__(self, params: BaseModel | dict[str, Any]) -> None:
         p = params if isinstance(params, BaseModel) else self.Parameters.model_validate(
             dict(params))
@@ -167,6 +170,26 @@ class ChainFamilyProblem(ConservativeFamilyProblem):
         """The chain's matrices and modal data (shared with its closed form)."""
         return self.chain_problem.modal
 
+    def chain_mechanics(self) -> tuple[ca.DM, ca.DM, ca.SX, ca.SX, list[str], ca.SX]:
+        """``(M, K, u, du, names, E)``: the chain's mass and stiffness matrices, its
+        displacements and velocities (symbols), their state names ``u1 .. uN, du1 .. duN`` and
+        its energy ``E = (du^T M du + u^T K u) / 2`` (between impacts, ``M u'' + K u = 0``)."""
+        cp = self.chain_problem
+        M, K = ca.DM(cp.M), ca.DM(cp.K)
+        q, qd = ca.SX.sym("u", cp.N), ca.SX.sym("du", cp.N)
+        names = [f"u{i + 1}" for i in range(cp.N)] + [f"du{i + 1}" for i in range(cp.N)]
+        energy = 0.5 * (ca.dot(qd, ca.mtimes(M, qd)) + ca.dot(q, ca.mtimes(K, q)))
+        return M, K, q, qd, names, energy
+
+    def impacts_per_period(self) -> int | None:
+        """The case's ``impacts`` (None: any number per period)."""
+        return self.params.impacts  # type: ignore[attr-defined,no-any-return]
+
+    def section(self) -> CrossingSection:
+        """The impacting dof's crossing of ``section_value``, falling, once per period."""
+        return CrossingSection(self.chain_problem.c, float(self.params.section_value),  # type: ignore[attr-defined]
+                               0.0, crossing=-1, returns=1)
+
 
 class NDofImpactHybridProblem(ChainFamilyProblem):
     """The chain's nonsmooth modes by the hybrid layer (see the module docstring)."""
@@ -174,8 +197,6 @@ class NDofImpactHybridProblem(ChainFamilyProblem):
     name: ClassVar[str] = "ndof_impact_hybrid"
     Parameters: ClassVar[type[BaseModel]] = HybridChainParameters
     case_parameter: ClassVar[str | None] = "omega"
-    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
-                                                 "section_value", "impacts")
     start_adapter = one_or_many(ClosedFormStart | GuessStart | ResonanceStart)
     model: ClassVar[str] = (
         "hybrid (problem ndof_impact_hybrid): event-driven simulation of the chain between "
@@ -183,24 +204,13 @@ class NDofImpactHybridProblem(ChainFamilyProblem):
         "ndof_impact) is the default model of one-impact orbits")
 
     def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
-        cp = self.chain_problem
-        N, c = cp.N, cp.c
-        M, K = ca.DM(cp.M), ca.DM(cp.K)
-        q, qd = ca.SX.sym("u", N), ca.SX.sym("du", N)
+        M, K, q, qd, names, energy = self.chain_mechanics()
         p = {k: ca.SX.sym(k) for k in ("gap", "restitution", "damping")}
         force = -ca.mtimes(K, q) - p["damping"] * ca.mtimes(K, qd)
-        names = [f"u{i + 1}" for i in range(N)] + [f"du{i + 1}" for i in range(N)]
-        system = HybridSystem.mechanical("chain", q, qd, p, M, force, p["gap"] - q[c],
+        system = HybridSystem.mechanical("chain", q, qd, p, M, force,
+                                         p["gap"] - q[self.chain_problem.c],
                                          p["restitution"], state_names=names)
-        energy = 0.5 * (ca.dot(qd, ca.mtimes(M, qd)) + ca.dot(q, ca.mtimes(K, q)))
         return system, energy
-
-    def impacts_per_period(self) -> int | None:
-        return self.params.impacts  # type: ignore[attr-defined,no-any-return]
-
-    def section(self) -> CrossingSection:
-        return CrossingSection(self.chain_problem.c, float(self.params.section_value),  # type: ignore[attr-defined]
-                               0.0, crossing=-1, returns=1)
 
     def orbit_start(self, spec: Any) -> tuple[np.ndarray, float, str, dict[str, Any]]:
         """The closed-form orbit (4.2) at the start's period: its post-impact state."""

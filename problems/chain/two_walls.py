@@ -12,6 +12,15 @@ orbit, shooting on the section ``u_c = section_value`` crossed falling (default 
 the energy ``E = (u'^T M u' + u^T K u) / 2``). Paper 000 names this configuration beyond its
 reach: one impact per period on one wall is its assumption throughout.
 
+**The section.** A section between the walls turns tangent to the flow where a turn of ``u_c``
+inside the period reaches its value (on mode 2 the interior maximum grown from the inflection
+at ``T/4`` reaches ``u_c = gap / 2`` at omega = 5.8870): the return map jumps there, though the
+family goes on. Where a turn comes within ``SECTION_MARGIN`` of the section's value the section
+moves to the impacts on the upper wall (:meth:`impact_section`,
+:mod:`~nsm_continuation.hybrid.conservative_charts`), transversal to the flow as long as the
+orbit hits that wall with a nonzero velocity: the family is followed to its own end (on mode 2
+the grazing of both walls at omega = 5.92312286, where the interior extrema reach them).
+
 **Why this configuration.** A mass moving in a clearance (a loose support, a rattling gear, a
 tube in its baffle) is the two-contact setting met first in practice, and it keeps paper 000's
 impacting dof and modes, so its nonsmooth modes can be set against the one-wall ones at the same
@@ -51,9 +60,11 @@ from nsm_continuation.problems.chain.hybrid_model import ChainFamilyProblem, Clo
 from nsm_continuation.problems.chain.parameters import ChainSpec
 from pydantic import BaseModel, Field, model_validator
 
+from nsm_continuation.core import monitors as monitor
+from nsm_continuation.core.monitors import Monitors, Source
 from nsm_continuation.core.preflight import STRICT, one_or_many
-from nsm_continuation.hybrid.conservative import CrossingSection
 from nsm_continuation.hybrid.conservative_family import GuessStart
+from nsm_continuation.hybrid.return_map import CrossingSection
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
 
@@ -78,7 +89,10 @@ class TwoWallChainParameters(BaseModel):
     impacting_dof: Annotated[int, Field(ge=1)] | None = None
     #: the section ``u_c = section_value`` (crossed falling), between the walls (null: halfway
     #: to the upper wall, ``gap / 2``; on a symmetric orbit ``u_c = 0`` is crossed at ``T / 4``,
-    #: and that crossing turns tangent where ``u_c`` has an inflection there)
+    #: and that crossing turns tangent where ``u_c`` has an inflection there), or on the upper
+    #: wall (``gap``: the impacts on it, transversal as long as they have a velocity); a
+    #: section between the walls moves to the upper wall's impacts where a turn of ``u_c``
+    #: comes near it (a branch continues through the section's tangency)
     section_value: float | None = Field(None, allow_inf_nan=False)
     #: the impacts per period of the orbits continued (2: one on each wall; a branch ends
     #: where its impact sequence changes); null: any
@@ -95,9 +109,10 @@ class TwoWallChainParameters(BaseModel):
             self.lower_gap = self.gap
         if self.section_value is None:
             self.section_value = 0.5 * self.gap
-        if not -self.lower_gap < self.section_value < self.gap:
+        if not -self.lower_gap < self.section_value <= self.gap:
             raise ValueError(f"section_value = {self.section_value} must lie between the walls "
-                             f"(-lower_gap = {-self.lower_gap}, gap = {self.gap})")
+                             f"or on the upper one (-lower_gap = {-self.lower_gap}, gap = "
+                             f"{self.gap})")
         return self
 
 
@@ -108,34 +123,47 @@ class TwoWallChainProblem(ChainFamilyProblem):
     name: ClassVar[str] = "ndof_two_walls"
     Parameters: ClassVar[type[BaseModel]] = TwoWallChainParameters
     case_parameter: ClassVar[str | None] = "omega"
-    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "chain", "impacting_dof",
-                                                 "section_value", "impacts")
     start_adapter = one_or_many(ClosedFormStart | GuessStart)
+    #: the symmetric families end where a near approach grazes a wall: its margin is a
+    #: vanishing quantity (the end extrapolated to its zero, named ``grazing``). The energy is
+    #: not watched for an asymptote: the families end at such a grazing before (W1)'s energy
+    #: asymptote (a zero of ``w2(T)``, where ``v -> inf``): as ``v`` grows the flight between
+    #: the impacts (``u_c`` from ``g`` to ``-g``) has interior extrema of size ``~ |v|``, which
+    #: reach a wall first (mode 1 at omega = 1.66836 before 1.68, mode 2 at 5.92312 before
+    #: 5.99); extrapolated from the steep rise of the energy, the asymptote would end mode 2
+    #: at omega ~ 5.90, short of its grazing
+    monitors: ClassVar[Monitors] = Monitors(
+        (*(m for m in ChainFamilyProblem.monitors.declared if m.source is not Source.ASYMPTOTE),
+         monitor.vanishing("grazing_margin", "grazing")),
+        ChainFamilyProblem.monitors.default_kind)
     model: ClassVar[str] = (
         "hybrid (problem ndof_two_walls): event-driven simulation of the chain between impacts "
         "on two walls with the unfolding beta; no closed form covers every orbit of two "
         "contacts (the symmetric one-impact-per-wall orbit (W1) is only the start)")
 
     def conservative_system(self) -> tuple[HybridSystem, ca.SX | None]:
-        cp = self.chain_problem
-        N, c = cp.N, cp.c
-        M, K = ca.DM(cp.M), ca.DM(cp.K)
-        q, qd = ca.SX.sym("u", N), ca.SX.sym("du", N)
+        M, K, q, qd, names, energy = self.chain_mechanics()
         p = {k: ca.SX.sym(k) for k in ("gap", "lower_gap")}
-        names = [f"u{i + 1}" for i in range(N)] + [f"du{i + 1}" for i in range(N)]
+        c = self.chain_problem.c
         system = HybridSystem.mechanical(
             "chain_two_walls", q, qd, p, M, -ca.mtimes(K, q),
             [p["gap"] - q[c], q[c] + p["lower_gap"]], [1.0, 1.0], surfaces=WALLS,
             state_names=names)
-        energy = 0.5 * (ca.dot(qd, ca.mtimes(M, qd)) + ca.dot(q, ca.mtimes(K, q)))
         return system, energy
 
-    def impacts_per_period(self) -> int | None:
-        return self.params.impacts  # type: ignore[attr-defined,no-any-return]
-
     def section(self) -> CrossingSection:
-        return CrossingSection(self.chain_problem.c, float(self.params.section_value),  # type: ignore[attr-defined]
-                               0.0, crossing=-1, returns=1)
+        """``u_c = section_value`` crossed falling; on the upper wall (``section_value =
+        gap``) the impacts on it (the post-impact states)."""
+        value = float(self.params.section_value)  # type: ignore[attr-defined]
+        if value == float(self.params.gap):  # type: ignore[attr-defined]
+            return self.impact_section()
+        return super().section()
+
+    def impact_section(self) -> CrossingSection:
+        """The impacts on the upper wall: where a turn of ``u_c`` reaches a section between
+        the walls, the section moves there (:meth:`rechart`)."""
+        return CrossingSection(self.chain_problem.c, float(self.params.gap), 0.0,  # type: ignore[attr-defined]
+                               crossing=-1, returns=1, surface=WALLS.index("upper"))
 
     def symmetric_orbit(self, T: float) -> tuple[np.ndarray, np.ndarray]:
         """The symmetric orbit (W1) of period ``T``: its state just after the impact on the

@@ -14,12 +14,9 @@ period apart, is known in closed form (``tests/oracles/two_wall.py``, (T5)-(T13)
 velocity vanishes where the primary's forced response has amplitude ``d/2`` (T9):
 ``omega = sqrt(1 + 2/d)`` undamped, ``sqrt(3)`` for ``d = 1`` whatever ``mu`` and ``e``.
 
-``encoding`` says how the two walls are declared:
-
-* ``surfaces`` (default): ``H_upper = d/2 - (y - x) >= 0`` and ``H_lower = d/2 + (y - x) >= 0``,
-  each with restitution ``e``;
-* ``single``: one smooth constraint ``H = d^2/4 - (y - x)^2 >= 0`` whose zero set is both walls.
-
+``encoding`` says how the two walls are declared (:mod:`.two_walls`, with ``z = y - x`` and
+``w = d/2``): two unilateral constraints ``d/2 - (y - x) >= 0`` and ``d/2 + (y - x) >= 0``
+(``surfaces``, the default) or one smooth constraint ``d^2/4 - (y - x)^2 >= 0`` (``single``).
 The Poincaré section is the stroboscopic one, ``phase = section_phase`` (mod ``2 pi``).
 """
 
@@ -29,14 +26,12 @@ from typing import ClassVar, Literal
 
 import casadi as ca
 import numpy as np
+from nsm_continuation.problems.impacting.two_walls import TwoWallForcedProblem
 from pydantic import BaseModel, Field
 
 from nsm_continuation.core.preflight import STRICT
-from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+from nsm_continuation.hybrid.case import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
-
-#: the names of the two walls (``y - x = +d/2``, ``y - x = -d/2``) in the ``surfaces`` encoding
-SURFACES = ["upper", "lower"]
 
 
 class ImpactDamperParameters(BaseModel):
@@ -61,16 +56,12 @@ class ImpactDamperParameters(BaseModel):
     encoding: Literal["surfaces", "single"] = "surfaces"
 
 
-class ImpactDamperProblem(HybridCaseProblem):
+class ImpactDamperProblem(TwoWallForcedProblem):
     """Periodic motions of a forced primary mass with a free ball in a cavity."""
 
     name: ClassVar[str] = "impact_damper"
-    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
-    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = ImpactDamperParameters
-    default_parameter: ClassVar[str] = "omega"
-    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "section_phase", "encoding")
-    curve_preference: ClassVar[tuple[str, ...]] = ("clearance",)
+    phase_index: ClassVar[int] = 4
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
         "time": ("x", "y"), "phase": ("x", "xdot"), "manifold": ("x", "y", "phase")}
     parameter_labels: ClassVar[dict[str, str]] = {
@@ -84,16 +75,9 @@ class ImpactDamperProblem(HybridCaseProblem):
         M = ca.diag(ca.vertcat(1, p["mass_ratio"]))
         force = ca.vertcat(-q[0] - 2 * p["zeta"] * qd[0] + ca.cos(ph), 0)
         z, w, e = q[1] - q[0], p["clearance"] / 2, p["restitution"]
-        kw = {"clock": ph, "clock_rate": p["omega"],
-              "state_names": ["x", "y", "xdot", "ydot", "phase"]}
-        if self.params.encoding == "single":  # type: ignore[attr-defined]
-            return HybridSystem.mechanical("impact_damper", q, qd, p, M, force, w ** 2 - z ** 2,
-                                           e, **kw)
-        return HybridSystem.mechanical("impact_damper", q, qd, p, M, force, [w - z, w + z],
-                                       [e, e], surfaces=SURFACES, **kw)
-
-    def section(self) -> Section:
-        return Section(4, self.params.section_phase, 2 * np.pi)  # type: ignore[attr-defined]
+        return self.between_walls("impact_damper", q, qd, p, M, force, z, w, e, clock=ph,
+                                  clock_rate=p["omega"],
+                                  state_names=["x", "y", "xdot", "ydot", "phase"])
 
     def default_initial(self) -> np.ndarray:
         """The primary at rest, the ball in the middle of the cavity moving at unit speed

@@ -10,14 +10,10 @@ impact velocity vanishes (T9), multipliers from the half map (T12)). Being a 2-d
 with determinant ``e^4 exp(-2 zeta T) < 1``, the symmetric orbit loses stability only at folds and
 symmetry-breaking pitchforks (no period doubling, no Neimark-Sacker).
 
-``encoding`` says how the two stops are declared:
-
-* ``surfaces`` (default): two unilateral constraints ``H_upper = d - q >= 0`` and
-  ``H_lower = d + q >= 0``, each with restitution ``e``;
-* ``single``: one smooth constraint whose zero set is both stops, ``H = d^2 - q^2 >= 0``
-  (``N^T qd = -2 q qd``: the impact law is the same, the impact velocity reads ``2 d |qd|``).
-
-The Poincaré section is the stroboscopic one, ``phase = section_phase`` (mod ``2 pi``).
+``encoding`` says how the two stops are declared (:mod:`.two_walls`, with ``z = q`` and
+``w = d``): two unilateral constraints ``d - q >= 0`` and ``d + q >= 0`` (``surfaces``, the
+default) or one smooth constraint ``d^2 - q^2 >= 0`` (``single``). The Poincaré section is the
+stroboscopic one, ``phase = section_phase`` (mod ``2 pi``).
 """
 
 from __future__ import annotations
@@ -26,14 +22,12 @@ from typing import ClassVar, Literal
 
 import casadi as ca
 import numpy as np
+from nsm_continuation.problems.impacting.two_walls import TwoWallForcedProblem
 from pydantic import BaseModel, Field
 
 from nsm_continuation.core.preflight import STRICT
-from nsm_continuation.hybrid.case import HybridCaseProblem, IntegratorSpec, Section
+from nsm_continuation.hybrid.case import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridSystem
-
-#: the names of the two stops (``q = +d``, ``q = -d``) in the ``surfaces`` encoding
-SURFACES = ["upper", "lower"]
 
 
 class TwoSidedOscillatorParameters(BaseModel):
@@ -56,16 +50,12 @@ class TwoSidedOscillatorParameters(BaseModel):
     encoding: Literal["surfaces", "single"] = "surfaces"
 
 
-class TwoSidedOscillatorProblem(HybridCaseProblem):
+class TwoSidedOscillatorProblem(TwoWallForcedProblem):
     """Periodic orbits of the forced oscillator between two symmetric stops."""
 
     name: ClassVar[str] = "two_sided_oscillator"
-    #: the figures depend on the results and the parameters only (Problem.figures_from_inputs)
-    figures_from_inputs: ClassVar[bool] = True
     Parameters: ClassVar[type[BaseModel]] = TwoSidedOscillatorParameters
-    default_parameter: ClassVar[str] = "omega"
-    setting_fields: ClassVar[tuple[str, ...]] = ("integrator", "section_phase", "encoding")
-    curve_preference: ClassVar[tuple[str, ...]] = ("clearance",)
+    phase_index: ClassVar[int] = 2
     orbit_views: ClassVar[dict[str, tuple[str, ...]] | None] = {
         "time": ("q",), "phase": ("q", "qdot"), "manifold": ("q", "qdot", "phase")}
     parameter_labels: ClassVar[dict[str, str]] = {
@@ -76,15 +66,9 @@ class TwoSidedOscillatorProblem(HybridCaseProblem):
         p = {k: ca.SX.sym(k) for k in ("zeta", "omega", "clearance", "restitution")}
         force = -q - 2 * p["zeta"] * qd + ca.cos(ph)
         d, e = p["clearance"], p["restitution"]
-        kw = {"clock": ph, "clock_rate": p["omega"], "state_names": ["q", "qdot", "phase"]}
-        if self.params.encoding == "single":  # type: ignore[attr-defined]
-            return HybridSystem.mechanical("two_sided_oscillator", q, qd, p, ca.SX(1.0), force,
-                                           d ** 2 - q ** 2, e, **kw)
-        return HybridSystem.mechanical("two_sided_oscillator", q, qd, p, ca.SX(1.0), force,
-                                       [d - q, d + q], [e, e], surfaces=SURFACES, **kw)
-
-    def section(self) -> Section:
-        return Section(2, self.params.section_phase, 2 * np.pi)  # type: ignore[attr-defined]
+        return self.between_walls("two_sided_oscillator", q, qd, p, ca.SX(1.0), force, q, d, e,
+                                  clock=ph, clock_rate=p["omega"],
+                                  state_names=["q", "qdot", "phase"])
 
     def default_initial(self) -> np.ndarray:
         """At rest in the middle of the gap."""

@@ -15,7 +15,9 @@ import itertools
 import os
 import subprocess
 import sys
+import time
 from collections.abc import Callable
+from importlib import metadata
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -312,6 +314,49 @@ def test_between_two_plugins_the_first_on_the_path_is_used(plugin: Callable[...,
     assert [e.target for e in registry.registrations()["toy"]] == [first, second]
     with pytest.warns(registry.DuplicateProblemWarning, match=f"{first} .* is used, {second}"):
         assert registry.get("toy").__module__ == first.partition(":")[0]
+
+
+def test_the_scan_of_the_entry_points_is_kept_until_the_path_changes(
+        fresh_registry: Any, plugin: Callable[..., str], tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The entry points are read once while ``sys.path`` and its folders are unchanged; a
+    folder put on the path, or a distribution installed in a folder already on it, is seen
+    by the next lookup, and :func:`registry.refresh` forgets the scan."""
+    scans = []
+    real = registry.entry_points
+    monkeypatch.setattr(registry, "entry_points",
+                        lambda **kw: scans.append(kw) or real(**kw))
+    assert "toy" not in registry.available()
+    assert registry.available() == registry.available()
+    assert registry.get("ndof_impact").__name__ == "NDofImpactProblem"
+    assert len(scans) == 1
+    target = plugin()  # its folder put first on sys.path
+    assert registry.available()["toy"] == target
+    assert len(scans) == 2
+    # a second distribution installed beside the first (its folder's mtime changes; the
+    # pause outlasts the file system's coarse clock tick)
+    site = Path(sys.path[0])
+    time.sleep(0.05)
+    info = site / "other_toy-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: other_toy\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(f"[{registry.GROUP}]\ntoy2 = {target}\n")
+    assert registry.available()["toy2"] == target
+    assert len(scans) == 3
+    registry.refresh()
+    registry.available()
+    assert len(scans) == 4
+
+
+def test_a_replaced_entry_point_scan_is_seen_after_refresh(
+        fresh_registry: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A test (or a tool) replacing ``entry_points`` sees its own registrations once the
+    scan is forgotten (the ``fresh_registry`` fixture)."""
+    fake = metadata.EntryPoint("fake", "fake_module:Fake", registry.GROUP)
+    monkeypatch.setattr(registry, "entry_points", lambda **kw: [fake])
+    assert registry.available() == {"fake": "fake_module:Fake"}
+    with pytest.raises(registry.PluginError, match="plugin 'fake' .*fake_module:Fake"):
+        registry.get("fake")
 
 
 def test_a_duplicate_name_is_said_by_validate_and_run(plugin: Callable[..., str],

@@ -94,6 +94,30 @@ def test_restart_at_a_fold_is_one_newton_iteration_and_stays_on_the_closed_form(
     assert again.case.continuation.min == 1.42  # the window is inherited
 
 
+def test_restart_from_an_endpoint_goes_onwards(chain_run: tuple[Any, Path]) -> None:
+    """From the branch's end at the window's edge (omega = 1.49, the period T falling), with
+    the window widened: every point of the restarted branch lies beyond the end (T below it)
+    and on the closed form, nothing is walked again; ``direction: both`` walks back too."""
+    res, folder = chain_run
+    [end] = [e for e in res.events if e.kind == "endpoint"
+             and e.point is res.run_result.branches[0].points[-1]]
+    T_end = end.point.y[-1]
+    onwards = nsm.run({"start": {"from": str(folder), "event": "endpoint"},
+                       "continuation": {"max": 1.52, "max_points": 8}, "output": {"plots": False}})
+    pts = onwards.run_result.branches[0].points
+    assert len(pts) >= 6
+    assert all(p.y[-1] <= T_end * (1 + 1e-12) for p in pts)
+    assert min(p.y[-1] for p in pts) < T_end * (1 - 1e-3)
+    pr = onwards.problem
+    for p in pts:
+        ref = closed_form_y(pr, p.y[-1])
+        assert np.linalg.norm(p.y - ref, np.inf) < 1e-9 * np.linalg.norm(ref, np.inf)
+    both = nsm.run({"start": {"from": str(folder), "event": "endpoint", "direction": "both"},
+                    "continuation": {"max": 1.52, "max_points": 8}, "output": {"plots": False}})
+    T = [p.y[-1] for p in both.run_result.branches[0].points]
+    assert max(T) > T_end * (1 + 1e-3) and min(T) < T_end * (1 - 1e-3)
+
+
 def test_restart_from_csv_rows_and_the_api(chain_run: tuple[Any, Path]) -> None:
     """``point: 40`` and ``point: -1`` start from the saved rows (bit-equal to the points in
     memory, one Newton iteration); ``Result.restart`` with an event of the result gives the

@@ -173,6 +173,110 @@ def test_pitchfork_is_where_the_one_wall_mode_grazes_the_other_wall(problem, ora
         assert int(np.sum(np.abs(oracle.multipliers(2 * np.pi / w)) > 1 + 1e-6)) == n
 
 
+def tangency_omega(oracle: TwoWallChain, value: float) -> float:
+    """Where on mode 2 the interior maximum of ``u5`` grown from the inflection at ``T/4``
+    reaches ``value`` (the closed form; ``u5`` on a grid of the half period, then a bounded
+    maximisation after ``T/4``): where the section ``u5 = value`` turns tangent to the flow."""
+
+    def top(w: float) -> float:
+        T = 2 * np.pi / w
+        X0 = oracle.symmetric_orbit(T)
+        r = minimize_scalar(lambda s: -oracle.u_c(X0, np.array([s]))[0],
+                            bounds=(T / 4, 0.45 * T), method="bounded",
+                            options={"xatol": 1e-13})
+        return -float(r.fun) - value
+
+    return float(brentq(top, 5.75, 5.92, xtol=1e-13))
+
+
+@pytest.fixture(scope="module")
+def on_wall() -> TwoWallChainProblem:
+    return TwoWallChainProblem({**CHAIN, "section_value": CHAIN["gap"]})
+
+
+@pytest.mark.parametrize("omega", [4.7, 5.9, 5.92])
+def test_impact_section_orbits_match_the_closed_form(on_wall, oracle, omega) -> None:
+    """On the section at the impacts on the upper wall (``section_value = gap``) the state is
+    the closed form's post-impact state (W1) itself, to 1e-9, with its energy and the
+    multipliers of its saltation monodromy; at 5.9 and 5.92 beyond the frequency where the
+    section ``u5 = 1/2`` turns tangent to the flow (the interior maximum of ``u5`` reaches
+    1/2), up to the family's grazing."""
+    assert tangency_omega(oracle, 0.5) < 5.9
+    y, _, fl = family_orbit(on_wall, omega)
+    T = 2 * np.pi / omega
+    X0 = oracle.symmetric_orbit(T)
+    X = on_wall.shooting.x0(y)[: 2 * oracle.N]
+    assert np.max(np.abs(X - X0)) <= AGREE * (1 + np.max(np.abs(X0)))
+    d = on_wall.derived(y)
+    assert abs(d["energy"] - oracle.energy(X0)) <= AGREE * oracle.energy(X0)
+    assert d["n_impacts"] == 2 and d["section_u5"] == CHAIN["gap"]
+    lam = oracle.multipliers(T)
+    assert msd(np.asarray(fl.multipliers), lam) <= max(AGREE, 10 * fl.noise) * max(
+        1.0, float(np.abs(lam).max()))
+
+
+def test_section_moves_to_the_wall_before_it_turns_tangent(problem, oracle) -> None:
+    """Within ``SECTION_MARGIN`` of the tangency the section ``u5 = 1/2`` moves to the
+    impacts on the upper wall (:meth:`rechart`): the moved point is the closed form's
+    post-impact state, a solution in the new chart (residual at rounding), and the moved
+    tangent is the family's tangent there (the Jacobian's kernel). Far from it (mode 1, and
+    mode 2 before the inflection at ``T/4``) the section stays."""
+    for w in (1.6, 5.5):
+        y, t, _ = family_orbit(problem, w)
+        assert problem.rechart(y, t) is None
+    w = 0.5 * (tangency_omega(oracle, 0.4) + tangency_omega(oracle, 0.5))
+    y, t, _ = family_orbit(problem, w)
+    assert problem.section_margin(y) < problem.SECTION_MARGIN
+    moved = problem.rechart(y, t)
+    assert moved is not None
+    new = moved.problem
+    assert new.chart() == {"u5": 1.0, "section_returns": 1.0} and problem.chart() is None
+    X0 = oracle.symmetric_orbit(2 * np.pi / w)
+    X = new.shooting.x0(moved.y)[: 2 * oracle.N]
+    assert np.max(np.abs(X - X0)) <= AGREE * (1 + np.max(np.abs(X0)))
+    g, A = new.evaluate_with_jacobian(moved.y)
+    assert np.max(np.abs(g)) <= AGREE * (1 + np.max(np.abs(X0)))
+    kernel = np.linalg.svd(A)[2][-1]
+    assert abs(abs(kernel @ moved.tangent) - 1.0) <= 1e-8
+    # the same orbit in both charts; a restart reads the moved chart back
+    assert abs(new.derived(moved.y)["energy"] - problem.derived(y)["energy"]) <= 1e-12 * (
+        oracle.energy(X0))
+    assert problem.in_chart(new.chart()).chart() == new.chart()
+    assert new.in_chart(None).chart() is None
+
+
+def test_end_of_a_section_between_the_walls_is_named(problem, oracle) -> None:
+    """Just past the tangency the return to the section ``u5 = 1/2`` comes back before the
+    orbit's impacts: the evaluation says so, naming the section tangency and the frequency
+    (not a change of the impact sequence)."""
+    from nsm_continuation.core.problem import EvaluationError
+
+    w = tangency_omega(oracle, 0.5) + 1e-4
+    T = 2 * np.pi / w
+    X0 = oracle.symmetric_orbit(T)
+    Xs = oracle.section_state(X0, 0.5, T)
+    y = np.append(np.delete(Xs, oracle.c), [0.0, w])
+    with pytest.raises(EvaluationError, match=r"section tangent to the flow at omega = 5\.88"):
+        problem.evaluate_with_jacobian(y)
+
+
+def test_mode_2_ends_at_the_grazing_of_both_walls(oracle) -> None:
+    """On the section at the impacts mode 2 is continued to its own end: the branch ends named
+    (``grazing``, the near approaches' margin extrapolated to zero) at the closed form's
+    ``omega`` where the interior extrema of ``u5`` reach the walls (the zero of its interior
+    margin), to 1e-8 (measured: 2e-11)."""
+    import nsm_continuation as nsm
+
+    wG = brentq(lambda w: interior_margin(oracle, w), 5.92, 5.9235, xtol=1e-13)
+    res = nsm.run(CASES / "ndof_two_walls_modes.yaml", {
+        "output.plots": False, "parameters.section_value": CHAIN["gap"],
+        "start": [{"omega": 5.922, "direction": "increase"}], "analysis.stability": False})
+    (branch,) = res.branches
+    assert branch.termination["forward"].startswith("grazing at omega = 5.923122")
+    (end,) = [ev for ev in res.events if ev.kind == "grazing"]
+    assert abs(end.parameter - wG) <= 1e-8
+
+
 def test_bundled_case_and_bad_input() -> None:
     """The bundled case loads; bad parameters and starts are one line naming the field."""
     case, pb = cases.load(CASES / "ndof_two_walls_modes.yaml")

@@ -20,8 +20,9 @@ from pydantic import BaseModel, Field
 
 import nsm_continuation as nsm
 from nsm_continuation.core.preflight import STRICT
-from nsm_continuation.hybrid.conservative import CrossingSection, unfold
+from nsm_continuation.hybrid.conservative import unfold
 from nsm_continuation.hybrid.conservative_family import ConservativeFamilyProblem
+from nsm_continuation.hybrid.return_map import CrossingSection
 from nsm_continuation.hybrid.specs import IntegratorSpec
 from nsm_continuation.hybrid.system import HybridDeclarationError, HybridSystem
 

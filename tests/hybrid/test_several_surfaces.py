@@ -14,6 +14,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 import pytest
+from nsm_continuation.problems.impacting.two_sided_oscillator import TwoSidedOscillatorProblem
 from oracles.linear_flight import free_flight
 from scipy.optimize import brentq
 
@@ -68,6 +69,50 @@ def oracle_impacts(x0: tuple[float, float], omega: float, t_end: float, e_up: fl
         out.append((t_imp, name, vi))
         e = e_up if name == "upper" else e_low
         t0, q0, v0 = t_imp, sign * D, -e * vi
+
+
+def oracle_margins(x0: tuple[float, float], omega: float, t_end: float, e: float
+                   ) -> tuple[list[float], list[float]]:
+    """The grazing margins of the closed-form flight (the impacts of :func:`oracle_impacts`):
+    ``H`` at every turn of ``q`` between impacts (``D - q`` at a maximum, ``q + D`` at a
+    minimum), and ``-v^2 / (2a)`` of every impact with ``a = d^2 H / dt^2 > 0``."""
+    impacts = oracle_impacts(x0, omega, t_end, e, e)
+    starts = [(0.0, *x0)] + [(t, D if s == "upper" else -D, -e * v) for t, s, v in impacts]
+    ends = [t for t, _, _ in impacts] + [t_end]
+    near = []
+    for (t0, q0, v0), t1 in zip(starts, ends, strict=True):
+        def vel(t: float, t0: float = t0, q0: float = q0, v0: float = v0) -> float:
+            return float(free_flight(np.array([t]), t0, q0, v0, ZETA, omega)[1][0])
+
+        ts = np.linspace(t0, t1, int((t1 - t0) * 400) + 2)
+        v = free_flight(ts, t0, q0, v0, ZETA, omega)[1]
+        for k in np.nonzero(v[1:] * v[:-1] < 0)[0]:
+            tk = brentq(vel, ts[k], ts[k + 1], xtol=1e-15, rtol=1e-15)
+            q = float(free_flight(np.array([tk]), t0, q0, v0, ZETA, omega)[0][0])
+            near.append(D - q if v[k] > 0 else q + D)
+    decelerating = []
+    for t, stop, v in impacts:
+        q = D if stop == "upper" else -D
+        a = (-1.0 if stop == "upper" else 1.0) * (-q - 2 * ZETA * v + np.cos(omega * t))
+        if a > 0:
+            decelerating.append(-v * v / (2 * a))
+    return near, decelerating
+
+
+def test_grazing_margin_of_a_point_is_the_margin_closest_to_zero() -> None:
+    """The ``grazing_margin`` of a point (a column of ``branch_<id>.csv``, and the event
+    function whose zero is a grazing) is the signed margin closest to zero: over one period
+    from ``(q, q') = (0.1, 0.4)`` the two-sided oscillator hits both stops (margins ``-v^2 /
+    (2a)`` of order -1) and comes within ``H = 2.7e-3`` of a stop in between (closed form);
+    the column is that ``H``, not the most negative impact margin."""
+    omega, x0 = 1.3, (0.1, 0.4)
+    near, decelerating = oracle_margins(x0, omega, 2 * np.pi / omega, E)
+    closest = min([*near, *decelerating], key=abs)
+    assert 0 < closest < 1e-2 and len(decelerating) == 2
+    pb = TwoSidedOscillatorProblem({"zeta": ZETA, "clearance": D, "restitution": E,
+                                    "omega": omega})
+    values = pb.derived(np.array([*x0, omega]))
+    assert values["grazing_margin"] == pytest.approx(closest, rel=1e-7)
 
 
 @pytest.mark.parametrize("omega, x0, e", [(0.8, (0.3, 0.1), (0.5, 0.5)),

@@ -10,6 +10,7 @@
 * :mod:`~nsm_continuation.core.palc.kinks`: kinks of the branch and moves to another chart;
 * :mod:`~nsm_continuation.core.palc.asymptote`: branches that run to infinite amplitude;
 * :mod:`~nsm_continuation.core.palc.ends`: branches that end at a boundary of their family;
+* :mod:`~nsm_continuation.core.palc.loops`: branches that close on themselves (isolas);
 * :mod:`~nsm_continuation.core.palc.errors`: how a step fails.
 """
 

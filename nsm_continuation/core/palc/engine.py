@@ -28,7 +28,9 @@ The curve ``G(y) = 0``, ``G: R^(n+1) -> R^n``, is followed by
   ``internal error: Type: message`` for a bug, keeping the points computed so far. A branch
   that fails next to a boundary of its family ends at it, named
   (:mod:`~nsm_continuation.core.palc.ends`): a kink located ahead that cannot be crossed, or the
-  extrapolated zero of a vanishing quantity (e.g. an impact velocity).
+  extrapolated zero of a vanishing quantity (e.g. an impact velocity). A branch that returns
+  to its start (a closed loop, e.g. an isola) ends there after one round, its events once
+  each, and is not walked again the other way (:mod:`~nsm_continuation.core.palc.loops`).
 
 At each accepted point the problem's hooks give admissibility test functions, event functions
 (:meth:`~nsm_continuation.core.problem.Problem.event_functions`: located, never ending the branch),
@@ -43,7 +45,8 @@ step) and the step loop (:meth:`ContinuationEngine._walk`); its parts hold the r
 control (:class:`~.step_control.StepController`), the event location
 (:class:`~.locate.EventLocator`), the multiplier crossings (:class:`~.crossings.
 CrossingLocator`), kinks and charts (:class:`~.kinks.KinkCrosser`), asymptotes
-(:class:`~.asymptote.AsymptoteMonitor`) and named ends (:class:`~.ends.EndLocator`).
+(:class:`~.asymptote.AsymptoteMonitor`), named ends (:class:`~.ends.EndLocator`) and closed
+loops (:class:`~.loops.LoopCloser`).
 """
 
 from __future__ import annotations
@@ -66,11 +69,12 @@ from nsm_continuation.core.palc.errors import (
     describe_error,
     describe_fault,
 )
-from nsm_continuation.core.palc.kinks import KinkCrosser
+from nsm_continuation.core.palc.kinks import KinkCrosser, KinkCrossing
 from nsm_continuation.core.palc.locate import EventLocator
+from nsm_continuation.core.palc.loops import LoopCloser
 from nsm_continuation.core.palc.step_control import StepController
 from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
-from nsm_continuation.core.records import START_OUTSIDE, Branch, Event, Point
+from nsm_continuation.core.records import CLOSED_LOOP, START_OUTSIDE, Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 
 
@@ -105,6 +109,7 @@ class ContinuationEngine:
         self.kinks = KinkCrosser(self)
         self.asymptote = AsymptoteMonitor(self)
         self.ends = EndLocator(self)
+        self.loops = LoopCloser(self)
 
     # ------------------------------------------------------------------ linear algebra
     # every solve is with the bordered matrix [G_y(y); r^T], factorised by the problem
@@ -279,6 +284,9 @@ class ContinuationEngine:
         termination: dict[str, str] = {}
         for d in directions:
             first = _with_tangent(p0, p0.tangent * d)
+            if any(r.startswith(CLOSED_LOOP) for r in termination.values()):
+                break  # the loop is closed: walked once, not again the other way
+            self.loops.begin(first, [h[1][-1] for h in halves])
             pts, evs, reason = self._continue_one_direction(first)
             if not any(ev.kind == "endpoint" and ev.point is pts[-1] for ev in evs):
                 evs.append(Event("endpoint", pts[-1], f"branch end: {reason}",
@@ -350,7 +358,8 @@ class ContinuationEngine:
                 kink_tried = len(pts)
                 crossing = self.kinks.ahead(pts, step.h)
                 if crossing is not None and crossing.end is None:
-                    crossing.record(pts, events)
+                    if (closed := self._cross(crossing, pts, events)) is not None:
+                        return closed
                     continue
                 if crossing is not None:  # located, nothing beyond: ends there if it fails
                     self.ends.expect(crossing, a)
@@ -364,7 +373,8 @@ class ContinuationEngine:
                     else self.kinks.ahead(pts, step.h)
                 kink_tried = len(pts)
                 if crossing is not None and crossing.end is None:
-                    crossing.record(pts, events)
+                    if (closed := self._cross(crossing, pts, events)) is not None:
+                        return closed
                     continue
                 if crossing is not None:
                     self.ends.expect(crossing, a)
@@ -390,9 +400,11 @@ class ContinuationEngine:
                 continue
             crossing = self.kinks.in_step(a, found, step.h)
             if crossing is not None:
-                crossing.record(pts, events)
                 if crossing.end is not None:  # located, and no branch beyond it
+                    crossing.record(pts, events)
                     return crossing.end
+                if (closed := self._cross(crossing, pts, events)) is not None:
+                    return closed
                 continue
             if found.stop is not None:
                 events.extend(found.until_stop())
@@ -402,6 +414,8 @@ class ContinuationEngine:
             pts.append(b)
             if self.progress is not None:
                 self.progress(1)
+            if (closed := self.loops.closes(pts, events, len(pts) - 1)) is not None:
+                return closed
             asym = self.asymptote.check(pts)
             if asym is not None:
                 events.append(asym)
@@ -410,6 +424,14 @@ class ContinuationEngine:
                 return end
             control.accept(trial)
         return "max_points"
+
+    def _cross(self, crossing: KinkCrossing, pts: list[Point], events: list[Event]
+               ) -> str | None:
+        """A kink crossed (its points and events appended); the reason the half-branch ends if
+        the points beyond it close a loop (:meth:`~.loops.LoopCloser.closes`), else None."""
+        n_before = len(pts)
+        crossing.record(pts, events)
+        return self.loops.closes(pts, events, n_before)
 
     # ------------------------------------------------------------------ predictor, corrector
     def _predict_correct(self, a: Point, h_step: float, edge: float | None

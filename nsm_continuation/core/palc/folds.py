@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.palc.errors import NUMERICAL_ERRORS
 
 if TYPE_CHECKING:
@@ -71,7 +72,7 @@ def accuracy(problem: Problem, y: np.ndarray, tangent: np.ndarray,
         e[ip] = 1.0
         row = float(np.linalg.norm(np.linalg.solve(A.T, e)))
         noise = problem.jacobian_noise(y, jac) \
-            + SOLVE_ROUNDING * float(np.finfo(float).eps) * float(np.linalg.norm(A, 2))
+            + SOLVE_ROUNDING * float(np.finfo(float).eps) * spectral_norm(A)
     except NUMERICAL_ERRORS:
         return Accuracy(np.inf, np.inf)
     if not (np.isfinite(row) and np.isfinite(noise)):
