@@ -81,7 +81,6 @@ from pydantic import BaseModel, TypeAdapter
 from nsm_continuation.core.bordered import BorderedFactor, DenseBorderedFactor
 from nsm_continuation.core.capabilities import Derivable, Sweepable
 from nsm_continuation.core.casadi_buffers import BufferedFunction
-from nsm_continuation.core.floquet.norms import spectral_norm
 from nsm_continuation.core.monitors import Monitors, legacy_monitors
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import CORE_EVENT_KINDS, register_event_kinds
@@ -303,7 +302,7 @@ class Problem(Sweepable, Derivable, ABC):
         rounding of a Jacobian evaluated in closed form, ``JACOBIAN_ROUNDING eps |G_y|_2``; a
         problem whose Jacobian is integrated (a shooting problem: the integrator's tolerance)
         overrides it."""
-        return JACOBIAN_ROUNDING * float(np.finfo(float).eps) * spectral_norm(jacobian)
+        return JACOBIAN_ROUNDING * float(np.finfo(float).eps) * float(np.linalg.norm(jacobian, 2))
 
     def bordered_factor(self, y: np.ndarray, row: np.ndarray,
                         jacobian: np.ndarray | None = None) -> BorderedFactor:
