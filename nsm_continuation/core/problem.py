@@ -29,7 +29,8 @@ Adding a problem (the numbered contract, in the spirit of ``scipy.integrate.OdeS
      moved off an impact) and :meth:`in_chart` (the problem a point's ``chart`` belongs to);
    - *residual & Jacobian*: :meth:`residual` or :meth:`evaluate` / :meth:`jacobian`; with
      structure, :meth:`bordered_factor` / :meth:`residual_and_factor` (the engine's bordered
-     systems, :mod:`nsm_continuation.core.bordered`; dense by default);
+     systems, :mod:`nsm_continuation.core.bordered`; dense by default); the Jacobian's
+     accuracy, :meth:`jacobian_noise` (rounding by default);
    - *starts*: :meth:`start_points`, ``start_adapter``, :meth:`preflight`,
      :meth:`parameter_bounds`;
    - *monitors*: declared once in ``monitors`` (:mod:`nsm_continuation.core.monitors`: each
@@ -83,6 +84,10 @@ from nsm_continuation.core.casadi_buffers import BufferedFunction
 from nsm_continuation.core.monitors import Monitors, legacy_monitors
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.records import CORE_EVENT_KINDS, register_event_kinds
+
+#: :meth:`Problem.jacobian_noise` of a Jacobian evaluated in closed form, in units of
+#: ``eps |G_y|_2``: the rounding of a few operations per entry
+JACOBIAN_ROUNDING = 10.0
 
 
 class EvaluationError(RuntimeError):
@@ -288,6 +293,16 @@ class Problem(Sweepable, Derivable, ABC):
     def evaluate_with_jacobian(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(G(y), G_y(y))`` in one call (override together with evaluate/jacobian)."""
         return self.compiled.both(y)
+
+    def jacobian_noise(self, y: np.ndarray, jacobian: np.ndarray) -> float:
+        """How far the computed ``G_y(y)`` (``jacobian``, as :meth:`jacobian` gave it) may be
+        from the exact one, in the 2-norm. The tangent's parameter component is known only to
+        this times the parameter's row of the inverse bordered matrix: below that, its sign
+        change is no fold (:mod:`nsm_continuation.core.palc.folds`, (F1)). Default: the
+        rounding of a Jacobian evaluated in closed form, ``JACOBIAN_ROUNDING eps |G_y|_2``; a
+        problem whose Jacobian is integrated (a shooting problem: the integrator's tolerance)
+        overrides it."""
+        return JACOBIAN_ROUNDING * float(np.finfo(float).eps) * float(np.linalg.norm(jacobian, 2))
 
     def bordered_factor(self, y: np.ndarray, row: np.ndarray,
                         jacobian: np.ndarray | None = None) -> BorderedFactor:

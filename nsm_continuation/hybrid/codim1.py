@@ -47,7 +47,11 @@ from nsm_continuation.algorithms.curves import CodimOneCurve
 from nsm_continuation.core.presentation import Presentation
 from nsm_continuation.core.problem import EvaluationError
 from nsm_continuation.hybrid.grazing import margin_gradient
-from nsm_continuation.hybrid.return_map import HybridShooting, ShootingFailure
+from nsm_continuation.hybrid.return_map import (
+    HybridShooting,
+    ShootingFailure,
+    shooting_jacobian_noise,
+)
 from nsm_continuation.hybrid.system import HybridDeclarationError
 
 if TYPE_CHECKING:
@@ -155,6 +159,13 @@ class GrazingCurve(CodimOneCurve):
     @property
     def compiled(self) -> Any:
         return None
+
+    def jacobian_noise(self, y: np.ndarray, jacobian: np.ndarray) -> float:
+        """The integrated Jacobian's accuracy (:func:`~.return_map.shooting_jacobian_noise`)."""
+        try:
+            return shooting_jacobian_noise(self.shooting, y, jacobian)
+        except ShootingFailure as exc:
+            raise EvaluationError(f"simulation: {exc}") from None
 
     def period_multiple(self) -> int:
         return self.returns

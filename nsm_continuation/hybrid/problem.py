@@ -46,6 +46,7 @@ from nsm_continuation.hybrid.return_map import (
     HybridShooting,
     Section,
     ShootingFailure,
+    shooting_jacobian_noise,
 )
 from nsm_continuation.hybrid.simulate import SimResult, SimulationError
 from nsm_continuation.hybrid.system import HybridDeclarationError
@@ -260,6 +261,13 @@ class HybridShootingProblem(ResponseQuantities, OrbitDeclarations, Problem):
         has to end, records that reason, not a NaN residual."""
         try:
             return self.shooting.residual_jacobian(np.asarray(y, dtype=float))
+        except ShootingFailure as exc:
+            raise EvaluationError(f"simulation: {exc}") from None
+
+    def jacobian_noise(self, y: np.ndarray, jacobian: np.ndarray) -> float:
+        """The integrated Jacobian's accuracy (:func:`~.return_map.shooting_jacobian_noise`)."""
+        try:
+            return shooting_jacobian_noise(self.shooting, y, jacobian)
         except ShootingFailure as exc:
             raise EvaluationError(f"simulation: {exc}") from None
 

@@ -60,6 +60,7 @@ from __future__ import annotations
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 
@@ -451,6 +452,27 @@ class HybridShooting:
         if w[m] == 0.0 or not np.all(np.isfinite(w)):
             return float("inf")
         return float(dT + self.map_noise(y) * np.sum(np.abs(w[:m])) / abs(w[m]))
+
+
+class IntegratedShooting(Protocol):
+    """A shooting problem whose Jacobian is integrated (:class:`HybridShooting`,
+    :class:`PeriodShooting`, the conservative families' shooting)."""
+
+    sim: Simulator
+
+    def monodromy_noise(self, y: np.ndarray) -> float: ...
+
+
+def shooting_jacobian_noise(shooting: IntegratedShooting, y: np.ndarray,
+                            jacobian: np.ndarray) -> float:
+    """The accuracy of a shooting Jacobian ``jacobian`` at ``y`` in the 2-norm
+    (:meth:`~nsm_continuation.core.problem.Problem.jacobian_noise`): the sensitivities are
+    integrated to about the tolerance relative to the larger of the time-fixed monodromy
+    (:meth:`HybridShooting.monodromy_noise`) and the Jacobian itself (its parameter column),
+    ``(rtol + 10 eps) max(|Phi_T|_2, |G_y|_2)``."""
+    rtol = float(shooting.sim.o.rtol)
+    scaled = (rtol + 10.0 * np.finfo(float).eps) * spectral_norm(jacobian)
+    return max(float(shooting.monodromy_noise(y)), scaled)
 
 
 class PeriodShooting:

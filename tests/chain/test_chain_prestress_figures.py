@@ -235,9 +235,9 @@ def test_fig7_4_switched_branches_are_the_one_frequency_families(fig74) -> None:
 
 def test_fig7_4_vertical_branches_have_no_fold(fig74) -> None:
     """Along a branch of constant T the tangent's T component is rounding noise whose sign
-    flips at random: no fold may be reported there (it was, 34 times, before
-    ``palc.TANGENT_NOISE``); the only event inside is the crossing with the trivial branch
-    (a branch point, at zero energy)."""
+    flips at random: no fold may be reported there (it was, 34 times, without a noise level:
+    the component is below its accuracy, :mod:`nsm_continuation.core.palc.folds`); the only
+    event inside is the crossing with the trivial branch (a branch point, at zero energy)."""
     res, _ = fig74
     for br in res.run_result.branches[1:]:
         kinds = [e.kind for e in br.events if e.kind not in ("endpoint", "grazing")]

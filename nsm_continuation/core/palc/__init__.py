@@ -5,6 +5,7 @@
 * :mod:`~nsm_continuation.core.palc.step_control`: the step length and the checks of a step;
 * :mod:`~nsm_continuation.core.palc.motion`: how far the Floquet multipliers move in a step;
 * :mod:`~nsm_continuation.core.palc.locate`: the events of a step located on its arc;
+* :mod:`~nsm_continuation.core.palc.folds`: when a sign change of the tangent is a fold;
 * :mod:`~nsm_continuation.core.palc.crossings`: multiplier crossings and Krein collisions;
 * :mod:`~nsm_continuation.core.palc.kinks`: kinks of the branch and moves to another chart;
 * :mod:`~nsm_continuation.core.palc.asymptote`: branches that run to infinite amplitude;
@@ -25,7 +26,7 @@ from nsm_continuation.core.palc.errors import (
     describe_fault,
 )
 from nsm_continuation.core.palc.kinks import Kink, KinkCrosser, KinkCrossing
-from nsm_continuation.core.palc.locate import TANGENT_NOISE, EventLocator, EventSource, StepEvents
+from nsm_continuation.core.palc.locate import EventLocator, EventSource, StepEvents
 from nsm_continuation.core.palc.motion import (
     KREIN_CLOSING,
     KREIN_NEAR,
@@ -47,7 +48,7 @@ from nsm_continuation.core.palc.step_control import (
 
 __all__ = ["ASYMPTOTE_GROWTH", "ASYMPTOTE_POINTS", "HOOK_FAULTS", "KREIN_CLOSING", "KREIN_NEAR",
            "MOTION_LATTICE", "MOTION_TARGET", "NUMERICAL_ERRORS", "OUTSIDE_TRAVEL",
-           "STEP_RESOLUTION", "TANGENT_NOISE", "TEST_STEP_FACTOR", "ContinuationEngine",
+           "STEP_RESOLUTION", "TEST_STEP_FACTOR", "ContinuationEngine",
            "CrossingLocator", "EventLocator", "EventSource", "Kink", "KinkCrosser",
            "KinkCrossing", "MonitorError", "RetryStep", "Step", "StepController",
            "StepEvents", "Trial", "crossing_events", "describe_error", "describe_fault",

@@ -23,6 +23,7 @@ import numpy as np
 from nsm_continuation.core.monitors import Source
 from nsm_continuation.core.palc.branch_points import plus_one_events, stencil_zero
 from nsm_continuation.core.palc.errors import RetryStep
+from nsm_continuation.core.palc.folds import Accuracy, accuracy, is_fold, known_ends
 from nsm_continuation.core.palc.part import EnginePart
 from nsm_continuation.core.palc.step_control import Trial
 from nsm_continuation.core.records import Event, Point
@@ -30,14 +31,6 @@ from nsm_continuation.core.roots import bisect_predicate, illinois, interior_ext
 
 if TYPE_CHECKING:
     from nsm_continuation.core.palc.engine import ContinuationEngine
-
-#: a tangent's parameter component below this at both ends of a step is noise: its sign
-#: change is no fold. Along a branch on which the parameter is constant (the g = 0 chain's
-#: modes, Prop. 7.2, a vertical line in the FEP) the component is ~1e-17 and flips at random,
-#: and up to ~1e-12 next to the branch point it is born at (an ill-conditioned bordered
-#: solve); a genuine fold moves the parameter by less than this times the step between two
-#: points whose tangents are both this close to it
-TANGENT_NOISE = 1e-9
 
 
 class EventSource(Enum):
@@ -93,6 +86,8 @@ class EventLocator(EnginePart):
         super().__init__(engine)
         self.retry_allowed = False
         self.last_was_pole = False
+        #: the accuracies of the last few points asked (:meth:`_accuracy`)
+        self._accuracies: list[tuple[Point, Accuracy]] = []
 
     def step(self, a: Point, pts: list[Point], trial: Trial) -> tuple[Point, StepEvents]:
         """The new point of the step ``a -> b`` analysed (with the multipliers of the trial)
@@ -423,7 +418,8 @@ class EventLocator(EnginePart):
 
     def _bifurcation_events(self, a: Point, b: Point,
                             kinks: list[Event] | None = None) -> list[Event]:
-        """Folds (the parameter component of the tangent changes sign), simple branch points
+        """Folds (the parameter component of the tangent changes sign, :meth:`_locate_fold`),
+        simple branch points
         (``det[G_y; t^T]`` changes sign, tangents oriented continuously,
         :meth:`_locate_branch_point`) and multipliers crossing the unit circle, a crossing
         at +1 named fold or branch point by the tangent test
@@ -432,17 +428,46 @@ class EventLocator(EnginePart):
         (:meth:`~nsm_continuation.core.palc.crossings.CrossingLocator.ends`)."""
         ip = self.ip
         found: list[Event] = []
-        if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]) \
-                and max(abs(a.tangent[ip]), abs(b.tangent[ip])) > TANGENT_NOISE:
-            p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip], tests=False)
-            found.append(Event("fold", p, "limit point: the parameter reaches an extremum "
-                               "along the branch", data={"test": "tangent"}, bracket=w))
+        fold = self._locate_fold(a, b) if np.sign(a.tangent[ip]) != np.sign(b.tangent[ip]) \
+            else None
+        if fold is not None:
+            found.append(fold)
         elif np.sign(a.bordered_det) != np.sign(b.bordered_det) and a.bordered_det != 0:
             bp = self._locate_branch_point(a, b)
             if bp is not None:
                 found.append(bp)
         found.extend(self.engine.crossings.events(a, b, kinks or []))
         return plus_one_events(found, self.problem.conservative)
+
+    def _locate_fold(self, a: Point, b: Point) -> Event | None:
+        """The fold of the step ``a -> b``, whose tangents' parameter components differ in sign:
+        the zero of that component located on the arc (Illinois,
+        :meth:`_locate_continuous`), kept if the sign change is a fold
+        (:func:`~nsm_continuation.core.palc.folds.is_fold`: the component known beyond its
+        accuracy and the parameter's extremum not contradicted). Along a vertical family the
+        component is noise and no fold is recorded."""
+        ip = self.ip
+        ends = (self._accuracy(a), self._accuracy(b))
+        tangents = (float(a.tangent[ip]), float(b.tangent[ip]))
+        if known_ends(tangents, ends) == 0:
+            return None
+        p, w = self._locate_continuous(a, b, lambda q: q.tangent[ip], tests=False)
+        if not is_fold(tangents, ends,
+                       (float(a.y[ip]), float(p.y[ip]), float(b.y[ip])), self._accuracy(p)):
+            return None
+        return Event("fold", p, "limit point: the parameter reaches an extremum along the "
+                     "branch", data={"test": "tangent"}, bracket=w)
+
+    def _accuracy(self, q: Point) -> Accuracy:
+        """The accuracy of ``q``'s tangent and parameter
+        (:func:`~nsm_continuation.core.palc.folds.accuracy`), kept for the last few points
+        asked: the end of one step is the start of the next."""
+        for p, acc in self._accuracies:
+            if p is q:
+                return acc
+        acc = accuracy(self.problem, q.y, q.tangent, self.settings.newton_tol)
+        self._accuracies = [*self._accuracies[-2:], (q, acc)]
+        return acc
 
     def _signature_events(self, a: Point, b: Point) -> list[Event]:
         """A change of the problem's discrete signature (event sequence of a hybrid orbit)."""
