@@ -596,10 +596,6 @@ class Simulator(Transitions, SurfaceContacts):
 
     def _result(self, w: _Walk, ended_by: str) -> SimResult:
         N = self.c.N
-        if w.active is not None and w.mode == S4 and w.stick_start is not None:
-            # a sticking phase open at the end (the section or the end time) counts up to it
-            w.stick_iv.append((w.stick_start, w.t))
-            w.stick_start = None
         if w.mode == S4 and w.stick_start is not None:
             # a sticking phase open at the end (the section or the end time) counts up to it
             w.stick_iv.append((w.stick_start, w.t))
