@@ -319,6 +319,16 @@ def cluster(tmp_path: Path):
         p.wait()
 
 
+@pytest.fixture(scope="module")
+def pd_base(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The impact oscillator's run through its period doubling
+    (``yaml_cases/impact_oscillator_period_doubling.yaml``), saved once for the restarts
+    below, which only read it."""
+    base = nsm.run(str(CASES / "impact_oscillator_period_doubling.yaml"),
+                   {"output.plots": False, "output.progress": False})
+    return base.save(tmp_path_factory.mktemp("pd") / "base", plots=False)
+
+
 def _cli_run(case: dict[str, Any], out: Path, *extra: str) -> dict[str, Any]:
     path = out.parent / f"{out.name}.yaml"
     path.write_text(yaml.safe_dump(case))
@@ -346,17 +356,14 @@ def test_scheduler_and_worker_processes_give_the_serial_outputs(cluster: Any,
         assert (tmp_path / "serial" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes()
 
 
-def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any,
+def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any, pd_base: Path,
                                                                tmp_path: Path) -> None:
     """A restart's single branch is sent to an existing cluster (``--scheduler``): the
     worker must continue the restart's own problem (the period-2 problem of a switch at a
     period doubling, not the registered period-1 one, whose branch would start from omega =
     1.0949697 instead of 1.0949765). The CSV is byte-identical to the serial run's."""
     address, _ = cluster
-    base = nsm.run(str(CASES / "impact_oscillator_period_doubling.yaml"),
-                   {"output.plots": False, "output.progress": False})
-    base.save(tmp_path / "base", plots=False)
-    case = {"name": "switch", "start": {"from": str(tmp_path / "base"),
+    case = {"name": "switch", "start": {"from": str(pd_base),
                                         "event": {"kind": "period_doubling", "index": 0},
                                         "switch": True},
             "continuation": {"max_points": 10}, "output": {"plots": False, "progress": False}}
@@ -368,16 +375,13 @@ def test_a_switch_restart_on_the_scheduler_is_the_serial_branch(cluster: Any,
         (tmp_path / "dask" / "branch_0.csv").read_bytes()
 
 
-def test_a_two_parameter_curve_is_two_tasks_with_the_serial_result(tmp_path: Path) -> None:
+def test_a_two_parameter_curve_is_two_tasks_with_the_serial_result(pd_base: Path) -> None:
     """A period-doubling curve (``start.curve``) is followed both ways from its first point:
     with ``workers=2`` the two halves are two tasks (the restart's curve problem rebuilt on
     each worker), joined into the serial branch: every point, event, termination, the
     branch's counts of base runs and the run's counters."""
-    base = nsm.run(str(CASES / "impact_oscillator_period_doubling.yaml"),
-                   {"output.plots": False, "output.progress": False})
-    base.save(tmp_path / "base", plots=False)
     case = nsm.load_case({
-        "name": "pd_curve", "start": {"from": str(tmp_path / "base"), "curve": "period_doubling",
+        "name": "pd_curve", "start": {"from": str(pd_base), "curve": "period_doubling",
                                       "event": {"kind": "period_doubling", "index": 0}},
         "continuation": {"parameter": "gap", "min": -0.7, "max": -0.3, "max_points": 4,
                          "step": {"initial": 0.01, "min": 1e-7, "max": 0.05}},
