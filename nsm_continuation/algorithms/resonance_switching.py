@@ -66,12 +66,17 @@ AMPLITUDES = (3e-3, 1e-2)
 ANGLES = tuple(np.linspace(0.0, np.pi, 12, endpoint=False))
 #: a kernel direction counts as singular below this ``sigma / sigma_max`` of ``G_y``
 SINGULAR_RATIO = 1e-6
+#: the kernel is three-dimensional where the next singular value is this many times the
+#: second smallest (relative to each other, not to the largest: near the linear grazing orbit
+#: the largest grows like ``1 / v`` with the impact velocity ``v``; at the 1/4 resonance
+#: ``2e-3`` above it ``sigma_{n-2} = 2.6e-7`` of the largest, ``sigma_{n-1} = 1e-15``)
+KERNEL_SEPARATION = 1e3
 #: the lowest order whose start is found on the reduced equation (R2)
 REDUCED_ORDER = 4
 #: amplitudes of the reduced scan, times ``1 + |y_b|_inf``
 REDUCED_AMPLITUDES = (1e-2, 3e-2, 1e-1)
 #: angles of the reduced scan over a full turn, per order ``k`` (``lam`` has ``2 k`` zeros)
-REDUCED_ANGLES = 6
+REDUCED_ANGLES = 4
 #: Newton iterations of one solve of (R2)
 REDUCED_ITERATIONS = 8
 
@@ -89,8 +94,9 @@ def resonance_plane(J: np.ndarray, ip: int) -> tuple[np.ndarray, float]:
                          f"there (singular values {s[-2] / top:.2g}, {s[-1] / top:.2g} of the "
                          "largest): no multiplier exp(2 pi i m / k)")
     gap = float(s[-3]) / top
-    if gap < SINGULAR_RATIO:
-        raise ValueError("the iterated problem's kernel has dimension > 3 there: two "
+    if float(s[-3]) < KERNEL_SEPARATION * float(s[-2]):
+        raise ValueError(f"the iterated problem's kernel has dimension > 3 there (singular "
+                         f"values {s[-3] / top:.2g}, {s[-2] / top:.2g} of the largest): two "
                          "resonances at once")
     K = vt[-3:]
     a = np.linalg.svd(K[:, ip][None, :])[2][1:]  # combinations without parameter component
@@ -216,7 +222,7 @@ class _Switch:
                     return self.reduced(y0, p, r)
 
                 phi, y, _ = illinois(f, float(phis[i]), vals[i], float(phis[i + 1]),
-                                     vals[i + 1], tol=1e-12, close=True)
+                                     vals[i + 1], tol=1e-8, close=True)
                 if y is None:
                     continue
                 d = self.direction(phi)
