@@ -221,7 +221,7 @@ class Problem(Sweepable, Derivable, ABC):
     #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
     energy_quantity: ClassVar[str | None] = None
     #: None, or a residual (relative to ``1 + |y|_inf``) at which the corrector accepts an
-    #: iterate once three successive ones reach it, whatever the Newton step
+    #: iterate once three have reached it (the smallest), whatever the Newton step
     #: (:meth:`~nsm_continuation.core.palc.engine.ContinuationEngine.correct`): for a family
     #: known to be nearly singular along its own orbits (the period-``k`` orbits at a weak
     #: resonance, :mod:`~nsm_continuation.algorithms.resonance_switching`), where the step

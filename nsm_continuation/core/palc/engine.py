@@ -73,8 +73,8 @@ from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.core.records import START_OUTSIDE, Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 
-#: successive corrector iterates with their residual at the problem's ``residual_floor``
-#: that make a converged point (:meth:`ContinuationEngine.correct`)
+#: corrector iterates with their residual at the problem's ``residual_floor`` that make a
+#: converged point (the smallest of them) (:meth:`ContinuationEngine.correct`)
 FLOOR_ITERATES = 3
 
 
@@ -119,16 +119,16 @@ class ContinuationEngine:
 
         Converged where a step is below ``newton_tol`` (and the residual there small), or,
         for a problem that declares a ``residual_floor`` (:attr:`Problem.residual_floor`),
-        where :data:`FLOOR_ITERATES` successive iterates have their residual at that floor:
-        the iterate is then a solution to the residual's noise, and the steps, that noise over
-        a nearly singular Jacobian, say only how well its position along the nearly null
+        once :data:`FLOOR_ITERATES` iterates have had their residual at that floor: the one
+        with the smallest is then a solution to the residual's noise, and the steps, that noise
+        over a nearly singular Jacobian, say only how well its position along the nearly null
         direction is determined."""
         st = self.settings
         y = np.array(y_guess, dtype=float)
         r0 = None
         nr = float("nan")
         floor = getattr(self.problem, "residual_floor", None)
-        at_floor = 0  # successive iterates whose residual is at the problem's floor
+        at_floor: list[tuple[float, np.ndarray]] = []  # iterates at the problem's floor
         for it in range(1, st.newton_max_iter + 1):
             try:
                 g, factor = self.problem.residual_and_factor(y, t_ref)
@@ -143,10 +143,10 @@ class ContinuationEngine:
                 r0 = nr
             elif nr > 1e4 * max(r0, 1e-300):
                 return None, it, "Newton diverged"
-            if floor is not None:
-                at_floor = at_floor + 1 if nr <= floor * (1.0 + np.linalg.norm(y, np.inf)) else 0
-                if at_floor >= FLOOR_ITERATES:
-                    return y, it, ""
+            if floor is not None and nr <= floor * (1.0 + np.linalg.norm(y, np.inf)):
+                at_floor.append((float(nr), y))
+                if len(at_floor) >= FLOOR_ITERATES:
+                    return min(at_floor, key=lambda a: a[0])[1], it, ""
             try:
                 dy = factor.solve(-rhs)
             except np.linalg.LinAlgError:
