@@ -5,7 +5,7 @@ hybrid model's simulated multipliers there, switched onto (the period-``k`` fami
 :mod:`nsm_continuation.algorithms.resonance_switching`) and followed for ``--points`` points
 each way; per resonance: its frequency, the hybrid multiplier's distance to
 ``exp(2 pi i m / k)``, the switch's outcome, the family's extent, impacts per period, end reason
-and wall time.
+and wall time, and every orbit checked by a direct simulation (``tests/oracles/chain_direct.py``).
 
     python benchmarks/bench_internal_resonance.py [--orders 3 4 5] [--points 40]
                                                   [--only OMEGA ...]
@@ -15,14 +15,19 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from nsm_continuation.problems.chain.hybrid_model import NDofImpactHybridProblem  # noqa: E402
 from nsm_continuation.problems.chain.ndof_impact import NDofImpactProblem  # noqa: E402
 from nsm_continuation.problems.chain.resonance import resonance_frequencies  # noqa: E402
+from oracles.chain_direct import direct_period  # noqa: E402
 
 import nsm_continuation as nsm  # noqa: E402
 from nsm_continuation.algorithms.switching import null_vector  # noqa: E402
@@ -46,6 +51,30 @@ def hybrid_distance(w: float, k: int, m: int) -> float:
         return float("nan")
     fl = pb.floquet(y, null_vector(pb.jacobian(y)))
     return float(np.min(np.abs(np.asarray(fl.multipliers) - np.exp(2j * np.pi * m / k))))
+
+
+def verify(pb: NDofImpactHybridProblem, branch, k: int) -> dict:
+    """Every orbit of ``branch`` by the direct simulation of ``tests/oracles/chain_direct.py``
+    (SciPy's DOP853 between located impacts, no part of the package): the worst relative
+    periodicity defect over the reported period, energy spread over the impacts, ``|beta| T``,
+    the orbits whose direct impact count is not ``k``, and the smallest relative distance of
+    the state after one base period (``> 0``: no period-1 orbit)."""
+    M, K = pb.modal.M, pb.modal.K
+    c, g, n = pb.chain_problem.c, pb.chain_problem.g, M.shape[0]
+    out = {"periodic": 0.0, "energy": 0.0, "beta_T": 0.0, "not_k_impacts": 0,
+           "off_parent": np.inf}
+    for p in branch.points:
+        T = float(p.derived["period"])
+        x0 = pb.shooting.x0(p.y)[: 2 * n]
+        scale = float(np.max(np.abs(x0)))
+        xT, impacts, energies = direct_period(M, K, c, g, x0, T)
+        x1, _, _ = direct_period(M, K, c, g, x0, T / k)
+        out["periodic"] = max(out["periodic"], float(np.max(np.abs(xT - x0))) / scale)
+        out["energy"] = max(out["energy"], float(np.ptp(energies)) / energies[0])
+        out["beta_T"] = max(out["beta_T"], abs(float(p.derived["beta"])) * T)
+        out["not_k_impacts"] += int(not len(impacts) == k == int(p.derived["n_impacts"]))
+        out["off_parent"] = min(out["off_parent"], float(np.max(np.abs(x1 - x0))) / scale)
+    return out
 
 
 def follow(w: float, k: int, m: int, points: int) -> dict:
@@ -74,7 +103,8 @@ def follow(w: float, k: int, m: int, points: int) -> dict:
             "omega": (min(ws), max(ws)) if ws else None,
             "energy": (min(es), max(es)) if es else None, "impacts": imp,
             "max_beta": beta, "end": br.termination,
-            "events": [(ev.kind, round(float(ev.point.y[-1]), 8)) for ev in br.events]})
+            "events": [(ev.kind, round(float(ev.point.y[-1]), 8)) for ev in br.events],
+            "direct": verify(pb, br, k) if pts else None})
     return out
 
 
@@ -106,6 +136,9 @@ def main() -> None:
                     print(f"    {b['label']}: {b['points']} points, omega {b['omega']}, "
                           f"energy {b['energy']}, impacts {b['impacts']}, max |beta| "
                           f"{b['max_beta']:.1e}, events {b['events']}, end {b['end']}")
+                    if b["direct"]:
+                        print("      direct simulation: " + ", ".join(
+                            f"{key} {v:.2g}" for key, v in b["direct"].items()))
     print(f"load average {os.getloadavg()[0]:.2f}")
 
 

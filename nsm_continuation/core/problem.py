@@ -225,6 +225,13 @@ class Problem(Sweepable, Derivable, ABC):
     #: the derived quantity that ``continuation.max_energy`` bounds (None: the problem has no
     #: energy, and ``max_energy`` is refused; ``continuation.bounds`` bounds any monitor)
     energy_quantity: ClassVar[str | None] = None
+    #: None, or a residual (relative to ``1 + |y|_inf``) at which the corrector accepts an
+    #: iterate once three have reached it (the smallest), whatever the Newton step
+    #: (:meth:`~nsm_continuation.core.palc.engine.ContinuationEngine.correct`): for a family
+    #: known to be nearly singular along its own orbits (the period-``k`` orbits at a weak
+    #: resonance, :mod:`~nsm_continuation.algorithms.resonance_switching`), where the step
+    #: is the residual's noise over a tiny singular value and never meets ``newton_tol``
+    residual_floor: float | None = None
 
     def __init__(self, params: BaseModel) -> None:
         self.params = params

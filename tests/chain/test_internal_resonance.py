@@ -6,10 +6,11 @@
   by minimising the closed-form energy, independently of the multipliers).
 * The 1/3 resonances (a multiplier ``exp(2 pi i / 3)``) located on the closed form (R1) are
   resonances of the hybrid model too: its simulated monodromy has that multiplier there.
-* The period-3 family switched onto at the resonance near ``omega = 1.4912``: every orbit
+* The period-3 family switched onto at the resonance near ``omega = 1.4912``, and the two
+  period-4 families at the weak 1/4 resonance near ``omega = 1.5356``: every orbit
   checked by an independent direct simulation (the chain's exact modal flow between impacts,
   the impacts located by a root-finder on the gap; no part of the package): periodic to 1e-9
-  over the reported period, the energy conserved to 1e-12, three impacts per period about one
+  over the reported period, the energy conserved to 1e-12, ``k`` impacts per period about one
   base period apart, and no period-1 orbit; ``beta`` vanishes.
 """
 
@@ -139,30 +140,59 @@ def period_three():
     return pb, res.run_result
 
 
+def check_by_direct_simulation(pb: NDofImpactHybridProblem, branch, k: int) -> None:
+    """Every orbit of ``branch`` (period ``k T`` of the base frequency): periodic over the
+    reported period by :func:`exact_period`, the energy conserved, ``k`` impacts about one
+    base period apart, not ``k`` copies of one period, ``beta`` vanishing."""
+    M, K = pb.modal.M, pb.modal.K
+    c, g, n = pb.chain_problem.c, pb.chain_problem.g, M.shape[0]
+    for p in branch.points:
+        T = p.derived["period"]
+        assert T == pytest.approx(k * 2 * np.pi / p.y[-1], rel=1e-12)
+        x0 = pb.shooting.x0(p.y)[: 2 * n]
+        xT, impacts, energies = exact_period(M, K, c, g, x0, T)
+        assert np.max(np.abs(xT - x0)) <= 1e-9 * np.max(np.abs(x0))
+        assert np.ptp(energies) <= 1e-12 * energies[0]
+        assert len(impacts) == k == p.derived["n_impacts"]
+        # one impact near each impact of the period-1 parent: a base period apart
+        assert np.diff(impacts) == pytest.approx([T / k] * (k - 1), rel=0.05)
+        # not k copies of one period
+        x1, _, _ = exact_period(M, K, c, g, x0, T / k)
+        assert np.max(np.abs(x1 - x0)) > 1e-6 * np.max(np.abs(x0))
+        assert abs(p.derived["beta"]) < 1e-10
+
+
 def test_period_three_family_by_direct_simulation(period_three, closed_form):
     pb, run = period_three
     assert pb.period_multiple() == 3
     w_star = resonance_frequencies(closed_form, 3, 1, 1.49, 1.492)[0]
     sides = sorted(np.sign(br.points[-1].y[-1] - w_star) for br in run.branches)
     assert sides == [-1.0, 1.0]  # the family crosses the resonance: both sides
-    M, K = pb.modal.M, pb.modal.K
-    c, g, n = pb.chain_problem.c, pb.chain_problem.g, M.shape[0]
     for br in run.branches:
         assert len(br.points) == 4
-        for p in br.points:
-            T = p.derived["period"]
-            assert T == pytest.approx(3 * 2 * np.pi / p.y[-1], rel=1e-12)
-            x0 = pb.shooting.x0(p.y)[: 2 * n]
-            xT, impacts, energies = exact_period(M, K, c, g, x0, T)
-            assert np.max(np.abs(xT - x0)) <= 1e-9 * np.max(np.abs(x0))
-            assert np.ptp(energies) <= 1e-12 * energies[0]
-            assert len(impacts) == 3 == p.derived["n_impacts"]
-            # one impact near each impact of the period-1 parent: a base period apart
-            assert np.diff(impacts) == pytest.approx([T / 3, T / 3], rel=0.05)
-            # not three copies of one period
-            x1, _, _ = exact_period(M, K, c, g, x0, T / 3)
-            assert np.max(np.abs(x1 - x0)) > 1e-6 * np.max(np.abs(x0))
-            assert abs(p.derived["beta"]) < 1e-10
+        check_by_direct_simulation(pb, br, 3)
+
+
+def test_period_four_families_at_a_weak_resonance_by_direct_simulation():
+    # the 1/4 resonance at omega* = 1.5356441: the scan of the plane finds no period-4 orbit
+    # there (the orbits are nearly degenerate along their circle); the zeros of the reduced
+    # equation's bifurcation function give the two period-4 families
+    pb = NDofImpactHybridProblem(CHAIN)
+    res = nsm.continuation(pb, {"resonance": {"order": 4, "rotation": 1, "omega": 1.5356}},
+                           parameter="omega", min=1.3, max=1.7,
+                           step={"initial": 1e-3, "max": 5e-3}, max_points=2,
+                           analysis={"stability": False})
+    run = res.run_result
+    assert pb.period_multiple() == 4
+    assert len(run.branches) == 2
+    orbits = []
+    for br in run.branches:
+        assert br.info["switch_method"].startswith("zeros of the bifurcation function")
+        assert len(br.points) == 2
+        check_by_direct_simulation(pb, br, 4)
+        orbits.append(pb.shooting.x0(br.points[0].y))
+    # two different orbits (not the same orbit from two of its four section points)
+    assert np.linalg.norm(orbits[0] - orbits[1]) > 1e-3
 
 
 def test_resonance_start_bad_input():

@@ -77,6 +77,10 @@ from nsm_continuation.core.problem import FloquetData, Problem, StartPoint
 from nsm_continuation.core.records import CLOSED_LOOP, START_OUTSIDE, Branch, Event, Point
 from nsm_continuation.core.settings import ContinuationSettings
 
+#: corrector iterates with their residual at the problem's ``residual_floor`` that make a
+#: converged point (the smallest of them) (:meth:`ContinuationEngine.correct`)
+FLOOR_ITERATES = 3
+
 
 class ContinuationEngine:
     """Continue the solution branches of a :class:`~nsm_continuation.core.problem.Problem`."""
@@ -116,11 +120,20 @@ class ContinuationEngine:
     # (Problem.bordered_factor: dense by default, structured where the problem has structure)
     def correct(self, y_guess: np.ndarray, t_ref: np.ndarray, y_ref: np.ndarray,
                 sigma: float) -> tuple[np.ndarray | None, int, str]:
-        """Newton on ``[G(y); t_ref . (y - y_ref) - sigma] = 0``; returns (y, iterations, why)."""
+        """Newton on ``[G(y); t_ref . (y - y_ref) - sigma] = 0``; returns (y, iterations, why).
+
+        Converged where a step is below ``newton_tol`` (and the residual there small), or,
+        for a problem that declares a ``residual_floor`` (:attr:`Problem.residual_floor`),
+        once :data:`FLOOR_ITERATES` iterates have had their residual at that floor: the one
+        with the smallest is then a solution to the residual's noise, and the steps, that noise
+        over a nearly singular Jacobian, say only how well its position along the nearly null
+        direction is determined."""
         st = self.settings
         y = np.array(y_guess, dtype=float)
         r0 = None
         nr = float("nan")
+        floor = getattr(self.problem, "residual_floor", None)
+        at_floor: list[tuple[float, np.ndarray]] = []  # iterates at the problem's floor
         for it in range(1, st.newton_max_iter + 1):
             try:
                 g, factor = self.problem.residual_and_factor(y, t_ref)
@@ -135,6 +148,10 @@ class ContinuationEngine:
                 r0 = nr
             elif nr > 1e4 * max(r0, 1e-300):
                 return None, it, "Newton diverged"
+            if floor is not None and nr <= floor * (1.0 + np.linalg.norm(y, np.inf)):
+                at_floor.append((float(nr), y))
+                if len(at_floor) >= FLOOR_ITERATES:
+                    return min(at_floor, key=lambda a: a[0])[1], it, ""
             try:
                 dy = factor.solve(-rhs)
             except np.linalg.LinAlgError:
