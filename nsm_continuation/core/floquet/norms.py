@@ -15,7 +15,6 @@ its square root: the same value to rounding as the decomposition's.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
 
 def spectral_norm(A: np.ndarray) -> float:
@@ -33,6 +32,8 @@ def spectral_norm(A: np.ndarray) -> float:
     m = G.shape[0]
     if m == 1:
         return scale * float(np.sqrt(abs(G[0, 0].real)))
+    import scipy.linalg as sla  # (not at import: a run of the chain imports no SciPy)
+
     top = sla.eigh(G, eigvals_only=True, subset_by_index=[m - 1, m - 1], driver="evr",
                    check_finite=False)
     return scale * float(np.sqrt(max(float(top[0]), 0.0)))

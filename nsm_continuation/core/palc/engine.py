@@ -132,7 +132,7 @@ class ContinuationEngine:
         y = np.array(y_guess, dtype=float)
         r0 = None
         nr = float("nan")
-        floor = getattr(self.problem, "residual_floor", None)
+        floor = self.problem.residual_floor
         at_floor: list[tuple[float, np.ndarray]] = []  # iterates at the problem's floor
         for it in range(1, st.newton_max_iter + 1):
             try:
