@@ -336,10 +336,8 @@ def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 
     branch's tangent there by the step that reaches the target in the smooth coordinate
     (:func:`_tangent_guess`): on the impacting side the orbit a quarter of the margin away
     lies where ``|v|`` is halved, a move of the order of ``|v|`` itself, and the ``1/|v|``
-    terms of the Jacobian can leave Newton a basin smaller than the guess's error (the
-    undamped oscillator at gaps -0.25 and -0.2: no Newton step from the orbit itself reduced
-    the residual; the secant extrapolation of the next level landed off the branch, 1e-3 in
-    the residual, and damped Newton stalled there)."""
+    terms of the Jacobian can leave Newton a basin smaller than the guess's error (a secant
+    extrapolation of the next level can land off the branch by more than that basin)."""
     mg = margin_gradient(sh, y)
     if mg is None:
         return None
