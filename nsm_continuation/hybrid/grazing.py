@@ -28,6 +28,7 @@ come from the saltation-chained sensitivities of one simulation, ``Phi_tail`` fr
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -174,20 +175,90 @@ def margin_gradient(sh: HybridShooting, y: np.ndarray) -> tuple[float, np.ndarra
     return best
 
 
+@dataclass
+class _Iterate:
+    """An iterate of :func:`solve_margin`: the grazing margin ``m`` and its gradient, the
+    periodicity residual ``g`` and its Jacobian, and the system ``F = [g; m - target]``."""
+
+    m: float
+    dm: np.ndarray
+    g: np.ndarray
+    Gy: np.ndarray
+    target: float
+
+    @property
+    def F(self) -> np.ndarray:
+        return np.append(self.g, self.m - self.target)
+
+    @property
+    def J(self) -> np.ndarray:
+        return np.vstack([self.Gy, self.dm])
+
+
+#: smallest damping factor of a margin-fixed Newton step (:func:`solve_margin`)
+MIN_DAMPING = 1e-4
+
+
+def _damped_step(evaluate: Callable[[np.ndarray], _Iterate | None], z: np.ndarray,
+                 cur: _Iterate, side: float, prior: tuple[float, float, np.ndarray] | None
+                 ) -> tuple[float, np.ndarray, _Iterate, np.ndarray] | None:
+    """One globalised Newton step on ``F = 0`` from ``z`` (:class:`_Iterate` ``cur``),
+    damped by the natural monotonicity test (Deuflhard, *Newton Methods for Nonlinear
+    Problems*, 2004, sec. 3.3, NLEQ-ERR): the trial ``z + lam dz`` passes when its simplified
+    Newton correction ``dz_bar = -J(z)^{-1} F(z + lam dz)`` satisfies
+    ``|dz_bar| <= (1 - lam/4) |dz|`` and, if ``z`` is on the side ``side`` of the kink (the
+    sign of the margin), the trial stays there: the linearisation of one side says nothing
+    of the other, and a step across the kink and back can cycle. A rejected ``lam`` is cut to
+    the predicted ``lam^2 |dz| / (2 |dz_bar - (1 - lam) dz|)`` (between a tenth and a half of
+    it). The first ``lam`` is 1, or after a damped step (``prior = (lam, |dz|, dz_bar)`` of
+    it) the a-priori estimate ``lam |dz_prev| |dz_bar| / (|dz_bar - dz| |dz|)``, capped at 1.
+
+    The level function ``|J^{-1} F|`` is invariant under a scaling of the equations. A merit
+    such as ``|G| + |m - target|`` is not: next to a grazing it weighs the residual after a
+    step (of the order of the error in the impact velocity ``|v|``, eq. G1: the step
+    linearises ``|v| = sqrt(-2 a m)``) against the margin (of the order of ``v^2``), and it
+    rejects every step but tiny ones once ``|v|`` is small, though Newton converges from the
+    full step. Returns ``(lam, dz, trial, dz_bar)``, or None when no ``lam >= MIN_DAMPING``
+    passes."""
+    J = cur.J
+    dz = np.linalg.solve(J, -cur.F)
+    ndz = float(np.linalg.norm(dz))
+    lam = 1.0
+    if prior is not None and prior[0] < 1.0:
+        lam_prev, ndz_prev, bar_prev = prior
+        off = float(np.linalg.norm(bar_prev - dz)) * ndz
+        if off > 0:
+            lam = min(1.0, lam_prev * ndz_prev * float(np.linalg.norm(bar_prev)) / off)
+        lam = max(lam, MIN_DAMPING)
+    on_side = np.sign(cur.m) == side
+    while lam >= MIN_DAMPING:
+        trial = evaluate(z + lam * dz)
+        if trial is None:
+            lam *= 0.5
+            continue
+        dz_bar = np.linalg.solve(J, -trial.F)
+        if not on_side or (np.sign(trial.m) == side
+                           and np.linalg.norm(dz_bar) <= (1.0 - lam / 4.0) * ndz):
+            return lam, dz, trial, dz_bar
+        off = float(np.linalg.norm(dz_bar - (1.0 - lam) * dz))
+        mu = 0.5 * lam * lam * ndz / off if off > 0 else 0.5 * lam
+        lam = float(np.clip(mu, 0.1 * lam, 0.5 * lam))
+    return None
+
+
 def solve_margin(sh: HybridShooting, z: np.ndarray, target: float, tol: float,
                  max_iter: int = 30) -> np.ndarray | None:
-    """Newton on ``[G(y); m(y) - target]`` from ``z`` (``m`` the grazing margin closest to
-    zero, :func:`margin_gradient`): the orbit of the branch whose grazing margin is ``target``.
+    """Newton on ``F(y) = [G(y); m(y) - target]`` from ``z`` (``m`` the grazing margin
+    closest to zero, :func:`margin_gradient`): the orbit of the branch whose grazing margin
+    is ``target``. The margin's sign says on which side of the kink the solution lies (an
+    impact when ``target < 0``). Each step is damped by the natural monotonicity test, which
+    also keeps an iterate on that side once there (:func:`_damped_step`).
 
-    The margin's sign says on which side of the kink the solution lies (an impact when
-    ``target < 0``); a Newton step from an iterate on that side is shortened (halved up to 12
-    times) until it stays there and reduces ``|G| + |m - target|``: the linearisation of one
-    side says nothing of the other, and a full step can cross the kink and come back,
-    cycling. Converged when ``|G| <= tol`` and ``|m - target| <= 1e-8 |target| + 1e-14``, or
-    when the Newton correction falls below ``1e-11 (1 + |y|)`` with ``|G| <= 1e3 tol``: next to
-    a grazing the residual's noise (the integration error times the ``1/|v|`` sensitivities)
+    Converged when ``|G| <= tol`` and ``|m - target| <= 1e-8 |target| + 1e-14``, or when the
+    Newton correction falls below ``1e-11 (1 + |y|)`` with ``|G| <= 1e3 tol``: next to a
+    grazing the residual's noise (the integration error times the ``1/|v|`` sensitivities)
     can exceed ``tol`` while the orbit is resolved."""
-    def evaluate(zt: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
+    def evaluate(zt: np.ndarray) -> _Iterate | None:
         mg = margin_gradient(sh, zt)
         if mg is None:
             return None
@@ -195,39 +266,29 @@ def solve_margin(sh: HybridShooting, z: np.ndarray, target: float, tol: float,
             g, Gy = sh.residual_jacobian(zt)
         except ShootingFailure:
             return None
-        return mg[0], mg[1], g, Gy
+        return _Iterate(mg[0], mg[1], g, Gy, target)
 
-    def merit(m: float, g: np.ndarray) -> float:
-        return float(np.abs(g).max()) + abs(m - target)
-
-    side = np.sign(target)
+    side = float(np.sign(target))
     cur = evaluate(z)
     step = np.inf
+    prior: tuple[float, float, np.ndarray] | None = None
     for _ in range(max_iter):
         if cur is None:
             return None
-        m, dm, g, Gy = cur
-        res = float(np.abs(g).max())
-        if abs(m - target) <= 1e-8 * abs(target) + 1e-14 and (
+        res = float(np.abs(cur.g).max())
+        if abs(cur.m - target) <= 1e-8 * abs(target) + 1e-14 and (
                 res <= tol or (res <= 1e3 * tol and step <= 1e-11 * (1.0 + np.linalg.norm(z)))):
             return z
         try:
-            dz = np.linalg.solve(np.vstack([Gy, dm]), -np.append(g, m - target))
+            out = _damped_step(evaluate, z, cur, side, prior)
         except np.linalg.LinAlgError:
             return None
-        on_side = np.sign(m) == side
-        lam, nxt = 1.0, None
-        for _ in range(13):
-            trial = evaluate(z + lam * dz)
-            if trial is not None and (not on_side or (np.sign(trial[0]) == side and merit(
-                    trial[0], trial[2]) < merit(m, g))):
-                nxt = trial
-                break
-            lam *= 0.5
-        if nxt is None:
+        if out is None:
             return None
+        lam, dz, cur, dz_bar = out
         step = float(lam * np.linalg.norm(dz))
-        z, cur = z + lam * dz, nxt
+        prior = (lam, float(np.linalg.norm(dz)), dz_bar)
+        z = z + lam * dz
     return None
 
 
@@ -279,10 +340,8 @@ def locate_grazing(sh: HybridShooting, y: np.ndarray, tol: float, levels: int = 
     branch's tangent there by the step that reaches the target in the smooth coordinate
     (:func:`_tangent_guess`): on the impacting side the orbit a quarter of the margin away
     lies where ``|v|`` is halved, a move of the order of ``|v|`` itself, and the ``1/|v|``
-    terms of the Jacobian can leave Newton a basin smaller than the guess's error (the
-    undamped oscillator at gaps -0.25 and -0.2: no Newton step from the orbit itself reduced
-    the residual; the secant extrapolation of the next level landed off the branch, 1e-3 in
-    the residual, and damped Newton stalled there)."""
+    terms of the Jacobian can leave Newton a basin smaller than the guess's error (a secant
+    extrapolation of the next level can land off the branch by more than that basin)."""
     mg = margin_gradient(sh, y)
     if mg is None:
         return None
