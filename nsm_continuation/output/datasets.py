@@ -368,6 +368,22 @@ def _netcdf3(ds: Any) -> Any:
     return out
 
 
+def _in_this_process() -> Any:
+    """A context in which xarray reads and writes the in-memory Dataset without asking Dask for
+    a scheduler: Dask's ``synchronous`` one where Dask is installed (xarray picks its file lock
+    by the session's Dask scheduler, and a session whose distributed scheduler went away, e.g.
+    a run on a cluster whose scheduler was lost, would otherwise fail the write with "no Client
+    active"); nothing to do without Dask."""
+    import contextlib
+    import importlib.util
+
+    if importlib.util.find_spec("dask") is None:
+        return contextlib.nullcontext()
+    import dask
+
+    return dask.config.set(scheduler="synchronous")
+
+
 def to_netcdf(ds: Any, path: str | Path, engine: str | None = None) -> Path:
     """Write the Dataset ``ds`` (:func:`to_xarray`) to the netCDF file ``path`` with
     ``engine`` (default: ``h5netcdf`` where it is installed, else ``scipy``); returns the path.
@@ -379,7 +395,8 @@ def to_netcdf(ds: Any, path: str | Path, engine: str | None = None) -> Path:
         need("h5netcdf", "a netCDF-4 file")
         need("h5py", "a netCDF-4 file")
     path = Path(path)
-    (_netcdf3(ds) if engine == "scipy" else ds).to_netcdf(path, engine=engine)
+    with _in_this_process():
+        (_netcdf3(ds) if engine == "scipy" else ds).to_netcdf(path, engine=engine)
     return path
 
 
@@ -388,7 +405,7 @@ def open_netcdf(path: str | Path) -> Any:
     written: complex variables whole again, variables along an empty dimension back
     (netCDF-3, :func:`_netcdf3`)."""
     xr = need("xarray", "open_netcdf")
-    with xr.open_dataset(path) as opened:
+    with _in_this_process(), xr.open_dataset(path) as opened:
         ds = opened.load()
     parts = {k: v.attrs[COMPLEX_PART] for k, v in ds.data_vars.items() if COMPLEX_PART in v.attrs}
     for name in sorted(set(parts.values())):

@@ -207,3 +207,24 @@ def test_a_run_without_multipliers_or_points_round_trips(tmp_path: Path) -> None
     for engine in ("h5netcdf", "scipy"):
         back = nsm.open_netcdf(failed.to_netcdf(tmp_path / f"f_{engine}.nc", engine=engine))
         xr.testing.assert_identical(back, ds)
+
+
+@pytest.mark.skipif(NO_XARRAY or NO_H5 or importlib.util.find_spec("dask") is None,
+                    reason="xarray/h5netcdf/dask not installed")
+def test_netcdf_files_do_not_depend_on_the_sessions_dask_scheduler(tmp_path: Path) -> None:
+    """A session left with Dask's distributed scheduler and no client (e.g. after a run on a
+    cluster whose scheduler was lost: xarray then failed every write with "Requested
+    dask.distributed scheduler but no Client active") still writes and reads a run."""
+    import dask
+    import xarray as xr
+
+    small = {"name": "small", "problem": "ndof_impact",
+             "parameters": {"chain": {"dofs": 2, "mass": 1.0, "stiffness": 1.0}, "gap": 1.0},
+             "start": {"mode": 1}, "output": {"plots": False, "progress": False},
+             "continuation": {"parameter": "omega", "min": 0.5, "max": 2.0, "max_points": 5}}
+    res = nsm.run(small)
+    ds = res.to_xarray()
+    with dask.config.set(scheduler="dask.distributed"):
+        for engine in ("h5netcdf", "scipy"):
+            back = nsm.open_netcdf(res.to_netcdf(tmp_path / f"{engine}.nc", engine=engine))
+            xr.testing.assert_identical(back, ds)
